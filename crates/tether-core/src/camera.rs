@@ -52,11 +52,12 @@ pub struct CameraIntrinsics {
 }
 
 impl Default for CameraIntrinsics {
-    /// A 640x480 camera with a 62-degree horizontal field of view (a typical webcam).
+    /// A 640x480 camera with a 70-degree horizontal (55-degree vertical) field of view,
+    /// a typical wide webcam.
     fn default() -> Self {
         CameraIntrinsics {
-            fx_px: 525.0,
-            fy_px: 525.0,
+            fx_px: 460.0,
+            fy_px: 460.0,
             cx_px: 319.5,
             cy_px: 239.5,
             width_px: 640,
@@ -82,15 +83,15 @@ pub struct CameraMount {
 }
 
 impl Default for CameraMount {
-    /// A small robot's camera: 0.65 m up, pitched up 25 degrees so that the head of a
-    /// 1.75 m person is in view from 0.9 m to beyond 5 m.
+    /// A small robot's camera: 0.65 m up, pitched up 28 degrees so that the whole upper
+    /// body of a 1.60-1.90 m person is in view from 0.9 m to 5 m.
     fn default() -> Self {
         CameraMount {
             x_m: 0.05,
             y_m: 0.0,
             yaw_rad: 0.0,
             height_m: 0.65,
-            tilt_rad: 25f64.to_radians(),
+            tilt_rad: 28f64.to_radians(),
         }
     }
 }
@@ -267,9 +268,9 @@ mod tests {
     }
 
     #[test]
-    fn default_fov_is_about_62_degrees() {
+    fn default_fov_is_about_70_degrees() {
         let fov = CameraModel::default().horizontal_fov_rad().to_degrees();
-        assert!((fov - 62.9).abs() < 0.5, "{fov}");
+        assert!((fov - 69.6).abs() < 0.5, "{fov}");
     }
 
     proptest! {

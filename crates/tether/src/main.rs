@@ -1,1 +1,59 @@
-fn main() {}
+//! `tether`: the command line of the person-following robot.
+//!
+//! Each subcommand lives in its own module under `cmd/` with a clap `Args` struct and a
+//! `run` function; this file only dispatches.
+
+mod cmd;
+
+use clap::{Parser, Subcommand};
+
+/// Track one person and follow them with a small mobile robot.
+#[derive(Debug, Parser)]
+#[command(name = "tether", version, about, long_about = None)]
+struct Cli {
+    /// More log output (-v: debug, -vv: trace). `RUST_LOG` overrides it.
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    verbose: u8,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// List the built-in simulation scenarios.
+    Scenarios(cmd::scenarios::Args),
+    /// Run a simulation scenario and write its sensor data, ground truth and a picture.
+    Sim(cmd::sim::Args),
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    init_logging(cli.verbose);
+    let result = match cli.command {
+        Command::Scenarios(args) => cmd::scenarios::run(args),
+        Command::Sim(args) => cmd::sim::run(args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn init_logging(verbose: u8) {
+    let default = match verbose {
+        0 => "warn,tether=info",
+        1 => "debug",
+        _ => "trace",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .without_time()
+        .init();
+}

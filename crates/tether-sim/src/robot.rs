@@ -1,0 +1,233 @@
+//! The robot's base: differential drive with wheel speed and acceleration limits.
+
+use serde::{Deserialize, Serialize};
+use tether_core::{Pose2, Robot, World, wrap_angle_rad};
+
+use crate::scenario::RobotSpec;
+use crate::world::StaticWorld;
+
+/// A velocity command as `geometry_msgs/Twist` carries it on `/cmd_vel`: forward speed
+/// and counter-clockwise turn rate.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Command {
+    /// Forward speed, m/s.
+    pub v_mps: f64,
+    /// Turn rate, rad/s.
+    pub w_radps: f64,
+}
+
+impl Command {
+    /// Zero velocity.
+    pub const STOP: Command = Command {
+        v_mps: 0.0,
+        w_radps: 0.0,
+    };
+}
+
+/// A differential-drive base.
+///
+/// Wheel speeds from a command: `v_r = v + w b / 2`, `v_l = v - w b / 2` (SPEC 6, track
+/// width `b`). Both are scaled down together when one exceeds the top speed (which
+/// keeps the curvature), then both wheels approach their targets by the same fraction,
+/// limited so that neither accelerates faster than the limit.
+/// The pose is integrated exactly along the resulting arc.
+#[derive(Debug, Clone)]
+pub struct DiffDrive {
+    world_from_robot: Pose2<World, Robot>,
+    wheel_left_mps: f64,
+    wheel_right_mps: f64,
+    command: Command,
+    /// Footprint radius, m.
+    pub radius_m: f64,
+    track_width_m: f64,
+    max_wheel_speed_mps: f64,
+    max_wheel_accel_mps2: f64,
+    blocked: bool,
+}
+
+impl DiffDrive {
+    /// A robot at the scenario's start pose, at rest.
+    pub fn from_spec(spec: &RobotSpec) -> Self {
+        DiffDrive {
+            world_from_robot: Pose2::new(spec.start.x, spec.start.y, spec.start.yaw_rad),
+            wheel_left_mps: 0.0,
+            wheel_right_mps: 0.0,
+            command: Command::STOP,
+            radius_m: spec.radius_m,
+            track_width_m: spec.track_width_m,
+            max_wheel_speed_mps: spec.max_wheel_speed_mps,
+            max_wheel_accel_mps2: spec.max_wheel_accel_mps2,
+            blocked: false,
+        }
+    }
+
+    /// Sets the command followed from now on. Non-finite commands stop the robot.
+    pub fn set_command(&mut self, command: Command) {
+        self.command = if command.v_mps.is_finite() && command.w_radps.is_finite() {
+            command
+        } else {
+            Command::STOP
+        };
+    }
+
+    /// The command being followed.
+    pub fn command(&self) -> Command {
+        self.command
+    }
+
+    /// Pose in the world.
+    pub fn pose(&self) -> Pose2<World, Robot> {
+        self.world_from_robot
+    }
+
+    /// Actual forward speed and turn rate.
+    pub fn velocity(&self) -> Command {
+        Command {
+            v_mps: 0.5 * (self.wheel_right_mps + self.wheel_left_mps),
+            w_radps: (self.wheel_right_mps - self.wheel_left_mps) / self.track_width_m,
+        }
+    }
+
+    /// Actual wheel speeds (left, right), m/s.
+    pub fn wheel_speeds_mps(&self) -> (f64, f64) {
+        (self.wheel_left_mps, self.wheel_right_mps)
+    }
+
+    /// True when the last step ran into a wall or an obstacle.
+    pub fn blocked(&self) -> bool {
+        self.blocked
+    }
+
+    /// Advances by `dt_s`. Returns true when the robot hit something: it then stays
+    /// where it was, with its wheels stopped.
+    pub fn step(&mut self, dt_s: f64, world: &StaticWorld) -> bool {
+        let half_b = 0.5 * self.track_width_m;
+        let mut right = self.command.v_mps + self.command.w_radps * half_b;
+        let mut left = self.command.v_mps - self.command.w_radps * half_b;
+        let peak = right.abs().max(left.abs());
+        if peak > self.max_wheel_speed_mps {
+            let k = self.max_wheel_speed_mps / peak;
+            right *= k;
+            left *= k;
+        }
+        // Both wheels move towards their targets by the same fraction, limited so that
+        // neither changes faster than the acceleration limit: the curvature of the
+        // path blends smoothly instead of jumping while one wheel catches up.
+        let (d_right, d_left) = (right - self.wheel_right_mps, left - self.wheel_left_mps);
+        let largest = d_right.abs().max(d_left.abs());
+        let k = if largest > 0.0 {
+            (self.max_wheel_accel_mps2 * dt_s / largest).min(1.0)
+        } else {
+            0.0
+        };
+        self.wheel_right_mps += k * d_right;
+        self.wheel_left_mps += k * d_left;
+        let Command {
+            v_mps: v,
+            w_radps: w,
+        } = self.velocity();
+        let p = self.world_from_robot;
+        let (x, y) = if w.abs() < 1e-9 {
+            (p.x + v * dt_s * p.yaw.cos(), p.y + v * dt_s * p.yaw.sin())
+        } else {
+            let r = v / w;
+            let yaw1 = p.yaw + w * dt_s;
+            (
+                p.x + r * (yaw1.sin() - p.yaw.sin()),
+                p.y - r * (yaw1.cos() - p.yaw.cos()),
+            )
+        };
+        let next = Pose2::new(x, y, wrap_angle_rad(p.yaw + w * dt_s));
+        // A move that brings the footprint into contact, or deeper into it, is refused.
+        let clearance_next = world.clearance_m(next.translation());
+        if clearance_next < self.radius_m && clearance_next < world.clearance_m(p.translation()) {
+            self.wheel_left_mps = 0.0;
+            self.wheel_right_mps = 0.0;
+            self.blocked = true;
+            return true;
+        }
+        self.blocked = false;
+        self.world_from_robot = next;
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn robot() -> DiffDrive {
+        DiffDrive::from_spec(&RobotSpec::default())
+    }
+
+    #[test]
+    fn drives_a_circle_of_the_commanded_curvature() {
+        let mut r = robot();
+        let world = StaticWorld::default();
+        r.set_command(Command {
+            v_mps: 0.5,
+            w_radps: 0.5,
+        });
+        for _ in 0..300 {
+            r.step(0.01, &world);
+        }
+        // Radius 1 m circle about (0, 1) once at speed.
+        let p = r.pose();
+        let d = ((p.x - 0.0).powi(2) + (p.y - 1.0).powi(2)).sqrt();
+        assert!((d - 1.0).abs() < 0.02, "{d}");
+    }
+
+    #[test]
+    fn saturation_keeps_curvature_and_acceleration_is_limited() {
+        let mut r = robot();
+        let world = StaticWorld::default();
+        r.set_command(Command {
+            v_mps: 5.0,
+            w_radps: 5.0,
+        });
+        r.step(0.01, &world);
+        let (l, rr) = r.wheel_speeds_mps();
+        assert!((rr - 0.015).abs() < 1e-12, "{rr}");
+        for _ in 0..500 {
+            r.step(0.01, &world);
+        }
+        let (l2, r2) = r.wheel_speeds_mps();
+        assert!((r2 - 1.6).abs() < 1e-9);
+        let v = r.velocity();
+        assert!((v.w_radps / v.v_mps - 1.0).abs() < 1e-9, "curvature kept");
+        assert!(l < rr && l2 < r2);
+    }
+
+    #[test]
+    fn stops_at_walls() {
+        let scenario = crate::Scenario::builtin("corridor").unwrap();
+        let world = StaticWorld::from_scenario(&scenario);
+        let mut r = DiffDrive::from_spec(&scenario.robot);
+        r.set_command(Command {
+            v_mps: 0.0,
+            w_radps: 0.0,
+        });
+        // Turn towards the side wall and drive into it.
+        r.world_from_robot = Pose2::new(r.pose().x, r.pose().y, std::f64::consts::FRAC_PI_2);
+        r.set_command(Command {
+            v_mps: 1.0,
+            w_radps: 0.0,
+        });
+        let mut hit = false;
+        for _ in 0..1000 {
+            hit |= r.step(0.01, &world);
+        }
+        assert!(hit && r.blocked());
+        assert!(!world.disc_collides(r.pose().translation(), r.radius_m));
+    }
+
+    #[test]
+    fn nan_command_stops() {
+        let mut r = robot();
+        r.set_command(Command {
+            v_mps: f64::NAN,
+            w_radps: 0.0,
+        });
+        assert_eq!(r.command(), Command::STOP);
+    }
+}

@@ -1,0 +1,1147 @@
+//! Scenario files: the world, the people and their paths, the robot and its sensors,
+//! described in TOML (and the built-in scenarios, which are TOML files too).
+//!
+//! A scenario that cannot be simulated is refused with an error naming the file, the
+//! line and column, and the field: unknown keys, missing fields and wrong types are
+//! caught while parsing; negative sizes, paths through walls or outside the world and
+//! similar mistakes by [`Scenario::validate`], which points back into the source.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use tether_core::{CameraModel, LaserModel, Point2, World};
+use thiserror::Error;
+
+use crate::geometry::{Segment, segment_circle_distance_m, segments_intersect};
+
+/// Why a scenario cannot be used.
+#[derive(Debug, Error)]
+pub enum ScenarioError {
+    /// The file could not be read.
+    #[error("cannot read scenario file {path}: {source}")]
+    Io {
+        /// File path.
+        path: String,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// The text is not TOML, or does not match the schema (unknown key, missing field,
+    /// wrong type).
+    #[error("{origin}:{line}:{column}: {message}\n{snippet}")]
+    Parse {
+        /// File name or `builtin:NAME`.
+        origin: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What is wrong.
+        message: String,
+        /// The offending line, for context.
+        snippet: String,
+    },
+    /// A value is well-formed but makes no sense (a negative radius, a path through a
+    /// wall...).
+    #[error("{origin}:{line}:{column}: field `{field}`: {message}\n{snippet}")]
+    Invalid {
+        /// File name or `builtin:NAME`.
+        origin: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// Dotted path of the field, e.g. `people[0].path[2]`.
+        field: String,
+        /// What is wrong and how to fix it.
+        message: String,
+        /// The offending line, for context.
+        snippet: String,
+    },
+    /// No built-in scenario has that name.
+    #[error(
+        "no built-in scenario named `{0}`; run `tether scenarios` to list them, or pass a .toml file"
+    )]
+    UnknownBuiltin(String),
+}
+
+/// A point `[x, y]` in the world frame, metres.
+pub type XY = [f64; 2];
+
+fn point(p: XY) -> Point2<World> {
+    Point2::new(p[0], p[1])
+}
+
+/// A complete scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Short name (used in file names and reports).
+    pub name: String,
+    /// One line saying what the scenario tests.
+    pub description: String,
+    /// Simulated time, s.
+    pub duration_s: f64,
+    /// Static world.
+    #[serde(default)]
+    pub world: WorldSpec,
+    /// The robot and how it is driven.
+    #[serde(default)]
+    pub robot: RobotSpec,
+    /// The laser's model (geometry, noise, mounting); every field optional.
+    #[serde(default)]
+    pub laser: LaserModel,
+    /// Simulation-only laser behaviour (dropouts).
+    #[serde(default)]
+    pub laser_sim: LaserSimSpec,
+    /// The camera's model (intrinsics, mounting); every field optional.
+    #[serde(default)]
+    pub camera: CameraModel,
+    /// Simulation-only behaviour of the upper-body detector.
+    #[serde(default)]
+    pub camera_sim: CameraSimSpec,
+    /// The people, in order; ids are their indices.
+    #[serde(default)]
+    pub people: Vec<PersonSpec>,
+}
+
+/// Walls and furniture.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldSpec {
+    /// Closed rectangular rooms: four walls each.
+    #[serde(default)]
+    pub rooms: Vec<RoomSpec>,
+    /// Free-standing wall segments.
+    #[serde(default)]
+    pub walls: Vec<WallSpec>,
+    /// Round pillars (full height: block the laser and the camera).
+    #[serde(default)]
+    pub pillars: Vec<CircleSpec>,
+    /// Thin posts (coat stands, plant stems): block the laser only.
+    #[serde(default)]
+    pub posts: Vec<CircleSpec>,
+    /// Tables: four round legs at the corners.
+    #[serde(default)]
+    pub tables: Vec<TableSpec>,
+    /// Chairs: four thin round legs.
+    #[serde(default)]
+    pub chairs: Vec<ChairSpec>,
+}
+
+/// An axis-aligned rectangular room.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RoomSpec {
+    /// Lower-left corner, m.
+    pub min: XY,
+    /// Upper-right corner, m.
+    pub max: XY,
+}
+
+/// A straight wall.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WallSpec {
+    /// One end, m.
+    pub from: XY,
+    /// Other end, m.
+    pub to: XY,
+}
+
+/// A circle standing on the floor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CircleSpec {
+    /// Centre, m.
+    pub center: XY,
+    /// Radius, m.
+    pub radius_m: f64,
+}
+
+/// A table with a leg at each corner.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TableSpec {
+    /// Centre, m.
+    pub center: XY,
+    /// Length and width of the top, m.
+    #[serde(default = "default_table_size")]
+    pub size_m: [f64; 2],
+    /// Rotation, rad.
+    #[serde(default)]
+    pub yaw_rad: f64,
+    /// Radius of each leg, m.
+    #[serde(default = "default_table_leg_radius")]
+    pub leg_radius_m: f64,
+}
+
+/// A chair with four legs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChairSpec {
+    /// Centre, m.
+    pub center: XY,
+    /// Side of the (square) seat, m.
+    #[serde(default = "default_chair_size")]
+    pub size_m: f64,
+    /// Rotation, rad.
+    #[serde(default)]
+    pub yaw_rad: f64,
+    /// Radius of each leg, m.
+    #[serde(default = "default_chair_leg_radius")]
+    pub leg_radius_m: f64,
+}
+
+fn default_table_size() -> [f64; 2] {
+    [1.2, 0.8]
+}
+fn default_table_leg_radius() -> f64 {
+    0.025
+}
+fn default_chair_size() -> f64 {
+    0.42
+}
+fn default_chair_leg_radius() -> f64 {
+    0.015
+}
+
+/// How the robot is driven in the simulator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DriverKind {
+    /// Stands still.
+    Still,
+    /// Plays `script`: (v, w) commands from given times.
+    Scripted,
+    /// Follows the target using the *true* position of the target: a test driver for
+    /// the simulator only, never an estimate of what tether achieves.
+    #[default]
+    Oracle,
+}
+
+/// A scripted command, held from `at_s` until the next one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScriptedCommand {
+    /// Start time, s.
+    pub at_s: f64,
+    /// Forward speed, m/s.
+    pub v_mps: f64,
+    /// Turn rate, rad/s (counter-clockwise positive).
+    pub w_radps: f64,
+}
+
+/// Where the robot starts.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseSpec {
+    /// x, m.
+    pub x: f64,
+    /// y, m.
+    pub y: f64,
+    /// Heading, rad.
+    #[serde(default)]
+    pub yaw_rad: f64,
+}
+
+/// The robot: a differential-drive base.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RobotSpec {
+    /// Start pose in the world.
+    pub start: PoseSpec,
+    /// Radius of the round footprint, m.
+    pub radius_m: f64,
+    /// Distance between the wheels, m.
+    pub track_width_m: f64,
+    /// Top speed of each wheel, m/s.
+    pub max_wheel_speed_mps: f64,
+    /// Largest change of each wheel's speed, m/s^2.
+    pub max_wheel_accel_mps2: f64,
+    /// How the robot is driven.
+    pub driver: DriverKind,
+    /// Follow distance of the oracle driver, m.
+    pub follow_distance_m: f64,
+    /// Commands of the scripted driver.
+    pub script: Vec<ScriptedCommand>,
+}
+
+impl Default for RobotSpec {
+    fn default() -> Self {
+        RobotSpec {
+            start: PoseSpec::default(),
+            radius_m: 0.2,
+            track_width_m: 0.3,
+            max_wheel_speed_mps: 1.6,
+            max_wheel_accel_mps2: 1.5,
+            driver: DriverKind::default(),
+            follow_distance_m: 1.0,
+            script: Vec::new(),
+        }
+    }
+}
+
+/// Laser behaviour the model does not cover: lost returns.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LaserSimSpec {
+    /// Simulate the laser at all.
+    pub enabled: bool,
+    /// Probability that any beam returns nothing.
+    pub dropout_prob: f64,
+    /// Extra probability of no return at the longest range; it grows linearly from 0 at
+    /// `long_range_start_m` (real URG-04LX beams flicker between valid and invalid far
+    /// away, about 45 % of them).
+    pub long_range_dropout_prob: f64,
+    /// Range where long-range dropouts begin, m.
+    pub long_range_start_m: f64,
+}
+
+impl Default for LaserSimSpec {
+    fn default() -> Self {
+        LaserSimSpec {
+            enabled: true,
+            dropout_prob: 0.002,
+            long_range_dropout_prob: 0.45,
+            long_range_start_m: 4.0,
+        }
+    }
+}
+
+/// The upper-body detector as the simulator models it (SPEC 7): true boxes plus noise,
+/// misses and false positives.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraSimSpec {
+    /// Simulate the camera at all.
+    pub enabled: bool,
+    /// Frames per second.
+    pub rate_hz: f64,
+    /// Standard deviation of each box edge, px, plus `size_sigma_frac` of the box size.
+    pub pixel_sigma_px: f64,
+    /// Box-size-proportional part of the edge noise.
+    pub size_sigma_frac: f64,
+    /// Detection probability of a fully visible person within `reliable_range_m`.
+    pub detect_prob: f64,
+    /// Up to this distance the detector is at its best, m.
+    pub reliable_range_m: f64,
+    /// Beyond this distance nobody is detected; between, the probability falls linearly, m.
+    pub max_range_m: f64,
+    /// Boxes shorter than this are never found (the cascade's smallest window), px.
+    pub min_box_height_px: f64,
+    /// Mean number of false boxes per frame.
+    pub false_positives_per_frame: f64,
+}
+
+impl Default for CameraSimSpec {
+    fn default() -> Self {
+        CameraSimSpec {
+            enabled: true,
+            rate_hz: 15.0,
+            pixel_sigma_px: 2.0,
+            size_sigma_frac: 0.03,
+            detect_prob: 0.92,
+            reliable_range_m: 3.0,
+            max_range_m: 7.0,
+            min_box_height_px: 22.0,
+            false_positives_per_frame: 0.03,
+        }
+    }
+}
+
+/// A scheduled stop at a waypoint.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PauseSpec {
+    /// Index of the waypoint in `path`.
+    pub waypoint: usize,
+    /// How long to stand, s.
+    pub duration_s: f64,
+}
+
+/// A walking person.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PersonSpec {
+    /// Name, for reports.
+    pub name: String,
+    /// The person the robot should follow (at most one).
+    #[serde(default)]
+    pub target: bool,
+    /// Waypoints, m; the person starts at the first.
+    pub path: Vec<XY>,
+    /// Cruising speed, m/s (0 to 1.4 for walking).
+    #[serde(default = "default_speed")]
+    pub speed_mps: f64,
+    /// Time at which the person starts walking, s.
+    #[serde(default)]
+    pub start_s: f64,
+    /// Stops at waypoints.
+    #[serde(default)]
+    pub pauses: Vec<PauseSpec>,
+    /// Walk the path again and again (back to the first waypoint after the last).
+    #[serde(default)]
+    pub repeat: bool,
+    /// Body height, m; drawn from 1.60-1.90 when absent.
+    #[serde(default)]
+    pub height_m: Option<f64>,
+    /// Radius of each leg at the laser's height, m; drawn from 0.058-0.072 when absent
+    /// (a calf of 35-38 cm girth in trousers).
+    #[serde(default)]
+    pub leg_radius_m: Option<f64>,
+    /// Sideways distance between the leg centres, m; drawn from 0.18-0.26 when absent.
+    #[serde(default)]
+    pub leg_spread_m: Option<f64>,
+}
+
+fn default_speed() -> f64 {
+    1.0
+}
+
+/// One step of a path into the TOML document: a key or an array index.
+#[derive(Debug, Clone)]
+pub enum FieldSeg {
+    /// A table key.
+    Key(String),
+    /// An array index.
+    Index(usize),
+}
+
+/// A failed check: where and what.
+#[derive(Debug, Clone)]
+pub struct Problem {
+    /// Path of the field.
+    pub field: Vec<FieldSeg>,
+    /// What is wrong.
+    pub message: String,
+}
+
+fn field_name(path: &[FieldSeg]) -> String {
+    let mut s = String::new();
+    for seg in path {
+        match seg {
+            FieldSeg::Key(k) => {
+                if !s.is_empty() {
+                    s.push('.');
+                }
+                s.push_str(k);
+            }
+            FieldSeg::Index(i) => s.push_str(&format!("[{i}]")),
+        }
+    }
+    s
+}
+
+macro_rules! path {
+    ($($seg:expr),* $(,)?) => { vec![$(FieldSeg::from($seg)),*] };
+}
+
+impl From<&str> for FieldSeg {
+    fn from(k: &str) -> Self {
+        FieldSeg::Key(k.to_owned())
+    }
+}
+impl From<usize> for FieldSeg {
+    fn from(i: usize) -> Self {
+        FieldSeg::Index(i)
+    }
+}
+
+/// The names of the built-in scenarios, in the order `tether scenarios` lists them.
+pub const BUILTIN_NAMES: &[&str] = &[
+    "corridor",
+    "office",
+    "crossing",
+    "stop_and_go",
+    "turns",
+    "occlusion",
+];
+
+fn builtin_source(name: &str) -> Option<&'static str> {
+    Some(match name {
+        "corridor" => include_str!("../scenarios/corridor.toml"),
+        "office" => include_str!("../scenarios/office.toml"),
+        "crossing" => include_str!("../scenarios/crossing.toml"),
+        "stop_and_go" => include_str!("../scenarios/stop_and_go.toml"),
+        "turns" => include_str!("../scenarios/turns.toml"),
+        "occlusion" => include_str!("../scenarios/occlusion.toml"),
+        _ => return None,
+    })
+}
+
+/// 1-based line and column of a byte offset, and the text of that line.
+fn line_col(src: &str, offset: usize) -> (usize, usize, String) {
+    let offset = offset.min(src.len());
+    let before = &src[..offset];
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let column = before[line_start..].chars().count() + 1;
+    let line_end = src[line_start..]
+        .find('\n')
+        .map_or(src.len(), |i| line_start + i);
+    let text = src[line_start..line_end].trim_end();
+    (line, column, format!("{line:>5} | {text}"))
+}
+
+/// The key of a `key = value` pair whose value starts at `offset`, if on one line.
+fn key_before(src: &str, offset: usize) -> Option<&str> {
+    let before = src.get(..offset)?;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let (key, rest) = before[line_start..].split_once('=')?;
+    let key = key.trim();
+    (rest.trim().is_empty() && !key.is_empty()).then_some(key)
+}
+
+/// Byte span of the value at `path` in the document, or of its closest existing parent.
+fn locate(src: &str, path: &[FieldSeg]) -> usize {
+    use toml::de::{DeTable, DeValue};
+    let Ok(root) = DeTable::parse(src) else {
+        return 0;
+    };
+    let root_span = root.span();
+    let mut current = DeValue::Table(root.into_inner());
+    let mut offset = root_span.start;
+    for seg in path {
+        let next = match seg {
+            FieldSeg::Key(k) => current.get(k.as_str()),
+            FieldSeg::Index(i) => current.get(*i),
+        };
+        match next {
+            Some(v) => {
+                offset = v.span().start;
+                let inner = v.get_ref().clone();
+                current = inner;
+            }
+            None => break,
+        }
+    }
+    offset
+}
+
+impl Scenario {
+    /// A built-in scenario by name.
+    pub fn builtin(name: &str) -> Result<Scenario, ScenarioError> {
+        let src =
+            builtin_source(name).ok_or_else(|| ScenarioError::UnknownBuiltin(name.to_owned()))?;
+        Scenario::from_toml_str(src, &format!("builtin:{name}"))
+    }
+
+    /// The TOML text of a built-in scenario (a starting point for your own).
+    pub fn builtin_toml(name: &str) -> Option<&'static str> {
+        builtin_source(name)
+    }
+
+    /// Reads a scenario from a file.
+    pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
+        let src = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Scenario::from_toml_str(&src, &path.display().to_string())
+    }
+
+    /// A built-in name or a path to a `.toml` file.
+    pub fn resolve(name_or_path: &str) -> Result<(Scenario, String), ScenarioError> {
+        if builtin_source(name_or_path).is_some() {
+            let src = builtin_source(name_or_path).unwrap_or_default();
+            Ok((Scenario::builtin(name_or_path)?, src.to_owned()))
+        } else if name_or_path.ends_with(".toml") || Path::new(name_or_path).exists() {
+            let path = Path::new(name_or_path);
+            let src = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+                path: name_or_path.to_owned(),
+                source,
+            })?;
+            Ok((Scenario::from_toml_str(&src, name_or_path)?, src))
+        } else {
+            Err(ScenarioError::UnknownBuiltin(name_or_path.to_owned()))
+        }
+    }
+
+    /// Parses and validates scenario text; `origin` names it in errors.
+    pub fn from_toml_str(src: &str, origin: &str) -> Result<Scenario, ScenarioError> {
+        let scenario: Scenario = toml::from_str(src).map_err(|e| {
+            let offset = e.span().map_or(0, |s| s.start);
+            let (line, column, snippet) = line_col(src, offset);
+            let mut message = e.message().trim().to_owned();
+            // serde names the field for unknown and missing keys; for a value of the
+            // wrong type, name the key the value belongs to.
+            if !message.contains('`')
+                && let Some(key) = key_before(src, offset)
+            {
+                message = format!("field `{key}`: {message}");
+            }
+            ScenarioError::Parse {
+                origin: origin.to_owned(),
+                line,
+                column,
+                message,
+                snippet,
+            }
+        })?;
+        if let Some(problem) = scenario.validate().into_iter().next() {
+            let offset = locate(src, &problem.field);
+            let (line, column, snippet) = line_col(src, offset);
+            return Err(ScenarioError::Invalid {
+                origin: origin.to_owned(),
+                line,
+                column,
+                field: field_name(&problem.field),
+                message: problem.message,
+                snippet,
+            });
+        }
+        Ok(scenario)
+    }
+
+    /// The wall segments of the world (rooms expanded into four walls).
+    pub fn wall_segments(&self) -> Vec<(Segment, Vec<FieldSeg>)> {
+        let mut out = Vec::new();
+        for (i, room) in self.world.rooms.iter().enumerate() {
+            let [x0, y0] = room.min;
+            let [x1, y1] = room.max;
+            let corners = [[x0, y0], [x1, y0], [x1, y1], [x0, y1]];
+            for k in 0..4 {
+                let seg = Segment::new(point(corners[k]), point(corners[(k + 1) % 4]));
+                out.push((seg, path!["world", "rooms", i]));
+            }
+        }
+        for (i, wall) in self.world.walls.iter().enumerate() {
+            out.push((
+                Segment::new(point(wall.from), point(wall.to)),
+                path!["world", "walls", i],
+            ));
+        }
+        out
+    }
+
+    /// The axis-aligned box around every wall: `(min, max)`, or `None` without walls.
+    pub fn bounds(&self) -> Option<(XY, XY)> {
+        let walls = self.wall_segments();
+        if walls.is_empty() {
+            return None;
+        }
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for (s, _) in &walls {
+            for p in [s.a, s.b] {
+                lo = [lo[0].min(p.x), lo[1].min(p.y)];
+                hi = [hi[0].max(p.x), hi[1].max(p.y)];
+            }
+        }
+        Some((lo, hi))
+    }
+
+    /// Every problem found, in file order as far as possible. Empty when the scenario
+    /// can be simulated.
+    pub fn validate(&self) -> Vec<Problem> {
+        let mut problems = Vec::new();
+        let mut bad =
+            |field: Vec<FieldSeg>, message: String| problems.push(Problem { field, message });
+
+        if !(self.duration_s.is_finite()
+            && self.duration_s > 0.0
+            && self.duration_s <= 24.0 * 3600.0)
+        {
+            bad(
+                path!["duration_s"],
+                format!("must be between 0 and 86400 s, got {}", self.duration_s),
+            );
+        }
+
+        // World.
+        let w = &self.world;
+        for (i, room) in w.rooms.iter().enumerate() {
+            if !all_finite(&[room.min[0], room.min[1], room.max[0], room.max[1]]) {
+                bad(
+                    path!["world", "rooms", i],
+                    "corners must be finite numbers".into(),
+                );
+            } else if room.min[0] >= room.max[0] || room.min[1] >= room.max[1] {
+                bad(
+                    path!["world", "rooms", i, "max"],
+                    "max must be greater than min in x and y".into(),
+                );
+            }
+        }
+        for (i, wall) in w.walls.iter().enumerate() {
+            if !all_finite(&[wall.from[0], wall.from[1], wall.to[0], wall.to[1]]) {
+                bad(
+                    path!["world", "walls", i],
+                    "ends must be finite numbers".into(),
+                );
+            } else if wall.from == wall.to {
+                bad(
+                    path!["world", "walls", i, "to"],
+                    "a wall needs two different ends".into(),
+                );
+            }
+        }
+        for (kind, list) in [("pillars", &w.pillars), ("posts", &w.posts)] {
+            for (i, c) in list.iter().enumerate() {
+                if !all_finite(&c.center) {
+                    bad(path!["world", kind, i, "center"], "must be finite".into());
+                }
+                if !(c.radius_m.is_finite() && c.radius_m > 0.0 && c.radius_m <= 5.0) {
+                    bad(
+                        path!["world", kind, i, "radius_m"],
+                        format!(
+                            "radius must be a positive number of metres (at most 5), got {}",
+                            c.radius_m
+                        ),
+                    );
+                }
+            }
+        }
+        for (i, t) in w.tables.iter().enumerate() {
+            if !all_finite(&[t.center[0], t.center[1], t.yaw_rad]) {
+                bad(
+                    path!["world", "tables", i],
+                    "center and yaw_rad must be finite".into(),
+                );
+            }
+            if !(t
+                .size_m
+                .iter()
+                .all(|s| s.is_finite() && *s > 0.0 && *s <= 10.0))
+            {
+                bad(
+                    path!["world", "tables", i, "size_m"],
+                    format!(
+                        "both sides must be positive (at most 10 m), got {:?}",
+                        t.size_m
+                    ),
+                );
+            }
+            if !(t.leg_radius_m.is_finite()
+                && t.leg_radius_m > 0.0
+                && t.leg_radius_m < 0.25 * t.size_m[0].min(t.size_m[1]))
+            {
+                bad(
+                    path!["world", "tables", i, "leg_radius_m"],
+                    format!(
+                        "must be positive and under a quarter of the table's shorter side, got {}",
+                        t.leg_radius_m
+                    ),
+                );
+            }
+        }
+        for (i, c) in w.chairs.iter().enumerate() {
+            if !all_finite(&[c.center[0], c.center[1], c.yaw_rad]) {
+                bad(
+                    path!["world", "chairs", i],
+                    "center and yaw_rad must be finite".into(),
+                );
+            }
+            if !(c.size_m.is_finite() && c.size_m > 0.0 && c.size_m <= 3.0) {
+                bad(
+                    path!["world", "chairs", i, "size_m"],
+                    format!("must be positive (at most 3 m), got {}", c.size_m),
+                );
+            }
+            if !(c.leg_radius_m.is_finite()
+                && c.leg_radius_m > 0.0
+                && c.leg_radius_m < 0.25 * c.size_m)
+            {
+                bad(
+                    path!["world", "chairs", i, "leg_radius_m"],
+                    format!(
+                        "must be positive and under a quarter of the seat size, got {}",
+                        c.leg_radius_m
+                    ),
+                );
+            }
+        }
+
+        let walls = self.wall_segments();
+        let bounds = self.bounds();
+        let inside = |p: XY| match bounds {
+            Some((lo, hi)) => p[0] > lo[0] && p[0] < hi[0] && p[1] > lo[1] && p[1] < hi[1],
+            None => true,
+        };
+
+        // Robot.
+        let r = &self.robot;
+        let start = [r.start.x, r.start.y];
+        if !all_finite(&[r.start.x, r.start.y, r.start.yaw_rad]) {
+            bad(path!["robot", "start"], "must be finite".into());
+        } else if !inside(start) {
+            bad(
+                path!["robot", "start"],
+                "the robot starts outside the walls".into(),
+            );
+        }
+        for (field, value, max) in [
+            ("radius_m", r.radius_m, 2.0),
+            ("track_width_m", r.track_width_m, 3.0),
+            ("max_wheel_speed_mps", r.max_wheel_speed_mps, 10.0),
+            ("max_wheel_accel_mps2", r.max_wheel_accel_mps2, 50.0),
+            ("follow_distance_m", r.follow_distance_m, 20.0),
+        ] {
+            if !(value.is_finite() && value > 0.0 && value <= max) {
+                bad(
+                    path!["robot", field],
+                    format!("must be positive and at most {max}, got {value}"),
+                );
+            }
+        }
+        if r.driver == DriverKind::Scripted && r.script.is_empty() {
+            bad(
+                path!["robot", "driver"],
+                "the scripted driver needs a `script` of commands".into(),
+            );
+        }
+        let mut last_at = f64::NEG_INFINITY;
+        for (i, c) in r.script.iter().enumerate() {
+            if !all_finite(&[c.at_s, c.v_mps, c.w_radps]) || c.at_s < last_at {
+                bad(
+                    path!["robot", "script", i],
+                    "commands need finite values and non-decreasing at_s".into(),
+                );
+            }
+            last_at = c.at_s;
+        }
+
+        // Sensors.
+        if let Err(e) = self.laser.validate() {
+            bad(dotted("laser", laser_error_field(&e)), e.to_string());
+        }
+        if let Err(e) = self.camera.validate() {
+            bad(
+                dotted("camera", e.field.split('/').next().unwrap_or(e.field)),
+                e.to_string(),
+            );
+        }
+        let ls = &self.laser_sim;
+        for (field, value) in [
+            ("dropout_prob", ls.dropout_prob),
+            ("long_range_dropout_prob", ls.long_range_dropout_prob),
+        ] {
+            if !(0.0..=1.0).contains(&value) {
+                bad(
+                    path!["laser_sim", field],
+                    format!("a probability must lie in [0, 1], got {value}"),
+                );
+            }
+        }
+        if !(ls.long_range_start_m.is_finite() && ls.long_range_start_m > 0.0) {
+            bad(
+                path!["laser_sim", "long_range_start_m"],
+                "must be a positive distance".into(),
+            );
+        }
+        let cs = &self.camera_sim;
+        if !(cs.rate_hz.is_finite() && cs.rate_hz > 0.0 && cs.rate_hz <= 240.0) {
+            bad(
+                path!["camera_sim", "rate_hz"],
+                format!("must lie in (0, 240], got {}", cs.rate_hz),
+            );
+        }
+        if !(0.0..=1.0).contains(&cs.detect_prob) {
+            bad(
+                path!["camera_sim", "detect_prob"],
+                format!("a probability must lie in [0, 1], got {}", cs.detect_prob),
+            );
+        }
+        for (field, value) in [
+            ("pixel_sigma_px", cs.pixel_sigma_px),
+            ("size_sigma_frac", cs.size_sigma_frac),
+            ("min_box_height_px", cs.min_box_height_px),
+            ("false_positives_per_frame", cs.false_positives_per_frame),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                bad(
+                    path!["camera_sim", field],
+                    format!("must be >= 0, got {value}"),
+                );
+            }
+        }
+        if !(cs.reliable_range_m.is_finite()
+            && cs.reliable_range_m > 0.0
+            && cs.max_range_m > cs.reliable_range_m)
+        {
+            bad(
+                path!["camera_sim", "max_range_m"],
+                "need 0 < reliable_range_m < max_range_m".into(),
+            );
+        }
+
+        // People.
+        let targets = self.people.iter().filter(|p| p.target).count();
+        if targets > 1 {
+            let second = self
+                .people
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.target)
+                .nth(1)
+                .map_or(0, |(i, _)| i);
+            bad(
+                path!["people", second, "target"],
+                "only one person can be the target".into(),
+            );
+        }
+        if r.driver == DriverKind::Oracle && targets == 0 {
+            bad(
+                path!["robot", "driver"],
+                "the oracle driver follows the target: mark one person `target = true`".into(),
+            );
+        }
+        let obstacles: Vec<(Point2<World>, f64, Vec<FieldSeg>)> = w
+            .pillars
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (point(c.center), c.radius_m, path!["world", "pillars", i]))
+            .collect();
+        for (pi, p) in self.people.iter().enumerate() {
+            if p.path.is_empty() {
+                bad(
+                    path!["people", pi, "path"],
+                    "a path needs at least one waypoint".into(),
+                );
+                continue;
+            }
+            if !(p.speed_mps.is_finite() && (0.0..=3.0).contains(&p.speed_mps)) {
+                bad(
+                    path!["people", pi, "speed_mps"],
+                    format!("must lie in [0, 3] m/s, got {}", p.speed_mps),
+                );
+            }
+            if !(p.start_s.is_finite() && p.start_s >= 0.0) {
+                bad(
+                    path!["people", pi, "start_s"],
+                    format!("must be >= 0, got {}", p.start_s),
+                );
+            }
+            for (field, value, lo, hi) in [
+                ("height_m", p.height_m, 0.9, 2.3),
+                ("leg_radius_m", p.leg_radius_m, 0.02, 0.15),
+                ("leg_spread_m", p.leg_spread_m, 0.08, 0.5),
+            ] {
+                if let Some(v) = value
+                    && !(v.is_finite() && v >= lo && v <= hi)
+                {
+                    bad(
+                        path!["people", pi, field],
+                        format!("must lie in [{lo}, {hi}] m, got {v}"),
+                    );
+                }
+            }
+            for (k, pause) in p.pauses.iter().enumerate() {
+                if pause.waypoint >= p.path.len() {
+                    bad(
+                        path!["people", pi, "pauses", k, "waypoint"],
+                        format!(
+                            "the path has {} waypoints (0..{})",
+                            p.path.len(),
+                            p.path.len().saturating_sub(1)
+                        ),
+                    );
+                }
+                if !(pause.duration_s.is_finite() && pause.duration_s >= 0.0) {
+                    bad(
+                        path!["people", pi, "pauses", k, "duration_s"],
+                        "must be >= 0".into(),
+                    );
+                }
+            }
+            for (k, wp) in p.path.iter().enumerate() {
+                if !all_finite(wp) {
+                    bad(
+                        path!["people", pi, "path", k],
+                        "waypoints must be finite".into(),
+                    );
+                } else if !inside(*wp) {
+                    bad(
+                        path!["people", pi, "path", k],
+                        format!("waypoint ({}, {}) lies outside the walls", wp[0], wp[1]),
+                    );
+                }
+            }
+            let n = p.path.len();
+            let legs = if p.repeat && n > 2 { n } else { n - 1 };
+            for k in 0..legs {
+                let a = point(p.path[k]);
+                let b = point(p.path[(k + 1) % n]);
+                if !(a.is_finite() && b.is_finite()) {
+                    continue;
+                }
+                let seg = Segment::new(a, b);
+                if let Some((wall, _)) = walls
+                    .iter()
+                    .find(|(wall, _)| segments_intersect(&seg, wall))
+                {
+                    bad(
+                        path!["people", pi, "path", (k + 1) % n],
+                        format!(
+                            "the path from waypoint {k} to {} goes through the wall from ({}, {}) to ({}, {})",
+                            (k + 1) % n,
+                            wall.a.x,
+                            wall.a.y,
+                            wall.b.x,
+                            wall.b.y
+                        ),
+                    );
+                }
+                for (c, radius, _) in &obstacles {
+                    // The body centre passes at least a hip's width plus a leg from it.
+                    if segment_circle_distance_m(&seg, *c) < radius + PERSON_CLEARANCE_M {
+                        bad(
+                            path!["people", pi, "path", (k + 1) % n],
+                            format!(
+                                "the path from waypoint {k} runs into the pillar at ({}, {})",
+                                c.x, c.y
+                            ),
+                        );
+                    }
+                }
+            }
+        }
+        problems
+    }
+}
+
+/// Space a walking person needs on each side of their path: half the widest leg spread
+/// plus a leg radius, m.
+const PERSON_CLEARANCE_M: f64 = 0.2;
+
+fn all_finite(v: &[f64]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+fn laser_error_field(e: &tether_core::LaserModelError) -> &'static str {
+    match e {
+        tether_core::LaserModelError::BadGeometry { .. } => "geometry",
+        tether_core::LaserModelError::BadValue { field, .. } => field,
+    }
+}
+
+/// `root` followed by the dot-separated parts of `field`.
+fn dotted(root: &str, field: &str) -> Vec<FieldSeg> {
+    std::iter::once(root)
+        .chain(field.split('.'))
+        .map(FieldSeg::from)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_builtin_parses_and_validates() {
+        for name in BUILTIN_NAMES {
+            let s = Scenario::builtin(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(&s.name, name);
+            assert!(s.people.iter().any(|p| p.target), "{name} has a target");
+        }
+        assert!(matches!(
+            Scenario::builtin("nope"),
+            Err(ScenarioError::UnknownBuiltin(_))
+        ));
+    }
+
+    const BASE: &str = r#"
+name = "t"
+description = "test"
+duration_s = 5.0
+
+[world]
+rooms = [{ min = [0.0, 0.0], max = [10.0, 5.0] }]
+
+[[world.pillars]]
+center = [5.0, 4.0]
+radius_m = 0.3
+
+[robot]
+start = { x = 1.0, y = 2.5 }
+
+[[people]]
+name = "target"
+target = true
+path = [[2.0, 2.5], [8.0, 2.5]]
+"#;
+
+    fn err_of(src: &str) -> String {
+        match Scenario::from_toml_str(src, "bad.toml") {
+            Ok(_) => panic!("accepted:\n{src}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn base_is_valid() {
+        Scenario::from_toml_str(BASE, "base.toml").unwrap();
+    }
+
+    #[test]
+    fn unknown_key_names_file_line_and_field() {
+        let src = BASE.replace("radius_m = 0.3", "radius_m = 0.3\nradius_cm = 30");
+        let e = err_of(&src);
+        assert!(e.starts_with("bad.toml:12:1:"), "{e}");
+        assert!(e.contains("unknown field `radius_cm`"), "{e}");
+    }
+
+    #[test]
+    fn negative_radius_names_file_line_and_field() {
+        let src = BASE.replace("radius_m = 0.3", "radius_m = -0.3");
+        let e = err_of(&src);
+        assert!(
+            e.starts_with("bad.toml:11:12: field `world.pillars[0].radius_m`"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn missing_field_names_file_line_and_field() {
+        let src = BASE.replace("path = [[2.0, 2.5], [8.0, 2.5]]\n", "");
+        let e = err_of(&src);
+        assert!(e.starts_with("bad.toml:"), "{e}");
+        assert!(e.contains("missing field `path`"), "{e}");
+        // The error points at the [[people]] table.
+        assert!(e.starts_with("bad.toml:16:1:"), "{e}");
+    }
+
+    #[test]
+    fn path_outside_walls_names_the_waypoint() {
+        let src = BASE.replace("[8.0, 2.5]]", "[8.0, 2.5], [12.0, 2.5]]");
+        let e = err_of(&src);
+        assert!(e.contains("field `people[0].path[2]`"), "{e}");
+        assert!(e.contains("outside the walls"), "{e}");
+        assert!(e.starts_with("bad.toml:19:33:"), "{e}");
+    }
+
+    #[test]
+    fn path_through_a_wall_is_refused() {
+        let src = BASE.replace(
+            "rooms = [{ min = [0.0, 0.0], max = [10.0, 5.0] }]",
+            "rooms = [{ min = [0.0, 0.0], max = [10.0, 5.0] }]\nwalls = [{ from = [5.0, 0.0], to = [5.0, 3.0] }]",
+        );
+        let e = err_of(&src);
+        assert!(e.contains("goes through the wall"), "{e}");
+    }
+
+    #[test]
+    fn path_into_a_pillar_is_refused() {
+        let src = BASE.replace("[8.0, 2.5]]", "[8.0, 2.5], [5.0, 3.8]]");
+        assert!(err_of(&src).contains("runs into the pillar"));
+    }
+
+    #[test]
+    fn wrong_type_points_at_the_line() {
+        let src = BASE.replace("duration_s = 5.0", "duration_s = \"long\"");
+        let e = err_of(&src);
+        assert!(
+            e.starts_with("bad.toml:4:14: field `duration_s`: invalid type"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn sensor_models_are_checked() {
+        let src = format!("{BASE}\n[laser.noise]\nsigma_floor_m = -1.0\n");
+        let e = err_of(&src);
+        assert!(e.contains("field `laser.noise.sigma_floor_m`"), "{e}");
+        let src = format!("{BASE}\n[camera_sim]\nrate_hz = 0.0\n");
+        assert!(err_of(&src).contains("field `camera_sim.rate_hz`"));
+    }
+}

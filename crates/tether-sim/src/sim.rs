@@ -1,0 +1,386 @@
+//! The simulation loop: people walk, the robot drives, the laser and the camera sample
+//! the world at their own rates, each sample comes out with its ground truth.
+//!
+//! Time advances in integer nanoseconds from one sensor event to the next, with physics
+//! sub-steps of at most 10 ms in between. Scans come every laser period from t = 0,
+//! camera frames every 1/rate from t = 0 (frame k at `k * 1e9 / rate` ns, rounded, so
+//! the rate does not drift); when both fall on the same nanosecond the scan comes first.
+
+use serde::Serialize;
+use thiserror::Error;
+
+use tether_core::{Camera, Laser, LaserScan, Point2, Pose2, Robot, Stamp, Vector2, World};
+
+use crate::camera::{CameraFrame, CameraTruth, SimCamera};
+use crate::laser::{LegCircle, SimLaser};
+use crate::person::Person;
+use crate::rng::SimRng;
+use crate::robot::{Command, DiffDrive};
+use crate::scenario::Scenario;
+use crate::world::StaticWorld;
+
+/// Longest physics step, ns.
+const MAX_STEP_NS: i64 = 10_000_000;
+
+/// Why a simulation cannot run.
+#[derive(Debug, Error)]
+pub enum SimError {
+    /// The scenario failed validation.
+    #[error("scenario `{name}` is invalid: field `{field}`: {message}")]
+    InvalidScenario {
+        /// Scenario name.
+        name: String,
+        /// Field path.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A scan could not be built (an inconsistent laser model).
+    #[error("simulated scan is invalid: {0}")]
+    Scan(#[from] tether_core::ScanError),
+}
+
+/// A leg in the ground truth.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LegTruth {
+    /// Centre at the laser's height, world frame, m.
+    pub center: Point2<World>,
+    /// Radius, m.
+    pub radius_m: f64,
+}
+
+/// Ground truth of one person at one instant.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PersonTruth {
+    /// Person id (index in the scenario).
+    pub id: u32,
+    /// Name from the scenario.
+    pub name: String,
+    /// The person the robot should follow.
+    pub target: bool,
+    /// Body centre, world frame, m.
+    pub position: Point2<World>,
+    /// Body velocity, world frame, m/s.
+    pub velocity: Vector2<World>,
+    /// Facing direction, rad.
+    pub heading_rad: f64,
+    /// Height of the head top, m.
+    pub height_m: f64,
+    /// Legs at the laser's height (left, right).
+    pub legs: [LegTruth; 2],
+    /// For scan events: how many beams of this scan hit the person's legs (0 = hidden
+    /// from the laser). `None` for camera events.
+    pub laser_beams: Option<u32>,
+}
+
+/// Ground truth common to every sensor event.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Truth {
+    /// Time of the event.
+    pub stamp: Stamp,
+    /// Robot pose.
+    pub world_from_robot: Pose2<World, Robot>,
+    /// Robot velocity (forward speed, turn rate).
+    pub robot_velocity: Command,
+    /// Laser pose.
+    pub world_from_laser: Pose2<World, Laser>,
+    /// Camera (ground frame) pose.
+    pub world_from_camera: Pose2<World, Camera>,
+    /// Every person.
+    pub people: Vec<PersonTruth>,
+    /// Collisions of the robot with walls or obstacles so far.
+    pub collisions: u32,
+}
+
+impl Truth {
+    /// The target, if the scenario has one.
+    pub fn target(&self) -> Option<&PersonTruth> {
+        self.people.iter().find(|p| p.target)
+    }
+}
+
+/// A sensor sample.
+#[derive(Debug, Clone)]
+pub enum SensorData {
+    /// A laser scan in the laser frame.
+    Scan(LaserScan),
+    /// Upper-body detections of one camera frame.
+    Camera(CameraFrame),
+}
+
+/// One event of the simulation: a sensor sample and the truth at its instant.
+#[derive(Debug, Clone)]
+pub struct Event {
+    /// The sample, as a real sensor would deliver it.
+    pub data: SensorData,
+    /// Ground truth (never to be used by the estimator under test).
+    pub truth: Truth,
+    /// Extra truth for camera frames.
+    pub camera_truth: Option<CameraTruth>,
+}
+
+/// A running simulation.
+#[derive(Debug)]
+pub struct Simulation {
+    scenario: Scenario,
+    world: StaticWorld,
+    people: Vec<Person>,
+    robot: DiffDrive,
+    laser: Option<SimLaser>,
+    camera: Option<SimCamera>,
+    now: Stamp,
+    end: Stamp,
+    next_scan_index: i64,
+    next_frame_index: i64,
+    scan_period_ns: i64,
+    collisions: u32,
+}
+
+impl Simulation {
+    /// Builds the world of `scenario` for `seed`. The scenario is validated again (a
+    /// hand-built [`Scenario`] may not have been).
+    pub fn new(scenario: &Scenario, seed: u64) -> Result<Self, SimError> {
+        if let Some(problem) = scenario.validate().into_iter().next() {
+            let field = problem
+                .field
+                .iter()
+                .map(|s| match s {
+                    crate::scenario::FieldSeg::Key(k) => format!(".{k}"),
+                    crate::scenario::FieldSeg::Index(i) => format!("[{i}]"),
+                })
+                .collect::<String>()
+                .trim_start_matches('.')
+                .to_owned();
+            return Err(SimError::InvalidScenario {
+                name: scenario.name.clone(),
+                field,
+                message: problem.message,
+            });
+        }
+        let world = StaticWorld::from_scenario(scenario);
+        let people = scenario
+            .people
+            .iter()
+            .enumerate()
+            .map(|(i, spec)| {
+                let mut rng = SimRng::stream(seed, &format!("person/{i}"));
+                Person::from_spec(i as u32, spec, &mut rng)
+            })
+            .collect();
+        let laser = scenario.laser_sim.enabled.then(|| {
+            SimLaser::new(
+                scenario.laser.clone(),
+                scenario.laser_sim.clone(),
+                SimRng::stream(seed, "laser"),
+            )
+        });
+        let camera = scenario.camera_sim.enabled.then(|| {
+            SimCamera::new(
+                scenario.camera,
+                scenario.camera_sim.clone(),
+                SimRng::stream(seed, "camera"),
+            )
+        });
+        let end = Stamp::from_secs_f64(scenario.duration_s).unwrap_or(Stamp::ZERO);
+        Ok(Simulation {
+            scenario: scenario.clone(),
+            world,
+            people,
+            robot: DiffDrive::from_spec(&scenario.robot),
+            laser,
+            camera,
+            now: Stamp::ZERO,
+            end,
+            next_scan_index: 0,
+            next_frame_index: 0,
+            scan_period_ns: scenario.laser.scan_period_ns().max(1),
+            collisions: 0,
+        })
+    }
+
+    /// The scenario being run.
+    pub fn scenario(&self) -> &Scenario {
+        &self.scenario
+    }
+
+    /// The static world.
+    pub fn world(&self) -> &StaticWorld {
+        &self.world
+    }
+
+    /// The people.
+    pub fn people(&self) -> &[Person] {
+        &self.people
+    }
+
+    /// The robot.
+    pub fn robot(&self) -> &DiffDrive {
+        &self.robot
+    }
+
+    /// The simulated laser, if enabled.
+    pub fn laser(&self) -> Option<&SimLaser> {
+        self.laser.as_ref()
+    }
+
+    /// Current simulated time.
+    pub fn now(&self) -> Stamp {
+        self.now
+    }
+
+    /// End of the run.
+    pub fn end(&self) -> Stamp {
+        self.end
+    }
+
+    /// Collisions of the robot with the static world so far.
+    pub fn collisions(&self) -> u32 {
+        self.collisions
+    }
+
+    /// Sets the robot's command (kept until the next call).
+    pub fn set_command(&mut self, command: Command) {
+        self.robot.set_command(command);
+    }
+
+    fn next_scan_ns(&self) -> Option<i64> {
+        self.laser
+            .as_ref()
+            .map(|_| self.next_scan_index * self.scan_period_ns)
+    }
+
+    fn next_frame_ns(&self) -> Option<i64> {
+        self.camera
+            .as_ref()
+            .map(|c| (self.next_frame_index as f64 * c.period_ns()).round() as i64)
+    }
+
+    /// Advances to the next sensor event and returns it, or `None` at the end.
+    pub fn advance(&mut self) -> Option<Event> {
+        let scan_at = self.next_scan_ns();
+        let frame_at = self.next_frame_ns();
+        let (at, is_scan) = match (scan_at, frame_at) {
+            (Some(s), Some(f)) => {
+                if s <= f {
+                    (s, true)
+                } else {
+                    (f, false)
+                }
+            }
+            (Some(s), None) => (s, true),
+            (None, Some(f)) => (f, false),
+            (None, None) => (self.end.ns(), true),
+        };
+        if at > self.end.ns() || (scan_at.is_none() && frame_at.is_none()) {
+            self.step_to(self.end);
+            return None;
+        }
+        self.step_to(Stamp::from_ns(at));
+        let truth = self.truth();
+        if is_scan {
+            self.next_scan_index += 1;
+            let laser_height = self.scenario.laser.mount.height_m;
+            let legs: Vec<LegCircle> = self
+                .people
+                .iter()
+                .flat_map(|p| {
+                    let [l, r] = p.legs_at(laser_height);
+                    [
+                        LegCircle {
+                            circle: l,
+                            person: p.id,
+                            leg: 0,
+                        },
+                        LegCircle {
+                            circle: r,
+                            person: p.id,
+                            leg: 1,
+                        },
+                    ]
+                })
+                .collect();
+            let laser = self.laser.as_mut()?;
+            let scan = laser.scan(self.now, truth.world_from_laser, &self.world, &legs);
+            let mut truth = truth;
+            for person in &mut truth.people {
+                let beams = laser
+                    .last_hits()
+                    .iter()
+                    .filter(|h| matches!(h, crate::laser::Hit::Leg { person: id, .. } if *id == person.id))
+                    .count();
+                person.laser_beams = Some(beams as u32);
+            }
+            match scan {
+                Ok(scan) => Some(Event {
+                    data: SensorData::Scan(scan),
+                    truth,
+                    camera_truth: None,
+                }),
+                Err(e) => {
+                    tracing::error!("dropping an invalid simulated scan: {e}");
+                    None
+                }
+            }
+        } else {
+            self.next_frame_index += 1;
+            let camera = self.camera.as_mut()?;
+            let (frame, camera_truth) =
+                camera.frame(self.now, truth.world_from_robot, &self.world, &self.people);
+            Some(Event {
+                data: SensorData::Camera(frame),
+                truth,
+                camera_truth: Some(camera_truth),
+            })
+        }
+    }
+
+    fn step_to(&mut self, t: Stamp) {
+        while self.now < t {
+            let dt_ns = t.ns_since(self.now).min(MAX_STEP_NS);
+            let dt_s = dt_ns as f64 * 1e-9;
+            for p in &mut self.people {
+                p.step(dt_s);
+            }
+            let was_blocked = self.robot.blocked();
+            if self.robot.step(dt_s, &self.world) && !was_blocked {
+                self.collisions += 1;
+            }
+            self.now = self.now.saturating_add_ns(dt_ns);
+        }
+    }
+
+    /// Ground truth now.
+    pub fn truth(&self) -> Truth {
+        let world_from_robot = self.robot.pose();
+        let laser_height = self.scenario.laser.mount.height_m;
+        Truth {
+            stamp: self.now,
+            world_from_robot,
+            robot_velocity: self.robot.velocity(),
+            world_from_laser: world_from_robot * self.scenario.laser.robot_from_laser(),
+            world_from_camera: world_from_robot * self.scenario.camera.robot_from_camera(),
+            people: self
+                .people
+                .iter()
+                .map(|p| {
+                    let legs = p.legs_at(laser_height).map(|c| LegTruth {
+                        center: c.center,
+                        radius_m: c.radius_m,
+                    });
+                    PersonTruth {
+                        id: p.id,
+                        name: p.name.clone(),
+                        target: p.is_target,
+                        position: p.position(),
+                        velocity: p.velocity(),
+                        heading_rad: p.heading_rad(),
+                        height_m: p.body.height_m,
+                        legs,
+                        laser_beams: None,
+                    }
+                })
+                .collect(),
+            collisions: self.collisions,
+        }
+    }
+}
