@@ -166,7 +166,7 @@ impl SimLaser {
                 .filter_map(move |shift| {
                     let first = ((rel_lo - shift) / inc).ceil().max(0.0);
                     let last = ((rel_hi - shift) / inc).floor().min(n as f64 - 1.0);
-                    (first <= last).then(|| first as usize..=last as usize)
+                    (first <= last).then_some(first as usize..=last as usize)
                 })
         };
 

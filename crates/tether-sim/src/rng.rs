@@ -65,7 +65,7 @@ impl SimRng {
 
     /// A Poisson count with mean `lambda` (by inversion; meant for small means).
     pub fn poisson(&mut self, lambda: f64) -> u32 {
-        if !(lambda > 0.0) {
+        if lambda.is_nan() || lambda <= 0.0 {
             return 0;
         }
         let u = self.unit();

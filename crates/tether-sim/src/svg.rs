@@ -95,7 +95,7 @@ pub fn scene_svg(
     let _ = writeln!(s, r##"<rect width="100%" height="100%" fill="#ffffff"/>"##);
     let _ = writeln!(
         s,
-        r##"<text x="{MARGIN_PX}" y="24" font-size="16" font-weight="bold">{} — {}</text>"##,
+        r##"<text x="{MARGIN_PX}" y="20" font-size="16" font-weight="bold">{}</text><text x="{MARGIN_PX}" y="36" font-size="12" fill="#444444">{}</text>"##,
         xml_escape(&scenario.name),
         xml_escape(&scenario.description)
     );

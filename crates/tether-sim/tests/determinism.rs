@@ -1,5 +1,7 @@
 //! The same scenario and seed give byte-identical files; another seed does not.
 
+#![allow(clippy::unwrap_used, reason = "a test should fail loudly on bad data")]
+
 use std::path::Path;
 
 use tether_sim::{Scenario, run_to_dir};

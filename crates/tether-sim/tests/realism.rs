@@ -2,6 +2,8 @@
 //! leg clusters 9-16 cm wide (median ~12.7 cm), ~13 points at 1.7 m, leg centres
 //! 0.2-0.35 m apart most of the time and never much more than 0.58 m.
 
+#![allow(clippy::unwrap_used, reason = "a test should fail loudly on bad data")]
+
 use tether_sim::laser::Hit;
 use tether_sim::{Scenario, SensorData, Simulation};
 

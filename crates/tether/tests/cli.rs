@@ -1,0 +1,198 @@
+//! The command line as a user runs it.
+
+#![allow(clippy::unwrap_used, reason = "a test should fail loudly on bad data")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn tether(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tether"))
+        .args(args)
+        .output()
+        .expect("the tether binary runs")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("tether-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+#[test]
+fn scenarios_lists_every_builtin_with_one_line() {
+    let out = tether(&["scenarios"]);
+    assert!(out.status.success());
+    let stdout = text(&out.stdout);
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert_eq!(lines.len(), 6, "{stdout}");
+    for name in [
+        "corridor",
+        "office",
+        "crossing",
+        "stop_and_go",
+        "turns",
+        "occlusion",
+    ] {
+        assert!(
+            lines.iter().any(|l| l.starts_with(name)),
+            "{name} missing:\n{stdout}"
+        );
+    }
+}
+
+#[test]
+fn sim_writes_identical_files_for_the_same_seed() {
+    let dir = scratch("sim");
+    let run = |sub: &str| {
+        let out_dir = dir.join(sub);
+        let out = tether(&[
+            "sim",
+            "--scenario",
+            "office",
+            "--seed",
+            "3",
+            "--duration",
+            "3",
+            "--out",
+            out_dir.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        assert!(
+            text(&out.stdout).contains("31 scans"),
+            "{}",
+            text(&out.stdout)
+        );
+        out_dir
+    };
+    let (a, b) = (run("a"), run("b"));
+    for file in [
+        "scans.jsonl",
+        "camera.jsonl",
+        "truth.jsonl",
+        "camera_truth.jsonl",
+        "scene.svg",
+        "run.json",
+    ] {
+        let x = std::fs::read(a.join(file)).unwrap();
+        assert!(!x.is_empty(), "{file} is empty");
+        assert_eq!(x, std::fs::read(b.join(file)).unwrap(), "{file} differs");
+    }
+    // Spot-check the documented formats.
+    let scans = std::fs::read_to_string(a.join("scans.jsonl")).unwrap();
+    let first: serde_json::Value = serde_json::from_str(scans.lines().next().unwrap()).unwrap();
+    assert_eq!(first["ranges_m"].as_array().unwrap().len(), 682);
+    let truth = std::fs::read_to_string(a.join("truth.jsonl")).unwrap();
+    let line: serde_json::Value = serde_json::from_str(truth.lines().nth(10).unwrap()).unwrap();
+    assert_eq!(line["stamp_ns"], 1_000_000_000);
+    assert!(
+        line["people"][0]["laser"]["x"].is_number() && line["people"][0]["world"]["vx"].is_number()
+    );
+    let svg = std::fs::read_to_string(a.join("scene.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("polyline"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Writes the corridor scenario with one edit, runs it, and returns stderr, the file
+/// and the 1-based line on which `marker` stands in the edited file.
+fn bad_scenario(
+    dir: &Path,
+    name: &str,
+    replace: (&str, &str),
+    marker: &str,
+) -> (String, PathBuf, usize) {
+    let base = text(&tether(&["scenarios", "--show", "corridor"]).stdout);
+    assert!(base.contains(replace.0), "{base}");
+    let path = dir.join(name);
+    let edited = base.replacen(replace.0, replace.1, 1);
+    let line = edited
+        .lines()
+        .position(|l| l.contains(marker))
+        .map_or(1, |i| i + 1);
+    std::fs::write(&path, edited).unwrap();
+    let out = tether(&[
+        "sim",
+        "--scenario",
+        path.to_str().unwrap(),
+        "--out",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    assert!(!out.status.success(), "accepted {name}");
+    (text(&out.stderr), path, line)
+}
+
+#[test]
+fn bad_scenario_files_are_refused_with_file_line_and_field() {
+    let dir = scratch("bad");
+    let (err, path, line) = bad_scenario(
+        &dir,
+        "unknown_key.toml",
+        ("speed_mps = 1.0", "speed_mps = 1.0\nsped_mps = 2.0"),
+        "sped_mps",
+    );
+    assert!(
+        err.contains(&format!(
+            "{}:{line}:1: unknown field `sped_mps`",
+            path.display()
+        )),
+        "{err}"
+    );
+
+    let (err, path, line) = bad_scenario(
+        &dir,
+        "negative_radius.toml",
+        ("[robot]\n", "[robot]\nradius_m = -0.2\n"),
+        "radius_m",
+    );
+    assert!(
+        err.contains(&format!(
+            "{}:{line}:12: field `robot.radius_m`",
+            path.display()
+        )),
+        "{err}"
+    );
+
+    let (err, path, line) = bad_scenario(
+        &dir,
+        "outside.toml",
+        ("[22.5, 1.2]", "[30.0, 1.2]"),
+        "[30.0, 1.2]",
+    );
+    assert!(
+        err.contains(&format!(
+            "{}:{line}:21: field `people[0].path[1]`",
+            path.display()
+        )),
+        "{err}"
+    );
+    assert!(err.contains("outside the walls"), "{err}");
+
+    // A missing top-level field is reported at the start of the document.
+    let (err, path, _) = bad_scenario(&dir, "missing.toml", ("duration_s = 26.0\n", ""), "");
+    assert!(
+        err.contains(&format!(
+            "{}:1:1: missing field `duration_s`",
+            path.display()
+        )),
+        "{err}"
+    );
+
+    let out = tether(&[
+        "sim",
+        "--scenario",
+        "no_such_scenario",
+        "--out",
+        dir.join("o").to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("tether scenarios"),
+        "{}",
+        text(&out.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
