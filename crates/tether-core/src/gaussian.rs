@@ -78,6 +78,29 @@ pub struct Cov2 {
 const SYMMETRY_REL_TOL: f64 = 1e-9;
 
 impl Cov2 {
+    /// The identity, 1 m^2 along each axis.
+    pub const IDENTITY: Cov2 = Cov2 {
+        xx: 1.0,
+        xy: 0.0,
+        yy: 1.0,
+    };
+
+    /// The nearest covariance whose variances along every direction are at least
+    /// `min_var` (eigenvalues clamped from below). `None` when an entry is not finite.
+    /// Use it to repair a matrix that rounding made indefinite, never to accept data
+    /// from outside.
+    pub fn repaired(xx: f64, xy: f64, yy: f64, min_var: f64) -> Option<Cov2> {
+        if !(xx.is_finite() && xy.is_finite() && yy.is_finite() && min_var.is_finite() && min_var > 0.0) {
+            return None;
+        }
+        let mean = 0.5 * (xx + yy);
+        let radius = (0.5 * (xx - yy)).hypot(xy);
+        let angle = 0.5 * (2.0 * xy).atan2(xx - yy);
+        let major = (mean + radius).max(min_var);
+        let minor = (mean - radius).max(min_var);
+        Cov2::from_axes(major.sqrt(), minor.sqrt(), angle).ok()
+    }
+
     /// Checks and builds a covariance from its three distinct entries.
     pub fn new(xx: f64, xy: f64, yy: f64) -> Result<Self, CovError> {
         Self::from_rows([[xx, xy], [xy, yy]])
@@ -327,6 +350,17 @@ mod tests {
         assert!(bad.is_err());
         let good: Cov2 = serde_json::from_str("[2.0, 0.5, 0.5, 1.0]").unwrap();
         assert_eq!(good.to_array(), [2.0, 0.5, 0.5, 1.0]);
+    }
+
+    #[test]
+    fn repair_clamps_eigenvalues() {
+        let c = Cov2::repaired(1.0, 1.0, 1.0, 1e-4).unwrap();
+        let (major, minor, _) = c.principal_axes();
+        assert!((major - 2.0).abs() < 1e-9 && (minor - 1e-4).abs() < 1e-9);
+        assert!(Cov2::repaired(f64::NAN, 0.0, 1.0, 1e-4).is_none());
+        let good = Cov2::new(2.0, 0.3, 1.0).unwrap();
+        let same = Cov2::repaired(2.0, 0.3, 1.0, 1e-6).unwrap();
+        assert!((good.xx() - same.xx()).abs() < 1e-12 && (good.xy() - same.xy()).abs() < 1e-12);
     }
 
     #[test]

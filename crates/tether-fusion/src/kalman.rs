@@ -1,0 +1,239 @@
+//! A constant-velocity Kalman filter for one person on the floor.
+//!
+//! State `x = (px, py, vx, vy)` in the world frame, m and m/s. Motion model over `dt`:
+//! `x' = F x` with `F = [[I, dt I], [0, I]]`, and white-noise acceleration of spectral
+//! density `q` (m^2/s^3):
+//!
+//! ```text
+//! Q = q [[dt^3/3 I, dt^2/2 I],
+//!        [dt^2/2 I, dt     I]]
+//! ```
+//!
+//! Observations are positions: `z = H x + r`, `H = [I 0]`, `r ~ N(0, R)`. The update uses
+//! the Joseph form `P' = (I - K H) P (I - K H)^T + K R K^T`, which stays symmetric
+//! positive definite under rounding.
+
+#![allow(
+    clippy::needless_range_loop,
+    reason = "matrix code reads best with explicit indices"
+)]
+
+use tether_core::{Cov2, Frame, Gaussian2, Point2, Vector2};
+
+/// A 4x4 matrix, row-major.
+pub type Mat4 = [[f64; 4]; 4];
+
+/// State and covariance of one track.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CvFilter {
+    /// `(px, py, vx, vy)`.
+    pub x: [f64; 4],
+    /// Covariance of `x`.
+    pub p: Mat4,
+}
+
+fn symmetrize(p: &mut Mat4) {
+    for i in 0..4 {
+        for j in (i + 1)..4 {
+            let m = 0.5 * (p[i][j] + p[j][i]);
+            p[i][j] = m;
+            p[j][i] = m;
+        }
+    }
+}
+
+impl CvFilter {
+    /// A filter at `position` with unknown velocity (standard deviation `sigma_v_mps`).
+    pub fn new<F: Frame>(position: &Gaussian2<F>, sigma_v_mps: f64) -> Self {
+        let c = position.cov;
+        let vv = sigma_v_mps * sigma_v_mps;
+        CvFilter {
+            x: [position.mean.x, position.mean.y, 0.0, 0.0],
+            p: [
+                [c.xx(), c.xy(), 0.0, 0.0],
+                [c.xy(), c.yy(), 0.0, 0.0],
+                [0.0, 0.0, vv, 0.0],
+                [0.0, 0.0, 0.0, vv],
+            ],
+        }
+    }
+
+    /// Predicts `dt_s` ahead: `x = F x`, `P = F P F^T + Q`. Negative or NaN `dt` does
+    /// nothing.
+    pub fn predict(&mut self, dt_s: f64, q: f64) {
+        if !dt_s.is_finite() || dt_s <= 0.0 {
+            return;
+        }
+        let dt = dt_s;
+        self.x[0] += dt * self.x[2];
+        self.x[1] += dt * self.x[3];
+        // F P F^T by blocks: P = [[A, B], [B^T, C]] ->
+        // [[A + dt (B + B^T) + dt^2 C, B + dt C], [B^T + dt C, C]].
+        let p = self.p;
+        let mut n = p;
+        for i in 0..2 {
+            for j in 0..2 {
+                n[i][j] = p[i][j] + dt * (p[i][j + 2] + p[i + 2][j]) + dt * dt * p[i + 2][j + 2];
+                n[i][j + 2] = p[i][j + 2] + dt * p[i + 2][j + 2];
+                n[i + 2][j] = p[i + 2][j] + dt * p[i + 2][j + 2];
+            }
+        }
+        let (q11, q12, q22) = (q * dt * dt * dt / 3.0, q * dt * dt / 2.0, q * dt);
+        for i in 0..2 {
+            n[i][i] += q11;
+            n[i][i + 2] += q12;
+            n[i + 2][i] += q12;
+            n[i + 2][i + 2] += q22;
+        }
+        symmetrize(&mut n);
+        self.p = n;
+    }
+
+    /// The predicted position as an estimate.
+    pub fn position<F: Frame>(&self) -> Gaussian2<F> {
+        let cov = Cov2::new(self.p[0][0], self.p[0][1], self.p[1][1])
+            .ok()
+            .or_else(|| Cov2::repaired(self.p[0][0], self.p[0][1], self.p[1][1], 1e-8))
+            .unwrap_or(Cov2::IDENTITY);
+        Gaussian2 {
+            mean: Point2::new(self.x[0], self.x[1]),
+            cov,
+        }
+    }
+
+    /// The velocity, m/s.
+    pub fn velocity<F: Frame>(&self) -> Vector2<F> {
+        Vector2::new(self.x[2], self.x[3])
+    }
+
+    /// Covariance of the velocity.
+    pub fn velocity_cov(&self) -> Option<Cov2> {
+        Cov2::new(self.p[2][2], self.p[2][3], self.p[3][3]).ok()
+    }
+
+    /// Innovation covariance `S = H P H^T + R` and innovation `z - H x` for a position
+    /// observation.
+    pub fn innovation<F: Frame>(&self, z: &Gaussian2<F>) -> (Cov2, [f64; 2]) {
+        // P's position block is positive semidefinite and R positive definite, so S is
+        // positive definite; rounding can only be repaired, never make it singular.
+        let s = self.position::<F>().cov.add(&z.cov);
+        (s, [z.mean.x - self.x[0], z.mean.y - self.x[1]])
+    }
+
+    /// Squared Mahalanobis distance of an observation from the predicted position.
+    pub fn mahalanobis_sq<F: Frame>(&self, z: &Gaussian2<F>) -> f64 {
+        let (s, y) = self.innovation(z);
+        s.mahalanobis_sq(y[0], y[1])
+    }
+
+    /// Kalman update with a position observation (Joseph form).
+    pub fn update<F: Frame>(&mut self, z: &Gaussian2<F>) {
+        let (s, y) = self.innovation(z);
+        let si = s.inverse();
+        let si = [[si.xx(), si.xy()], [si.xy(), si.yy()]];
+        // K = P H^T S^-1: 4x2.
+        let mut k = [[0.0; 2]; 4];
+        for (i, row) in k.iter_mut().enumerate() {
+            for (j, kij) in row.iter_mut().enumerate() {
+                *kij = self.p[i][0] * si[0][j] + self.p[i][1] * si[1][j];
+            }
+        }
+        for (i, row) in k.iter().enumerate() {
+            self.x[i] += row[0] * y[0] + row[1] * y[1];
+        }
+        // A = I - K H.
+        let mut a = [[0.0; 4]; 4];
+        for (i, row) in a.iter_mut().enumerate() {
+            row[i] = 1.0;
+            row[0] -= k[i][0];
+            row[1] -= k[i][1];
+        }
+        let ap = mul(&a, &self.p);
+        let mut p = mul_transposed(&ap, &a);
+        let r = [[z.cov.xx(), z.cov.xy()], [z.cov.xy(), z.cov.yy()]];
+        for i in 0..4 {
+            for j in 0..4 {
+                let mut krk = 0.0;
+                for m in 0..2 {
+                    for n in 0..2 {
+                        krk += k[i][m] * r[m][n] * k[j][n];
+                    }
+                }
+                p[i][j] += krk;
+            }
+        }
+        symmetrize(&mut p);
+        self.p = p;
+    }
+
+    /// True when every entry is finite.
+    pub fn is_finite(&self) -> bool {
+        self.x.iter().all(|v| v.is_finite()) && self.p.iter().flatten().all(|v| v.is_finite())
+    }
+}
+
+fn mul(a: &Mat4, b: &Mat4) -> Mat4 {
+    let mut r = [[0.0; 4]; 4];
+    for i in 0..4 {
+        for j in 0..4 {
+            r[i][j] = (0..4).map(|k| a[i][k] * b[k][j]).sum();
+        }
+    }
+    r
+}
+
+fn mul_transposed(a: &Mat4, b: &Mat4) -> Mat4 {
+    let mut r = [[0.0; 4]; 4];
+    for i in 0..4 {
+        for j in 0..4 {
+            r[i][j] = (0..4).map(|k| a[i][k] * b[j][k]).sum();
+        }
+    }
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tether_core::World;
+
+    fn obs(x: f64, y: f64, sigma: f64) -> Gaussian2<World> {
+        Gaussian2::new(Point2::new(x, y), Cov2::isotropic(sigma).unwrap()).unwrap()
+    }
+
+    #[test]
+    fn learns_a_constant_velocity() {
+        let mut f = CvFilter::new(&obs(0.0, 0.0, 0.05), 1.0);
+        for k in 1..=50 {
+            f.predict(0.1, 0.5);
+            f.update(&obs(0.1 * k as f64 * 1.2, 0.5, 0.05));
+        }
+        let v = f.velocity::<World>();
+        assert!((v.x - 1.2).abs() < 0.05 && v.y.abs() < 0.05, "{v:?}");
+        assert!((f.x[0] - 6.0).abs() < 0.05);
+    }
+
+    #[test]
+    fn prediction_grows_uncertainty_and_update_shrinks_it() {
+        let mut f = CvFilter::new(&obs(1.0, 1.0, 0.1), 1.0);
+        let p0 = f.position::<World>().cov.det();
+        f.predict(1.0, 1.0);
+        let p1 = f.position::<World>().cov.det();
+        f.update(&obs(1.0, 1.0, 0.1));
+        let p2 = f.position::<World>().cov.det();
+        assert!(p1 > p0 && p2 < p1);
+        f.predict(-1.0, 1.0);
+        f.predict(f64::NAN, 1.0);
+        assert!(f.is_finite());
+    }
+
+    #[test]
+    fn update_matches_the_textbook_gain_for_a_static_state() {
+        // With zero velocity uncertainty and no process noise the filter is a weighted
+        // mean: two equal-variance observations give their average with half the variance.
+        let mut f = CvFilter::new(&obs(0.0, 0.0, 0.2), 0.0);
+        f.update(&obs(1.0, 0.0, 0.2));
+        assert!((f.x[0] - 0.5).abs() < 1e-12);
+        assert!((f.p[0][0] - 0.02).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,27 @@
+//! Fusion and tracking for tether (SPEC section 5, paper section IV).
+//!
+//! - [`gate`]: Mahalanobis gating with `S = P_l + P_v` and chi-square thresholds.
+//! - [`ci`]: Covariance Intersection with the exact 2x2 closed form (determinant or
+//!   trace), and independent (Kalman) fusion.
+//! - [`complementary`]: the paper's per-frame complementary fusion algorithm.
+//! - [`assign`]: global nearest neighbour assignment (Hungarian method).
+//! - [`kalman`]: the constant-velocity Kalman filter of one person.
+//! - [`tracker`]: person tracks over time, confirmation and deletion.
+//! - [`target`]: the target of interest, locked through crossings and occlusions.
+//!
+//! Pure algorithms: no I/O and no clock; stamps come in with the data.
+
+pub mod assign;
+pub mod ci;
+pub mod complementary;
+pub mod gate;
+pub mod kalman;
+pub mod target;
+pub mod tracker;
+
+pub use ci::{CiCriterion, Fused, ci_weight, covariance_intersection, independent_fusion};
+pub use complementary::{FusedPerson, FusionRule, complementary_fusion};
+pub use gate::{CHI2_2DOF_95, CHI2_2DOF_99, CHI2_2DOF_999, Gate, mahalanobis_sq};
+pub use kalman::CvFilter;
+pub use target::{TargetConfig, TargetSelector, TargetState, TargetStats};
+pub use tracker::{BatchResult, Observation, Source, Track, Tracker, TrackerConfig, TrackerStats};

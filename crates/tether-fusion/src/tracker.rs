@@ -1,0 +1,466 @@
+//! Multi-person tracking: one constant-velocity Kalman filter per person in the world
+//! (odometry) frame, global nearest neighbour association with the Hungarian method,
+//! confirmation after a few consistent detections, deletion after missed updates or
+//! when the uncertainty grows too large.
+//!
+//! Observations are processed as each sensor delivers them (a laser scan's people, a
+//! camera frame's people, or laser-vision pairs fused per frame), in time order. Input
+//! that cannot be used is rejected and counted, never allowed to corrupt a track:
+//! batches older than the tracker's clock, non-finite or absurd observations.
+
+use serde::{Deserialize, Serialize};
+use tether_core::{Gaussian2, Stamp, Vector2, World};
+use thiserror::Error;
+
+use crate::assign::assign;
+use crate::gate::Gate;
+use crate::kalman::CvFilter;
+
+/// Which sensor an observation comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Source {
+    /// A laser person (a leg pair, or a lone leg).
+    Laser,
+    /// A camera person (upper-body box through the pinhole model).
+    Vision,
+    /// A laser person and a camera person fused in the same frame.
+    Fused,
+}
+
+/// One person observation in the world frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Observation {
+    /// Where it comes from.
+    pub source: Source,
+    /// Position estimate.
+    pub estimate: Gaussian2<World>,
+    /// Whether it may start a new track (a lone leg, say, should not).
+    pub may_spawn: bool,
+}
+
+/// Tracker settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrackerConfig {
+    /// Association gate on the innovation's squared Mahalanobis distance.
+    pub gate: Gate,
+    /// Spectral density of the white-noise acceleration, m^2/s^3 (how briskly people
+    /// change velocity).
+    pub accel_noise: f64,
+    /// Velocity uncertainty of a new track, m/s.
+    pub initial_speed_sigma_mps: f64,
+    /// Updates that confirm a tentative track.
+    pub confirm_hits: u32,
+    /// A tentative track not updated for this long is dropped, s.
+    pub tentative_timeout_s: f64,
+    /// A confirmed track not updated for this long is dropped, s.
+    pub max_coast_s: f64,
+    /// A track whose position standard deviation exceeds this is dropped, m.
+    pub max_position_sigma_m: f64,
+    /// Observations with a position standard deviation above this are ignored, m.
+    pub max_observation_sigma_m: f64,
+}
+
+impl Default for TrackerConfig {
+    fn default() -> Self {
+        TrackerConfig {
+            gate: Gate::default(),
+            accel_noise: 2.0,
+            initial_speed_sigma_mps: 1.0,
+            confirm_hits: 3,
+            tentative_timeout_s: 0.6,
+            max_coast_s: 2.0,
+            max_position_sigma_m: 1.5,
+            max_observation_sigma_m: 3.0,
+        }
+    }
+}
+
+/// Why tracker settings are unusable.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[error("tracker setting `{field}` = {value} is invalid: {why}")]
+pub struct TrackerConfigError {
+    /// Field name.
+    pub field: &'static str,
+    /// Offending value.
+    pub value: f64,
+    /// What it must be.
+    pub why: &'static str,
+}
+
+impl TrackerConfig {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), TrackerConfigError> {
+        let positive = [
+            ("gate.threshold", self.gate.threshold),
+            ("accel_noise", self.accel_noise),
+            ("initial_speed_sigma_mps", self.initial_speed_sigma_mps),
+            ("tentative_timeout_s", self.tentative_timeout_s),
+            ("max_coast_s", self.max_coast_s),
+            ("max_position_sigma_m", self.max_position_sigma_m),
+            ("max_observation_sigma_m", self.max_observation_sigma_m),
+        ];
+        for (field, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(TrackerConfigError {
+                    field,
+                    value,
+                    why: "must be a positive number",
+                });
+            }
+        }
+        if self.confirm_hits == 0 {
+            return Err(TrackerConfigError {
+                field: "confirm_hits",
+                value: 0.0,
+                why: "must be at least 1",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// A tracked person.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Track {
+    /// Identity, unique over the tracker's life.
+    pub id: u64,
+    /// State estimate.
+    pub filter: CvFilter,
+    /// Confirmed (seen consistently), as opposed to tentative.
+    pub confirmed: bool,
+    /// Updates received.
+    pub hits: u32,
+    /// Creation time.
+    pub born: Stamp,
+    /// Last update by any observation.
+    pub last_update: Stamp,
+    /// Last update by a laser (or fused) observation.
+    pub last_laser: Option<Stamp>,
+    /// Last update by a vision (or fused) observation.
+    pub last_vision: Option<Stamp>,
+}
+
+impl Track {
+    /// Position estimate.
+    pub fn position(&self) -> Gaussian2<World> {
+        self.filter.position()
+    }
+
+    /// Velocity estimate, m/s.
+    pub fn velocity(&self) -> Vector2<World> {
+        self.filter.velocity()
+    }
+
+    /// True when both sensors updated the track within `window_s` before `now`.
+    pub fn seen_by_both(&self, now: Stamp, window_s: f64) -> bool {
+        let recent = |t: Option<Stamp>| t.is_some_and(|t| now.secs_since(t) <= window_s);
+        recent(self.last_laser) && recent(self.last_vision)
+    }
+}
+
+/// Counters of input the tracker refused.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct TrackerStats {
+    /// Batches older than the tracker's clock (out-of-order stamps).
+    pub out_of_order_batches: u64,
+    /// Observations ignored as non-finite or too uncertain.
+    pub rejected_observations: u64,
+    /// Observations that updated a track.
+    pub associated: u64,
+    /// Tracks started.
+    pub tracks_started: u64,
+    /// Tracks dropped.
+    pub tracks_dropped: u64,
+}
+
+/// The multi-person tracker.
+#[derive(Debug, Clone)]
+pub struct Tracker {
+    config: TrackerConfig,
+    tracks: Vec<Track>,
+    next_id: u64,
+    now: Option<Stamp>,
+    stats: TrackerStats,
+}
+
+/// What one batch did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BatchResult {
+    /// For each observation, the id of the track it updated or started.
+    pub track_of: Vec<Option<u64>>,
+    /// False when the whole batch was refused (out of order).
+    pub accepted: bool,
+}
+
+impl Tracker {
+    /// A tracker with checked settings.
+    pub fn new(config: TrackerConfig) -> Result<Self, TrackerConfigError> {
+        config.validate()?;
+        Ok(Tracker {
+            config,
+            tracks: Vec::new(),
+            next_id: 1,
+            now: None,
+            stats: TrackerStats::default(),
+        })
+    }
+
+    /// Settings.
+    pub fn config(&self) -> &TrackerConfig {
+        &self.config
+    }
+
+    /// Current tracks (tentative and confirmed), in creation order.
+    pub fn tracks(&self) -> &[Track] {
+        &self.tracks
+    }
+
+    /// A track by id.
+    pub fn track(&self, id: u64) -> Option<&Track> {
+        self.tracks.iter().find(|t| t.id == id)
+    }
+
+    /// Refusal counters.
+    pub fn stats(&self) -> TrackerStats {
+        self.stats
+    }
+
+    /// The tracker's clock: the stamp of the last accepted batch.
+    pub fn now(&self) -> Option<Stamp> {
+        self.now
+    }
+
+    /// Predicts every track to `stamp` (if it is not older than the clock) and drops
+    /// stale tracks, without observations.
+    pub fn advance(&mut self, stamp: Stamp) -> bool {
+        if let Some(now) = self.now
+            && stamp < now
+        {
+            self.stats.out_of_order_batches += 1;
+            return false;
+        }
+        let dt = self.now.map_or(0.0, |now| stamp.secs_since(now));
+        for t in &mut self.tracks {
+            t.filter.predict(dt, self.config.accel_noise);
+        }
+        self.now = Some(stamp);
+        self.prune(stamp);
+        true
+    }
+
+    /// Processes the observations of one sensor message taken at `stamp`.
+    pub fn process(&mut self, stamp: Stamp, observations: &[Observation]) -> BatchResult {
+        if !self.advance(stamp) {
+            return BatchResult {
+                track_of: vec![None; observations.len()],
+                accepted: false,
+            };
+        }
+        let max_var = self.config.max_observation_sigma_m.powi(2);
+        let usable: Vec<bool> = observations
+            .iter()
+            .map(|o| {
+                let ok =
+                    o.estimate.mean.is_finite() && o.estimate.cov.principal_axes().0 <= max_var;
+                if !ok {
+                    self.stats.rejected_observations += 1;
+                }
+                ok
+            })
+            .collect();
+
+        // Gated costs: tracks x observations.
+        let gate = self.config.gate.threshold;
+        let cost: Vec<Vec<Option<f64>>> = self
+            .tracks
+            .iter()
+            .map(|t| {
+                observations
+                    .iter()
+                    .zip(&usable)
+                    .map(|(o, &ok)| {
+                        let d2 = t.filter.mahalanobis_sq(&o.estimate);
+                        (ok && d2 < gate).then_some(d2)
+                    })
+                    .collect()
+            })
+            .collect();
+        let assignment = assign(&cost);
+        let mut track_of = vec![None; observations.len()];
+        for (ti, oi) in assignment.iter().enumerate() {
+            let Some(oi) = *oi else { continue };
+            let o = &observations[oi];
+            let t = &mut self.tracks[ti];
+            let before = t.filter;
+            t.filter.update(&o.estimate);
+            if !t.filter.is_finite() {
+                t.filter = before;
+                self.stats.rejected_observations += 1;
+                continue;
+            }
+            t.hits += 1;
+            t.last_update = stamp;
+            if matches!(o.source, Source::Laser | Source::Fused) {
+                t.last_laser = Some(stamp);
+            }
+            if matches!(o.source, Source::Vision | Source::Fused) {
+                t.last_vision = Some(stamp);
+            }
+            if t.hits >= self.config.confirm_hits {
+                t.confirmed = true;
+            }
+            track_of[oi] = Some(t.id);
+            self.stats.associated += 1;
+        }
+        // New tracks from observations no track could explain.
+        for (oi, o) in observations.iter().enumerate() {
+            if track_of[oi].is_some() || !usable[oi] || !o.may_spawn {
+                continue;
+            }
+            let near_existing = self
+                .tracks
+                .iter()
+                .any(|t| t.filter.mahalanobis_sq(&o.estimate) < gate);
+            if near_existing {
+                continue;
+            }
+            let id = self.next_id;
+            self.next_id += 1;
+            let (last_laser, last_vision) = match o.source {
+                Source::Laser => (Some(stamp), None),
+                Source::Vision => (None, Some(stamp)),
+                Source::Fused => (Some(stamp), Some(stamp)),
+            };
+            self.tracks.push(Track {
+                id,
+                filter: CvFilter::new(&o.estimate, self.config.initial_speed_sigma_mps),
+                confirmed: self.config.confirm_hits <= 1,
+                hits: 1,
+                born: stamp,
+                last_update: stamp,
+                last_laser,
+                last_vision,
+            });
+            self.stats.tracks_started += 1;
+            track_of[oi] = Some(id);
+        }
+        BatchResult {
+            track_of,
+            accepted: true,
+        }
+    }
+
+    fn prune(&mut self, now: Stamp) {
+        let c = &self.config;
+        let max_var = c.max_position_sigma_m * c.max_position_sigma_m;
+        let before = self.tracks.len();
+        self.tracks.retain(|t| {
+            let silent_s = now.secs_since(t.last_update);
+            let timeout = if t.confirmed {
+                c.max_coast_s
+            } else {
+                c.tentative_timeout_s
+            };
+            silent_s <= timeout
+                && t.filter.is_finite()
+                && t.position().cov.principal_axes().0 <= max_var
+        });
+        self.stats.tracks_dropped += (before - self.tracks.len()) as u64;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tether_core::{Cov2, Point2};
+
+    fn obs(x: f64, y: f64, source: Source) -> Observation {
+        Observation {
+            source,
+            estimate: Gaussian2::new(Point2::new(x, y), Cov2::isotropic(0.05).unwrap()).unwrap(),
+            may_spawn: true,
+        }
+    }
+
+    fn at(ms: i64) -> Stamp {
+        Stamp::from_ns(ms * 1_000_000)
+    }
+
+    #[test]
+    fn two_walkers_keep_their_identities_through_a_crossing() {
+        let mut tr = Tracker::new(TrackerConfig::default()).unwrap();
+        let mut ids = None;
+        for k in 0..60 {
+            let t = k as f64 * 0.1;
+            // A walks +x along y = 0, B walks +y along x = 3: they cross at t = 3 s.
+            let a = obs(t, 0.0, Source::Laser);
+            let b = obs(3.0, t - 3.0, Source::Laser);
+            let r = tr.process(at(100 * k), &[a, b]);
+            if k == 10 {
+                ids = Some((r.track_of[0].unwrap(), r.track_of[1].unwrap()));
+            }
+            if let Some((ia, ib)) = ids {
+                assert_eq!(r.track_of, vec![Some(ia), Some(ib)], "at t = {t}");
+            }
+        }
+        assert_eq!(tr.tracks().len(), 2);
+        assert!(tr.tracks().iter().all(|t| t.confirmed));
+        let a = tr.track(ids.unwrap().0).unwrap();
+        assert!((a.velocity().x - 1.0).abs() < 0.1);
+    }
+
+    #[test]
+    fn tentative_noise_dies_and_confirmed_tracks_coast() {
+        let mut tr = Tracker::new(TrackerConfig::default()).unwrap();
+        tr.process(at(0), &[obs(5.0, 5.0, Source::Laser)]);
+        assert_eq!(tr.tracks().len(), 1);
+        assert!(!tr.tracks()[0].confirmed);
+        tr.process(at(1000), &[]);
+        assert!(tr.tracks().is_empty(), "a single false alarm is forgotten");
+        for k in 0..5 {
+            tr.process(at(1100 + 100 * k), &[obs(1.0, 1.0, Source::Laser)]);
+        }
+        assert!(tr.tracks()[0].confirmed);
+        tr.process(at(2500), &[]);
+        assert_eq!(tr.tracks().len(), 1, "coasts through a short gap");
+        tr.process(at(4000), &[]);
+        assert!(tr.tracks().is_empty(), "dropped after max_coast_s");
+    }
+
+    #[test]
+    fn out_of_order_and_bad_observations_are_counted_not_used() {
+        let mut tr = Tracker::new(TrackerConfig::default()).unwrap();
+        tr.process(at(1000), &[obs(1.0, 1.0, Source::Laser)]);
+        let r = tr.process(at(900), &[obs(1.0, 1.0, Source::Laser)]);
+        assert!(!r.accepted);
+        assert_eq!(tr.stats().out_of_order_batches, 1);
+        let mut wide = obs(1.0, 1.0, Source::Vision);
+        wide.estimate.cov = Cov2::isotropic(50.0).unwrap();
+        tr.process(at(1100), &[wide]);
+        assert_eq!(tr.stats().rejected_observations, 1);
+        assert_eq!(tr.tracks().len(), 1);
+        assert_eq!(tr.tracks()[0].hits, 1);
+    }
+
+    #[test]
+    fn fused_and_single_sensor_observations_mark_their_sensors() {
+        let mut tr = Tracker::new(TrackerConfig::default()).unwrap();
+        tr.process(at(0), &[obs(2.0, 0.0, Source::Laser)]);
+        tr.process(at(50), &[obs(2.0, 0.0, Source::Vision)]);
+        let t = &tr.tracks()[0];
+        assert!(t.seen_by_both(at(50), 0.5));
+        assert!(!t.seen_by_both(at(2000), 0.5));
+    }
+
+    #[test]
+    fn refuses_bad_settings() {
+        let mut c = TrackerConfig::default();
+        c.accel_noise = -1.0;
+        assert!(Tracker::new(c).is_err());
+        let mut c = TrackerConfig::default();
+        c.confirm_hits = 0;
+        assert!(Tracker::new(c).is_err());
+    }
+}
