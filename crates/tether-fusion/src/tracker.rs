@@ -456,11 +456,15 @@ mod tests {
 
     #[test]
     fn refuses_bad_settings() {
-        let mut c = TrackerConfig::default();
-        c.accel_noise = -1.0;
+        let c = TrackerConfig {
+            accel_noise: -1.0,
+            ..TrackerConfig::default()
+        };
         assert!(Tracker::new(c).is_err());
-        let mut c = TrackerConfig::default();
-        c.confirm_hits = 0;
+        let c = TrackerConfig {
+            confirm_hits: 0,
+            ..TrackerConfig::default()
+        };
         assert!(Tracker::new(c).is_err());
     }
 }
