@@ -1,0 +1,224 @@
+//! Speed, turn-rate, wheel-speed and acceleration limits of a differential base.
+//!
+//! Saturation scales `(v, w)` together so that the curvature `w / v` (the path the robot
+//! drives) is kept; only the pace changes. Wheel speeds are `v +- w b / 2` (SPEC 6).
+//! Acceleration limits also scale the change of `(v, w)` by one common factor.
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// A velocity command, as `geometry_msgs/Twist` on `/cmd_vel` carries it.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Twist {
+    /// Forward speed, m/s.
+    pub v_mps: f64,
+    /// Turn rate, counter-clockwise, rad/s.
+    pub w_radps: f64,
+}
+
+impl Twist {
+    /// Standing still.
+    pub const STOP: Twist = Twist {
+        v_mps: 0.0,
+        w_radps: 0.0,
+    };
+
+    /// Left and right wheel speeds for track width `b`: `v -+ w b / 2`, m/s.
+    pub fn wheel_speeds_mps(&self, track_width_m: f64) -> (f64, f64) {
+        let half = 0.5 * track_width_m * self.w_radps;
+        (self.v_mps - half, self.v_mps + half)
+    }
+}
+
+/// Limits of the base.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MotionLimits {
+    /// Top forward speed, m/s.
+    pub max_speed_mps: f64,
+    /// Top reverse speed, m/s (0: never reverse; the laser does not see behind).
+    pub max_reverse_mps: f64,
+    /// Top turn rate, rad/s.
+    pub max_turn_radps: f64,
+    /// Top speed of either wheel, m/s.
+    pub max_wheel_speed_mps: f64,
+    /// Distance between the wheels, m.
+    pub track_width_m: f64,
+    /// Largest increase of speed, m/s^2.
+    pub max_accel_mps2: f64,
+    /// Largest decrease of speed (braking), m/s^2.
+    pub max_decel_mps2: f64,
+    /// Largest change of turn rate, rad/s^2.
+    pub max_angular_accel_radps2: f64,
+}
+
+impl Default for MotionLimits {
+    fn default() -> Self {
+        MotionLimits {
+            max_speed_mps: 1.4,
+            max_reverse_mps: 0.0,
+            max_turn_radps: 1.8,
+            max_wheel_speed_mps: 1.6,
+            track_width_m: 0.3,
+            max_accel_mps2: 1.2,
+            max_decel_mps2: 2.5,
+            max_angular_accel_radps2: 4.0,
+        }
+    }
+}
+
+/// Why limits are unusable.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[error("limit `{field}` = {value} is invalid: {why}")]
+pub struct LimitsError {
+    /// Field.
+    pub field: &'static str,
+    /// Value.
+    pub value: f64,
+    /// Requirement.
+    pub why: &'static str,
+}
+
+impl MotionLimits {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), LimitsError> {
+        for (field, value) in [
+            ("max_speed_mps", self.max_speed_mps),
+            ("max_turn_radps", self.max_turn_radps),
+            ("max_wheel_speed_mps", self.max_wheel_speed_mps),
+            ("track_width_m", self.track_width_m),
+            ("max_accel_mps2", self.max_accel_mps2),
+            ("max_decel_mps2", self.max_decel_mps2),
+            ("max_angular_accel_radps2", self.max_angular_accel_radps2),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(LimitsError {
+                    field,
+                    value,
+                    why: "must be a positive number",
+                });
+            }
+        }
+        if !(self.max_reverse_mps.is_finite() && self.max_reverse_mps >= 0.0) {
+            return Err(LimitsError {
+                field: "max_reverse_mps",
+                value: self.max_reverse_mps,
+                why: "must be >= 0",
+            });
+        }
+        Ok(())
+    }
+
+    /// Scales `desired` down (keeping its curvature) until speed, turn rate and both
+    /// wheel speeds are within limits. Non-finite input gives a stop.
+    pub fn saturate(&self, desired: Twist) -> Twist {
+        if !(desired.v_mps.is_finite() && desired.w_radps.is_finite()) {
+            return Twist::STOP;
+        }
+        let mut t = desired;
+        if t.v_mps < 0.0 && self.max_reverse_mps == 0.0 {
+            t.v_mps = 0.0;
+        }
+        let (l, r) = t.wheel_speeds_mps(self.track_width_m);
+        let speed_ratio = if t.v_mps >= 0.0 {
+            t.v_mps / self.max_speed_mps
+        } else {
+            -t.v_mps / self.max_reverse_mps
+        };
+        let k = [
+            1.0,
+            speed_ratio,
+            t.w_radps.abs() / self.max_turn_radps,
+            l.abs() / self.max_wheel_speed_mps,
+            r.abs() / self.max_wheel_speed_mps,
+        ]
+        .into_iter()
+        .fold(1.0, f64::max);
+        Twist {
+            v_mps: t.v_mps / k,
+            w_radps: t.w_radps / k,
+        }
+    }
+
+    /// Limits the change from `previous` to `desired` over `dt_s` (one common factor on
+    /// both components). Braking uses the larger deceleration limit.
+    pub fn limit_acceleration(&self, previous: Twist, desired: Twist, dt_s: f64) -> Twist {
+        if !dt_s.is_finite() || dt_s <= 0.0 {
+            return previous;
+        }
+        let dv = desired.v_mps - previous.v_mps;
+        let dw = desired.w_radps - previous.w_radps;
+        let braking = desired.v_mps.abs() < previous.v_mps.abs();
+        let a = if braking {
+            self.max_decel_mps2
+        } else {
+            self.max_accel_mps2
+        };
+        let k = [
+            1.0,
+            dv.abs() / (a * dt_s),
+            dw.abs() / (self.max_angular_accel_radps2 * dt_s),
+        ]
+        .into_iter()
+        .fold(1.0, f64::max);
+        Twist {
+            v_mps: previous.v_mps + dv / k,
+            w_radps: previous.w_radps + dw / k,
+        }
+    }
+
+    /// Saturation then acceleration limits.
+    pub fn apply(&self, previous: Twist, desired: Twist, dt_s: f64) -> Twist {
+        self.saturate(self.limit_acceleration(previous, self.saturate(desired), dt_s))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn saturation_keeps_curvature_and_respects_every_limit(v in -3.0..3.0f64, w in -5.0..5.0f64) {
+            let lim = MotionLimits { max_reverse_mps: 0.3, ..MotionLimits::default() };
+            let t = lim.saturate(Twist { v_mps: v, w_radps: w });
+            let (l, r) = t.wheel_speeds_mps(lim.track_width_m);
+            let eps = 1e-9;
+            prop_assert!(t.v_mps <= lim.max_speed_mps + eps && -t.v_mps <= lim.max_reverse_mps + eps);
+            prop_assert!(t.w_radps.abs() <= lim.max_turn_radps + eps);
+            prop_assert!(l.abs() <= lim.max_wheel_speed_mps + eps && r.abs() <= lim.max_wheel_speed_mps + eps);
+            // Same curvature: v * w' == v' * w.
+            prop_assert!((t.v_mps * w - v * t.w_radps).abs() < 1e-9);
+        }
+
+        #[test]
+        fn acceleration_is_bounded(v0 in 0.0..1.4f64, w0 in -1.5..1.5f64, v1 in 0.0..1.4f64, w1 in -1.5..1.5f64) {
+            let lim = MotionLimits::default();
+            let dt = 0.05;
+            let t = lim.limit_acceleration(Twist { v_mps: v0, w_radps: w0 }, Twist { v_mps: v1, w_radps: w1 }, dt);
+            prop_assert!((t.v_mps - v0).abs() <= lim.max_decel_mps2 * dt + 1e-9);
+            prop_assert!((t.w_radps - w0).abs() <= lim.max_angular_accel_radps2 * dt + 1e-9);
+        }
+    }
+
+    #[test]
+    fn no_reverse_by_default_and_nan_stops() {
+        let lim = MotionLimits::default();
+        assert_eq!(
+            lim.saturate(Twist {
+                v_mps: -0.5,
+                w_radps: 0.2
+            })
+            .v_mps,
+            0.0
+        );
+        assert_eq!(
+            lim.saturate(Twist {
+                v_mps: f64::NAN,
+                w_radps: 0.2
+            }),
+            Twist::STOP
+        );
+    }
+}

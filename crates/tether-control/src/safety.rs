@@ -1,0 +1,136 @@
+//! The safety layer, always on (SPEC 6): no motion before a target is locked, stop when
+//! the target is lost or the data are stale (watchdog), never drive towards a laser
+//! return closer than a stop distance in the direction of travel.
+
+use serde::{Deserialize, Serialize};
+use tether_core::{Point2, Robot, Stamp};
+
+/// Safety settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SafetyConfig {
+    /// Stop when the newest laser scan is older than this, s.
+    pub laser_timeout_s: f64,
+    /// Stop when the target's estimate has not been updated for this long, s.
+    pub target_timeout_s: f64,
+    /// Free space kept ahead of the footprint in the direction of travel, m.
+    pub stop_distance_m: f64,
+    /// Radius of the robot's footprint, m.
+    pub robot_radius_m: f64,
+    /// Extra width on each side of the footprint's corridor, m.
+    pub corridor_margin_m: f64,
+}
+
+impl Default for SafetyConfig {
+    fn default() -> Self {
+        SafetyConfig {
+            laser_timeout_s: 0.3,
+            target_timeout_s: 0.5,
+            stop_distance_m: 0.35,
+            robot_radius_m: 0.2,
+            corridor_margin_m: 0.05,
+        }
+    }
+}
+
+/// Why the robot may not drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// No target has been locked yet.
+    NoTarget,
+    /// The target was lost.
+    TargetLost,
+    /// The laser went silent.
+    StaleLaser,
+    /// The target's estimate is too old.
+    StaleTarget,
+    /// Something is in the way ahead (turning is still allowed).
+    Obstacle,
+}
+
+impl StopReason {
+    /// Name used in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            StopReason::NoTarget => "no_target",
+            StopReason::TargetLost => "target_lost",
+            StopReason::StaleLaser => "stale_laser",
+            StopReason::StaleTarget => "stale_target",
+            StopReason::Obstacle => "obstacle",
+        }
+    }
+}
+
+impl SafetyConfig {
+    /// Checks the watchdogs at `now` given when the last scan and the last target update
+    /// arrived.
+    pub fn watchdog(
+        &self,
+        now: Stamp,
+        last_scan: Option<Stamp>,
+        last_target_update: Option<Stamp>,
+    ) -> Option<StopReason> {
+        match last_scan {
+            Some(t) if now.secs_since(t) <= self.laser_timeout_s => {}
+            _ => return Some(StopReason::StaleLaser),
+        }
+        match last_target_update {
+            Some(t) if now.secs_since(t) <= self.target_timeout_s => None,
+            _ => Some(StopReason::StaleTarget),
+        }
+    }
+
+    /// Distance from the footprint's front to the nearest return in the corridor the
+    /// robot sweeps when driving forward, m (`None` when the corridor is clear up to the
+    /// stop distance).
+    pub fn obstacle_ahead_m(
+        &self,
+        points_in_robot: impl IntoIterator<Item = Point2<Robot>>,
+    ) -> Option<f64> {
+        let half_width = self.robot_radius_m + self.corridor_margin_m;
+        points_in_robot
+            .into_iter()
+            .filter(|p| p.is_finite() && p.y.abs() <= half_width && p.x > 0.0)
+            .map(|p| p.x - self.robot_radius_m)
+            .filter(|gap| *gap < self.stop_distance_m)
+            .min_by(f64::total_cmp)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn watchdog_trips_on_stale_laser_then_stale_target() {
+        let s = SafetyConfig::default();
+        let at = |ms: i64| Stamp::from_ns(ms * 1_000_000);
+        assert_eq!(s.watchdog(at(1000), Some(at(950)), Some(at(950))), None);
+        assert_eq!(
+            s.watchdog(at(1000), Some(at(600)), Some(at(950))),
+            Some(StopReason::StaleLaser)
+        );
+        assert_eq!(
+            s.watchdog(at(1000), None, Some(at(950))),
+            Some(StopReason::StaleLaser)
+        );
+        assert_eq!(
+            s.watchdog(at(1000), Some(at(950)), Some(at(400))),
+            Some(StopReason::StaleTarget)
+        );
+    }
+
+    #[test]
+    fn only_returns_in_the_corridor_ahead_block() {
+        let s = SafetyConfig::default();
+        let p = |x: f64, y: f64| Point2::<Robot>::new(x, y);
+        assert_eq!(
+            s.obstacle_ahead_m([p(1.5, 0.0), p(0.3, 0.6), p(-0.3, 0.0)]),
+            None
+        );
+        let gap = s.obstacle_ahead_m([p(0.45, 0.1), p(0.5, -0.2)]).unwrap();
+        assert!((gap - 0.25).abs() < 1e-12);
+        assert_eq!(s.obstacle_ahead_m([p(f64::NAN, 0.0)]), None);
+    }
+}
