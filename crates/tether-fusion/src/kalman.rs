@@ -166,6 +166,34 @@ impl CvFilter {
         self.p = p;
     }
 
+    /// Covariance Intersection update with a position observation whose correlation
+    /// with the track is unknown: a Kalman update with the track's covariance inflated
+    /// to `P / w` and the observation's to `R / (1 - w)`, which is exactly CI's
+    /// `P'^-1 = w P^-1 + (1 - w) H^T R^-1 H` (Julier and Uhlmann). The weight comes from
+    /// the exact 2x2 closed form on the observed position block. Returns `w`; at
+    /// `w = 1` the observation adds nothing and the track is left as it is.
+    pub fn update_ci<F: Frame>(
+        &mut self,
+        z: &Gaussian2<F>,
+        criterion: crate::ci::CiCriterion,
+    ) -> f64 {
+        let w = crate::ci::ci_weight(&self.position::<F>().cov, &z.cov, criterion).clamp(1e-3, 1.0);
+        if w > 1.0 - 1e-3 {
+            return 1.0;
+        }
+        for row in &mut self.p {
+            for v in row.iter_mut() {
+                *v /= w;
+            }
+        }
+        let inflated = Gaussian2 {
+            mean: z.mean,
+            cov: z.cov.scaled(1.0 / (1.0 - w)).unwrap_or(z.cov),
+        };
+        self.update(&inflated);
+        w
+    }
+
     /// True when every entry is finite.
     pub fn is_finite(&self) -> bool {
         self.x.iter().all(|v| v.is_finite()) && self.p.iter().flatten().all(|v| v.is_finite())
@@ -225,6 +253,33 @@ mod tests {
         f.predict(-1.0, 1.0);
         f.predict(f64::NAN, 1.0);
         assert!(f.is_finite());
+    }
+
+    #[test]
+    fn ci_update_is_never_tighter_than_the_kalman_update() {
+        let mut kf = CvFilter::new(&obs(0.0, 0.0, 0.1), 0.5);
+        let mut ci = kf;
+        let z = Gaussian2::<World>::new(
+            Point2::new(0.1, 0.0),
+            Cov2::from_axes(0.3, 0.03, 0.0).unwrap(),
+        )
+        .unwrap();
+        kf.update(&z);
+        let w = ci.update_ci(&z, crate::ci::CiCriterion::Determinant);
+        assert!(w > 0.0 && w < 1.0);
+        let (pk, pc) = (kf.position::<World>().cov, ci.position::<World>().cov);
+        assert!(pc.det() >= pk.det());
+        // Still better than the prior along the observation's thin axis.
+        assert!(pc.yy() < 0.01);
+        // A much worse observation is ignored.
+        let before = ci;
+        let vague =
+            Gaussian2::<World>::new(Point2::new(1.0, 1.0), Cov2::isotropic(2.0).unwrap()).unwrap();
+        assert_eq!(
+            ci.update_ci(&vague, crate::ci::CiCriterion::Determinant),
+            1.0
+        );
+        assert_eq!(ci, before);
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //! - [`kalman`]: the constant-velocity Kalman filter of one person.
 //! - [`tracker`]: person tracks over time, confirmation and deletion.
 //! - [`target`]: the target of interest, locked through crossings and occlusions.
+//! - [`mot`]: CLEAR MOT metrics for evaluating tracking against ground truth.
 //!
 //! Pure algorithms: no I/O and no clock; stamps come in with the data.
 
@@ -16,6 +17,7 @@ pub mod ci;
 pub mod complementary;
 pub mod gate;
 pub mod kalman;
+pub mod mot;
 pub mod target;
 pub mod tracker;
 
@@ -23,5 +25,8 @@ pub use ci::{CiCriterion, Fused, ci_weight, covariance_intersection, independent
 pub use complementary::{FusedPerson, FusionRule, complementary_fusion};
 pub use gate::{CHI2_2DOF_95, CHI2_2DOF_99, CHI2_2DOF_999, Gate, mahalanobis_sq};
 pub use kalman::CvFilter;
+pub use mot::{ClearMot, MotSummary};
 pub use target::{TargetConfig, TargetSelector, TargetState, TargetStats};
-pub use tracker::{BatchResult, Observation, Source, Track, Tracker, TrackerConfig, TrackerStats};
+pub use tracker::{
+    BatchResult, Observation, Source, Track, Tracker, TrackerConfig, TrackerStats, UpdateRule,
+};

@@ -13,6 +13,7 @@ use tether_core::{Gaussian2, Stamp, Vector2, World};
 use thiserror::Error;
 
 use crate::assign::assign;
+use crate::ci::CiCriterion;
 use crate::gate::Gate;
 use crate::kalman::CvFilter;
 
@@ -39,6 +40,18 @@ pub struct Observation {
     pub may_spawn: bool,
 }
 
+/// How an observation updates a track.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UpdateRule {
+    /// Kalman update: the observation's error is independent of the track's.
+    Kalman,
+    /// Covariance Intersection: consistent whatever the correlation (for errors that
+    /// persist from frame to frame, like the vision range of a person whose height
+    /// differs from the assumed one).
+    CovarianceIntersection,
+}
+
 /// Tracker settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -60,6 +73,10 @@ pub struct TrackerConfig {
     pub max_position_sigma_m: f64,
     /// Observations with a position standard deviation above this are ignored, m.
     pub max_observation_sigma_m: f64,
+    /// How laser (and fused) observations update tracks.
+    pub laser_update: UpdateRule,
+    /// How vision observations update tracks.
+    pub vision_update: UpdateRule,
 }
 
 impl Default for TrackerConfig {
@@ -73,6 +90,8 @@ impl Default for TrackerConfig {
             max_coast_s: 2.0,
             max_position_sigma_m: 1.5,
             max_observation_sigma_m: 3.0,
+            laser_update: UpdateRule::Kalman,
+            vision_update: UpdateRule::CovarianceIntersection,
         }
     }
 }
@@ -294,7 +313,16 @@ impl Tracker {
             let o = &observations[oi];
             let t = &mut self.tracks[ti];
             let before = t.filter;
-            t.filter.update(&o.estimate);
+            let rule = match o.source {
+                Source::Laser | Source::Fused => self.config.laser_update,
+                Source::Vision => self.config.vision_update,
+            };
+            match rule {
+                UpdateRule::Kalman => t.filter.update(&o.estimate),
+                UpdateRule::CovarianceIntersection => {
+                    t.filter.update_ci(&o.estimate, CiCriterion::Determinant);
+                }
+            }
             if !t.filter.is_finite() {
                 t.filter = before;
                 self.stats.rejected_observations += 1;
