@@ -22,8 +22,9 @@ pub struct TargetConfig {
     pub track_id: Option<u64>,
     /// Only people seen by both sensors within this window can be chosen at start, s.
     pub both_sensors_window_s: f64,
-    /// Let a laser-only track be chosen at start (no camera).
-    pub allow_laser_only: bool,
+    /// Only a person seen by both sensors can be chosen at start (turn off when one
+    /// sensor is absent).
+    pub require_both_sensors: bool,
     /// Farthest person that can be chosen at start, m.
     pub max_select_range_m: f64,
     /// Largest bearing off the robot's heading for the choice at start, rad.
@@ -44,7 +45,7 @@ impl Default for TargetConfig {
         TargetConfig {
             track_id: None,
             both_sensors_window_s: 1.0,
-            allow_laser_only: false,
+            require_both_sensors: true,
             max_select_range_m: 4.0,
             max_select_bearing_rad: 0.6,
             lost_after_s: 0.4,
@@ -247,12 +248,7 @@ impl TargetSelector {
         tracks
             .iter()
             .filter(|t| t.confirmed && now.secs_since(t.last_update) <= c.lost_after_s)
-            .filter(|t| {
-                t.seen_by_both(now, c.both_sensors_window_s)
-                    || (c.allow_laser_only
-                        && t.last_laser
-                            .is_some_and(|s| now.secs_since(s) <= c.both_sensors_window_s))
-            })
+            .filter(|t| !c.require_both_sensors || t.seen_by_both(now, c.both_sensors_window_s))
             .filter_map(|t| {
                 let p = robot_from_world * t.position().mean;
                 let bearing = wrap_angle_rad(p.bearing_rad()).abs();

@@ -254,6 +254,7 @@ impl RunRecorder {
                 self.summary.camera_frames += 1;
                 self.summary.camera_boxes += frame.boxes.len() as u64;
             }
+            SensorData::Timer => {}
         }
         Ok(())
     }

@@ -42,6 +42,8 @@ pub struct DiffDrive {
     track_width_m: f64,
     max_wheel_speed_mps: f64,
     max_wheel_accel_mps2: f64,
+    command_timeout_s: f64,
+    since_command_s: f64,
     blocked: bool,
 }
 
@@ -57,12 +59,17 @@ impl DiffDrive {
             track_width_m: spec.track_width_m,
             max_wheel_speed_mps: spec.max_wheel_speed_mps,
             max_wheel_accel_mps2: spec.max_wheel_accel_mps2,
+            command_timeout_s: spec.command_timeout_s,
+            since_command_s: 0.0,
             blocked: false,
         }
     }
 
-    /// Sets the command followed from now on. Non-finite commands stop the robot.
+    /// Sets the command followed from now on. Non-finite commands stop the robot. Like
+    /// a real base driver, the robot stops by itself when no command has come for
+    /// `command_timeout_s`.
     pub fn set_command(&mut self, command: Command) {
+        self.since_command_s = 0.0;
         self.command = if command.v_mps.is_finite() && command.w_radps.is_finite() {
             command
         } else {
@@ -101,6 +108,10 @@ impl DiffDrive {
     /// Advances by `dt_s`. Returns true when the robot hit something: it then stays
     /// where it was, with its wheels stopped.
     pub fn step(&mut self, dt_s: f64, world: &StaticWorld) -> bool {
+        self.since_command_s += dt_s;
+        if self.since_command_s > self.command_timeout_s {
+            self.command = Command::STOP;
+        }
         let half_b = 0.5 * self.track_width_m;
         let mut right = self.command.v_mps + self.command.w_radps * half_b;
         let mut left = self.command.v_mps - self.command.w_radps * half_b;
@@ -160,37 +171,44 @@ mod tests {
         DiffDrive::from_spec(&RobotSpec::default())
     }
 
+    /// Drives with `command` re-sent every step, as a controller would.
+    fn drive(r: &mut DiffDrive, world: &StaticWorld, command: Command, steps: usize) -> bool {
+        let mut hit = false;
+        for _ in 0..steps {
+            r.set_command(command);
+            hit |= r.step(0.01, world);
+        }
+        hit
+    }
+
     #[test]
     fn drives_a_circle_of_the_commanded_curvature() {
         let mut r = robot();
         let world = StaticWorld::default();
-        r.set_command(Command {
+        let cmd = Command {
             v_mps: 0.5,
             w_radps: 0.5,
-        });
-        for _ in 0..300 {
-            r.step(0.01, &world);
-        }
-        // Radius 1 m circle about (0, 1) once at speed.
+        };
+        drive(&mut r, &world, cmd, 300);
+        // On the radius 1 m circle about (0, 1), about 1.45 m along it.
         let p = r.pose();
         let d = ((p.x - 0.0).powi(2) + (p.y - 1.0).powi(2)).sqrt();
         assert!((d - 1.0).abs() < 0.02, "{d}");
+        assert!((p.yaw - 1.45).abs() < 0.05, "turned {}", p.yaw);
     }
 
     #[test]
     fn saturation_keeps_curvature_and_acceleration_is_limited() {
         let mut r = robot();
         let world = StaticWorld::default();
-        r.set_command(Command {
+        let fast = Command {
             v_mps: 5.0,
             w_radps: 5.0,
-        });
-        r.step(0.01, &world);
+        };
+        drive(&mut r, &world, fast, 1);
         let (l, rr) = r.wheel_speeds_mps();
         assert!((rr - 0.015).abs() < 1e-12, "{rr}");
-        for _ in 0..500 {
-            r.step(0.01, &world);
-        }
+        drive(&mut r, &world, fast, 500);
         let (l2, r2) = r.wheel_speeds_mps();
         assert!((r2 - 1.6).abs() < 1e-9);
         let v = r.velocity();
@@ -209,16 +227,32 @@ mod tests {
         });
         // Turn towards the side wall and drive into it.
         r.world_from_robot = Pose2::new(r.pose().x, r.pose().y, std::f64::consts::FRAC_PI_2);
-        r.set_command(Command {
+        let forward = Command {
             v_mps: 1.0,
             w_radps: 0.0,
-        });
-        let mut hit = false;
-        for _ in 0..1000 {
-            hit |= r.step(0.01, &world);
-        }
+        };
+        let hit = drive(&mut r, &world, forward, 1000);
         assert!(hit && r.blocked());
         assert!(!world.disc_collides(r.pose().translation(), r.radius_m));
+    }
+
+    #[test]
+    fn stops_by_itself_when_commands_stop_coming() {
+        let mut r = robot();
+        let world = StaticWorld::default();
+        r.set_command(Command {
+            v_mps: 0.5,
+            w_radps: 0.0,
+        });
+        for _ in 0..40 {
+            r.step(0.01, &world);
+        }
+        assert_eq!(r.command().v_mps, 0.5);
+        for _ in 0..100 {
+            r.step(0.01, &world);
+        }
+        assert_eq!(r.command(), Command::STOP);
+        assert!(r.velocity().v_mps.abs() < 1e-9);
     }
 
     #[test]

@@ -258,6 +258,8 @@ pub struct RobotSpec {
     pub max_wheel_speed_mps: f64,
     /// Largest change of each wheel's speed, m/s^2.
     pub max_wheel_accel_mps2: f64,
+    /// The base stops by itself when no command came for this long, s.
+    pub command_timeout_s: f64,
     /// How the robot is driven.
     pub driver: DriverKind,
     /// Follow distance of the oracle driver, m.
@@ -274,6 +276,7 @@ impl Default for RobotSpec {
             track_width_m: 0.3,
             max_wheel_speed_mps: 1.6,
             max_wheel_accel_mps2: 1.5,
+            command_timeout_s: 0.5,
             driver: DriverKind::default(),
             follow_distance_m: 1.0,
             script: Vec::new(),
@@ -775,6 +778,7 @@ impl Scenario {
             ("track_width_m", r.track_width_m, 3.0),
             ("max_wheel_speed_mps", r.max_wheel_speed_mps, 10.0),
             ("max_wheel_accel_mps2", r.max_wheel_accel_mps2, 50.0),
+            ("command_timeout_s", r.command_timeout_s, 60.0),
             ("follow_distance_m", r.follow_distance_m, 20.0),
         ] {
             if !(value.is_finite() && value > 0.0 && value <= max) {

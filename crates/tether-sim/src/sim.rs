@@ -106,6 +106,10 @@ pub enum SensorData {
     Scan(LaserScan),
     /// Upper-body detections of one camera frame.
     Camera(CameraFrame),
+    /// A control-loop timer tick (no data), when a control rate is set with
+    /// [`Simulation::set_control_rate_hz`]: a real robot's controller runs on a timer
+    /// too, so that it can stop the base when the sensors fall silent.
+    Timer,
 }
 
 /// One event of the simulation: a sensor sample and the truth at its instant.
@@ -133,6 +137,8 @@ pub struct Simulation {
     next_scan_index: i64,
     next_frame_index: i64,
     scan_period_ns: i64,
+    control_period_ns: Option<i64>,
+    next_timer_index: i64,
     collisions: u32,
 }
 
@@ -194,6 +200,8 @@ impl Simulation {
             next_scan_index: 0,
             next_frame_index: 0,
             scan_period_ns: scenario.laser.scan_period_ns().max(1),
+            control_period_ns: None,
+            next_timer_index: 0,
             collisions: 0,
         })
     }
@@ -238,6 +246,14 @@ impl Simulation {
         self.collisions
     }
 
+    /// Emits a [`SensorData::Timer`] event every `1 / hz` seconds (0 turns it off).
+    pub fn set_control_rate_hz(&mut self, hz: f64) {
+        self.control_period_ns =
+            (hz.is_finite() && hz > 0.0).then(|| (1e9 / hz).round().max(1.0) as i64);
+        self.next_timer_index = (self.now.ns() + self.control_period_ns.unwrap_or(1) - 1)
+            / self.control_period_ns.unwrap_or(1);
+    }
+
     /// Sets the robot's command (kept until the next call).
     pub fn set_command(&mut self, command: Command) {
         self.robot.set_command(command);
@@ -257,24 +273,31 @@ impl Simulation {
 
     /// Advances to the next sensor event and returns it, or `None` at the end.
     pub fn advance(&mut self) -> Option<Event> {
-        let scan_at = self.next_scan_ns();
-        let frame_at = self.next_frame_ns();
-        let (at, is_scan) = match (scan_at, frame_at) {
-            (Some(s), Some(f)) => {
-                if s <= f {
-                    (s, true)
-                } else {
-                    (f, false)
-                }
-            }
-            (Some(s), None) => (s, true),
-            (None, Some(f)) => (f, false),
-            (None, None) => (self.end.ns(), true),
+        // (time, kind): 0 scan, 1 camera, 2 timer; ties in that order.
+        let candidates = [
+            self.next_scan_ns().map(|t| (t, 0u8)),
+            self.next_frame_ns().map(|t| (t, 1u8)),
+            self.control_period_ns
+                .map(|p| (self.next_timer_index * p, 2u8)),
+        ];
+        let Some((at, kind)) = candidates.into_iter().flatten().min() else {
+            self.step_to(self.end);
+            return None;
         };
-        if at > self.end.ns() || (scan_at.is_none() && frame_at.is_none()) {
+        if at > self.end.ns() {
             self.step_to(self.end);
             return None;
         }
+        if kind == 2 {
+            self.next_timer_index += 1;
+            self.step_to(Stamp::from_ns(at));
+            return Some(Event {
+                data: SensorData::Timer,
+                truth: self.truth(),
+                camera_truth: None,
+            });
+        }
+        let is_scan = kind == 0;
         self.step_to(Stamp::from_ns(at));
         let truth = self.truth();
         if is_scan {

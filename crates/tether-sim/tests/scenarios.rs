@@ -19,7 +19,7 @@ fn run(name: &str, seed: u64) -> (Simulation, Vec<(Event, Vec<Hit>)>) {
         }
         let hits = match event.data {
             SensorData::Scan(_) => sim.laser().unwrap().last_hits().to_vec(),
-            SensorData::Camera(_) => Vec::new(),
+            SensorData::Camera(_) | SensorData::Timer => Vec::new(),
         };
         events.push((event, hits));
     }

@@ -1,0 +1,605 @@
+//! The per-tick pipeline of tether: the same code runs the simulator's closed loop,
+//! replays of recordings and the live robot.
+//!
+//! Each input is one tick: a laser scan ([`Pipeline::on_scan`]) or a camera frame's
+//! people ([`Pipeline::on_camera`]), with the robot's odometry pose at its stamp. A tick
+//! runs detection, fusion and tracking, updates the target of interest and produces the
+//! velocity command, after the safety layer. Nothing here reads a clock or does I/O.
+//!
+//! Two fusion modes:
+//! - `tracker` (default): laser and vision observations update person tracks as they
+//!   arrive (Kalman for the laser, Covariance Intersection for vision, whose range error
+//!   persists from frame to frame); the target is a locked track.
+//! - `per_frame`: the paper's complementary fusion, frame by frame, with no memory: the
+//!   target is the fused laser-vision pair nearest the heading.
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use tether_control::{
+    MotionLimits, PersonInRobot, SafetyConfig, SpringConfig, StopReason, Twist, VirtualSpring,
+};
+use tether_core::{
+    CameraModel, Gaussian2, Laser, LaserModel, LaserScan, Point2, Pose2, Robot, Stamp, Vector2,
+    World,
+};
+use tether_fusion::{
+    FusionRule, Gate, Observation, Source, TargetConfig, TargetSelector, TargetState, Tracker,
+    TrackerConfig, complementary_fusion,
+};
+use tether_laser::{DetectorConfig, DetectorKind, LegClassifier, LegDetector, PersonKind};
+
+/// How laser and camera are combined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FusionMode {
+    /// Tracks over time; the target is a locked track.
+    #[default]
+    Tracker,
+    /// The paper's per-frame complementary fusion, no tracking.
+    PerFrame,
+}
+
+/// Fusion settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FusionConfig {
+    /// Tracker or per-frame.
+    pub mode: FusionMode,
+    /// How a laser and a vision estimate of the same person are fused per frame.
+    pub rule: FusionRule,
+    /// Gate for pairing laser and vision people per frame.
+    pub gate: Gate,
+    /// Use the laser's people.
+    pub use_laser: bool,
+    /// Use the camera's people.
+    pub use_vision: bool,
+    /// Let vision-only people start tracks (on when the laser is off).
+    pub vision_spawns_tracks: bool,
+    /// Newest laser people older than this are not paired with a camera frame, s.
+    pub pair_max_age_s: f64,
+}
+
+impl Default for FusionConfig {
+    fn default() -> Self {
+        FusionConfig {
+            mode: FusionMode::Tracker,
+            rule: FusionRule::CiDeterminant,
+            gate: Gate::default(),
+            use_laser: true,
+            use_vision: true,
+            vision_spawns_tracks: false,
+            pair_max_age_s: 0.15,
+        }
+    }
+}
+
+/// Leg detector settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LegsConfig {
+    /// Arc test (the paper) or learned classifier.
+    pub detector: DetectorKind,
+    /// Segmentation, arc test and pairing parameters.
+    pub config: DetectorConfig,
+}
+
+impl Default for LegsConfig {
+    fn default() -> Self {
+        LegsConfig {
+            detector: DetectorKind::Learned,
+            config: DetectorConfig::default(),
+        }
+    }
+}
+
+/// Everything the pipeline needs to know.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PipelineConfig {
+    /// The laser (geometry, noise model, mounting).
+    pub laser: LaserModel,
+    /// The camera (intrinsics, mounting).
+    pub camera: CameraModel,
+    /// Leg detection.
+    pub legs: LegsConfig,
+    /// Fusion.
+    pub fusion: FusionConfig,
+    /// Tracking.
+    pub tracker: TrackerConfig,
+    /// Target of interest.
+    pub target: TargetConfig,
+    /// The virtual spring.
+    pub follower: SpringConfig,
+    /// Limits of the base.
+    pub limits: MotionLimits,
+    /// Safety layer.
+    pub safety: SafetyConfig,
+}
+
+/// Why the pipeline cannot start.
+#[derive(Debug, Error)]
+pub enum PipelineError {
+    /// A part of the configuration is invalid.
+    #[error("invalid {part} configuration: {message}")]
+    Config {
+        /// Which part.
+        part: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+fn config_err(part: &'static str, e: impl std::fmt::Display) -> PipelineError {
+    PipelineError::Config {
+        part,
+        message: e.to_string(),
+    }
+}
+
+/// A person found by the laser, in the laser frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LaserPerson {
+    /// Position and covariance.
+    pub estimate: Gaussian2<Laser>,
+    /// Made of two legs (only those start tracks; a lone leg only updates them).
+    pub two_legs: bool,
+}
+
+/// What kind of input a tick processed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TickInput {
+    /// A laser scan.
+    Scan,
+    /// A camera frame.
+    Camera,
+    /// A control timer tick with no new data.
+    Timer,
+}
+
+/// A track as reported.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackView {
+    /// Track id.
+    pub id: u64,
+    /// Confirmed or tentative.
+    pub confirmed: bool,
+    /// Position estimate (world).
+    pub position: Gaussian2<World>,
+    /// Velocity (world), m/s.
+    pub velocity: Vector2<World>,
+}
+
+/// The target as reported.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TargetView {
+    /// Selector state.
+    pub state: TargetState,
+    /// The followed track's id, if any.
+    pub id: Option<u64>,
+    /// Current estimate when locked (world).
+    pub estimate: Option<Gaussian2<World>>,
+    /// Velocity when locked (world), m/s.
+    pub velocity: Option<Vector2<World>>,
+}
+
+/// The result of one tick.
+#[derive(Debug, Clone)]
+pub struct Tick {
+    /// Stamp of the input.
+    pub stamp: Stamp,
+    /// Which input.
+    pub input: TickInput,
+    /// Laser people of this scan (world).
+    pub laser_people: Vec<Gaussian2<World>>,
+    /// Vision people of this frame (world).
+    pub vision_people: Vec<Gaussian2<World>>,
+    /// Laser-vision pairs fused in this frame (world).
+    pub fused_people: Vec<Gaussian2<World>>,
+    /// Tracks after the tick.
+    pub tracks: Vec<TrackView>,
+    /// The target.
+    pub target: TargetView,
+    /// The command to send.
+    pub command: Twist,
+    /// Why the robot is held, if it is.
+    pub stop: Option<StopReason>,
+}
+
+/// Counters of refused or odd input.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct PipelineStats {
+    /// Ticks refused because their stamp went backwards.
+    pub out_of_order_ticks: u64,
+    /// Beams that arrived as NaN or negative.
+    pub malformed_beams: u64,
+    /// Ticks with a non-finite odometry pose (treated as no data).
+    pub bad_odometry: u64,
+}
+
+/// The pipeline.
+#[derive(Debug)]
+pub struct Pipeline {
+    config: PipelineConfig,
+    detector: LegDetector,
+    tracker: Tracker,
+    selector: TargetSelector,
+    spring: VirtualSpring,
+    command: Twist,
+    last_tick: Option<Stamp>,
+    last_scan: Option<Stamp>,
+    last_laser_people: Option<(Stamp, Vec<Gaussian2<World>>)>,
+    obstacle_points: Vec<Point2<Robot>>,
+    per_frame_target: Option<(Stamp, Gaussian2<World>)>,
+    stats: PipelineStats,
+}
+
+impl Pipeline {
+    /// Builds the pipeline. `classifier` is required by the learned leg detector (use
+    /// `LegClassifier::default_model()` for the built-in one).
+    pub fn new(
+        config: PipelineConfig,
+        classifier: Option<LegClassifier>,
+    ) -> Result<Self, PipelineError> {
+        config
+            .laser
+            .validate()
+            .map_err(|e| config_err("laser", e))?;
+        config
+            .camera
+            .validate()
+            .map_err(|e| config_err("camera", e))?;
+        config
+            .limits
+            .validate()
+            .map_err(|e| config_err("limits", e))?;
+        let noise = config.laser.noise.clone();
+        let detector = match config.legs.detector {
+            DetectorKind::Arc => LegDetector::arc(config.legs.config, noise),
+            DetectorKind::Learned => {
+                let classifier = match classifier {
+                    Some(c) => c,
+                    None => LegClassifier::default_model().map_err(|e| config_err("legs", e))?,
+                };
+                LegDetector::learned(config.legs.config, noise, classifier)
+            }
+        }
+        .map_err(|e| config_err("legs", e))?;
+        let tracker = Tracker::new(config.tracker.clone()).map_err(|e| config_err("tracker", e))?;
+        let spring =
+            VirtualSpring::new(config.follower.clone()).map_err(|e| config_err("follower", e))?;
+        let mut target = config.target.clone();
+        if !(config.fusion.use_laser && config.fusion.use_vision) {
+            target.require_both_sensors = false;
+        }
+        Ok(Pipeline {
+            selector: TargetSelector::new(target),
+            detector,
+            tracker,
+            spring,
+            command: Twist::STOP,
+            last_tick: None,
+            last_scan: None,
+            last_laser_people: None,
+            obstacle_points: Vec::new(),
+            per_frame_target: None,
+            stats: PipelineStats::default(),
+            config,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &PipelineConfig {
+        &self.config
+    }
+
+    /// Counters of odd input.
+    pub fn stats(&self) -> PipelineStats {
+        self.stats
+    }
+
+    /// The tracker (for statistics).
+    pub fn tracker(&self) -> &Tracker {
+        &self.tracker
+    }
+
+    /// The target selector (for statistics).
+    pub fn selector(&self) -> &TargetSelector {
+        &self.selector
+    }
+
+    /// The last command sent.
+    pub fn command(&self) -> Twist {
+        self.command
+    }
+
+    fn accept(&mut self, stamp: Stamp, world_from_robot: Pose2<World, Robot>) -> bool {
+        if self.last_tick.is_some_and(|t| stamp < t) {
+            self.stats.out_of_order_ticks += 1;
+            return false;
+        }
+        if !world_from_robot.is_finite() {
+            self.stats.bad_odometry += 1;
+            return false;
+        }
+        true
+    }
+
+    /// One laser scan, with the robot's pose at its stamp: leg detection, then
+    /// [`Pipeline::on_laser_people`].
+    pub fn on_scan(&mut self, scan: &LaserScan, world_from_robot: Pose2<World, Robot>) -> Tick {
+        self.stats.malformed_beams += scan.malformed_beams() as u64;
+        let detection = self.detector.detect(scan);
+        let people: Vec<LaserPerson> = detection
+            .people
+            .iter()
+            .map(|p| LaserPerson {
+                estimate: p.estimate,
+                two_legs: matches!(p.kind, PersonKind::TwoLegs(_)),
+            })
+            .collect();
+        let robot_from_laser = self.config.laser.robot_from_laser();
+        let obstacles: Vec<Point2<Robot>> =
+            scan.points().map(|(_, p)| robot_from_laser * p).collect();
+        self.on_laser_people(scan.stamp, &people, &obstacles, world_from_robot)
+    }
+
+    /// The people found in one scan (laser frame) and the scan's returns (robot frame,
+    /// for the obstacle stop), with the robot's pose at the scan's stamp.
+    pub fn on_laser_people(
+        &mut self,
+        stamp: Stamp,
+        people: &[LaserPerson],
+        obstacles_in_robot: &[Point2<Robot>],
+        world_from_robot: Pose2<World, Robot>,
+    ) -> Tick {
+        if !self.accept(stamp, world_from_robot) {
+            return self.idle_tick(stamp, TickInput::Scan);
+        }
+        self.last_scan = Some(stamp);
+        let world_from_laser = world_from_robot * self.config.laser.robot_from_laser();
+        self.obstacle_points.clear();
+        self.obstacle_points.extend_from_slice(obstacles_in_robot);
+        let people: Vec<(Gaussian2<World>, bool)> = people
+            .iter()
+            .map(|p| (p.estimate.transformed(world_from_laser), p.two_legs))
+            .collect();
+        let laser_people: Vec<Gaussian2<World>> = people.iter().map(|p| p.0).collect();
+        self.last_laser_people = Some((stamp, laser_people.clone()));
+        if self.config.fusion.use_laser && self.config.fusion.mode == FusionMode::Tracker {
+            let observations: Vec<Observation> = people
+                .iter()
+                .map(|(estimate, pair)| Observation {
+                    source: Source::Laser,
+                    estimate: *estimate,
+                    may_spawn: *pair,
+                })
+                .collect();
+            self.tracker.process(stamp, &observations);
+        } else {
+            self.tracker.advance(stamp);
+        }
+        let mut tick = self.finish(stamp, TickInput::Scan, world_from_robot);
+        tick.laser_people = laser_people;
+        tick
+    }
+
+    /// One camera frame's people (positions in the robot frame from the monocular
+    /// model), with the robot's pose at the frame's stamp.
+    pub fn on_camera(
+        &mut self,
+        stamp: Stamp,
+        people_in_robot: &[Gaussian2<Robot>],
+        world_from_robot: Pose2<World, Robot>,
+    ) -> Tick {
+        if !self.accept(stamp, world_from_robot) {
+            return self.idle_tick(stamp, TickInput::Camera);
+        }
+        let vision: Vec<Gaussian2<World>> = people_in_robot
+            .iter()
+            .map(|p| p.transformed(world_from_robot))
+            .collect();
+        let fusion = &self.config.fusion;
+        let laser_recent: Vec<Gaussian2<World>> = match &self.last_laser_people {
+            Some((t, people))
+                if stamp.secs_since(*t) <= fusion.pair_max_age_s && fusion.use_laser =>
+            {
+                people.clone()
+            }
+            _ => Vec::new(),
+        };
+        let fused = if fusion.use_vision {
+            complementary_fusion(&vision, &laser_recent, &fusion.gate, fusion.rule)
+        } else {
+            Vec::new()
+        };
+        match fusion.mode {
+            FusionMode::Tracker => {
+                if fusion.use_vision {
+                    let observations: Vec<Observation> = vision
+                        .iter()
+                        .map(|v| Observation {
+                            source: Source::Vision,
+                            estimate: *v,
+                            may_spawn: fusion.vision_spawns_tracks || !fusion.use_laser,
+                        })
+                        .collect();
+                    self.tracker.process(stamp, &observations);
+                } else {
+                    self.tracker.advance(stamp);
+                }
+            }
+            FusionMode::PerFrame => {
+                self.tracker.advance(stamp);
+                // The fused person nearest the previous target, else nearest the heading.
+                let robot_from_world = world_from_robot.inverse();
+                let previous = self.per_frame_target.map(|(_, g)| g.mean);
+                let pick = fused.iter().min_by(|a, b| {
+                    let key = |g: &Gaussian2<World>| match previous {
+                        Some(p) => g.mean.distance_m(p),
+                        None => (robot_from_world * g.mean).bearing_rad().abs(),
+                    };
+                    key(&a.estimate).total_cmp(&key(&b.estimate))
+                });
+                if let Some(f) = pick {
+                    self.per_frame_target = Some((stamp, f.estimate));
+                }
+            }
+        }
+        let mut tick = self.finish(stamp, TickInput::Camera, world_from_robot);
+        tick.vision_people = vision;
+        tick.fused_people = fused.iter().map(|f| f.estimate).collect();
+        tick
+    }
+
+    /// A control tick with no new data (run it on a timer, 10-20 Hz): predicts the
+    /// tracks to `stamp`, checks the watchdogs and produces a command, so that the robot
+    /// stops when every sensor falls silent.
+    pub fn on_timer(&mut self, stamp: Stamp, world_from_robot: Pose2<World, Robot>) -> Tick {
+        if !self.accept(stamp, world_from_robot) {
+            return self.idle_tick(stamp, TickInput::Timer);
+        }
+        self.tracker.advance(stamp);
+        self.finish(stamp, TickInput::Timer, world_from_robot)
+    }
+
+    fn idle_tick(&self, stamp: Stamp, input: TickInput) -> Tick {
+        Tick {
+            stamp,
+            input,
+            laser_people: Vec::new(),
+            vision_people: Vec::new(),
+            fused_people: Vec::new(),
+            tracks: self.track_views(),
+            target: self.target_view(),
+            command: self.command,
+            stop: None,
+        }
+    }
+
+    fn track_views(&self) -> Vec<TrackView> {
+        self.tracker
+            .tracks()
+            .iter()
+            .map(|t| TrackView {
+                id: t.id,
+                confirmed: t.confirmed,
+                position: t.position(),
+                velocity: t.velocity(),
+            })
+            .collect()
+    }
+
+    fn target_view(&self) -> TargetView {
+        if self.config.fusion.mode == FusionMode::PerFrame {
+            return TargetView {
+                state: match self.per_frame_target {
+                    Some(_) => TargetState::Locked { track: 0 },
+                    None => TargetState::Searching,
+                },
+                id: self.per_frame_target.map(|_| 0),
+                estimate: self.per_frame_target.map(|(_, g)| g),
+                velocity: None,
+            };
+        }
+        let state = self.selector.state();
+        let track = state.locked_track().and_then(|id| self.tracker.track(id));
+        TargetView {
+            state,
+            id: match state {
+                TargetState::Locked { track } | TargetState::Lost { track, .. } => Some(track),
+                TargetState::Searching => None,
+            },
+            estimate: track.map(|t| t.position()),
+            velocity: track.map(|t| t.velocity()),
+        }
+    }
+
+    /// Target update, control and safety.
+    fn finish(
+        &mut self,
+        stamp: Stamp,
+        input: TickInput,
+        world_from_robot: Pose2<World, Robot>,
+    ) -> Tick {
+        let dt_s = self
+            .last_tick
+            .map_or(0.0, |t| stamp.secs_since(t))
+            .clamp(0.0, 0.2);
+        self.last_tick = Some(stamp);
+        if self.config.fusion.mode == FusionMode::Tracker {
+            self.selector
+                .update(stamp, self.tracker.tracks(), world_from_robot);
+        }
+        let target = self.target_view();
+
+        // Why the robot may not follow.
+        let last_target_update = match self.config.fusion.mode {
+            FusionMode::Tracker => target
+                .id
+                .and_then(|id| self.tracker.track(id))
+                .map(|t| t.last_update),
+            FusionMode::PerFrame => self.per_frame_target.map(|(t, _)| t),
+        };
+        let mut stop = match target.state {
+            TargetState::Searching => Some(StopReason::NoTarget),
+            TargetState::Lost { .. } => Some(StopReason::TargetLost),
+            TargetState::Locked { .. } => {
+                self.config
+                    .safety
+                    .watchdog(stamp, self.last_scan, last_target_update)
+            }
+        };
+        let desired = match (stop, target.estimate) {
+            (None, Some(estimate)) => {
+                let robot_from_world = world_from_robot.inverse();
+                let p = robot_from_world * estimate.mean;
+                let vx = target
+                    .velocity
+                    .map_or(0.0, |v| robot_from_world.rotate(v).x);
+                let (v, w) = self.spring.step(
+                    &PersonInRobot {
+                        x_m: p.x,
+                        y_m: p.y,
+                        vx_mps: vx,
+                    },
+                    dt_s,
+                );
+                Twist {
+                    v_mps: v,
+                    w_radps: w,
+                }
+            }
+            _ => {
+                self.spring.reset();
+                Twist::STOP
+            }
+        };
+        let mut desired = desired;
+        if desired.v_mps > 0.0
+            && self
+                .config
+                .safety
+                .obstacle_ahead_m(self.obstacle_points.iter().copied())
+                .is_some()
+        {
+            desired.v_mps = 0.0;
+            stop = stop.or(Some(StopReason::Obstacle));
+        }
+        let command = self.config.limits.apply(self.command, desired, dt_s);
+        self.spring.sync(command.v_mps, command.w_radps);
+        self.command = command;
+        Tick {
+            stamp,
+            input,
+            laser_people: Vec::new(),
+            vision_people: Vec::new(),
+            fused_people: Vec::new(),
+            tracks: self.track_views(),
+            target,
+            command,
+            stop,
+        }
+    }
+}

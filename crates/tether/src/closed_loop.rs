@@ -1,0 +1,226 @@
+//! The closed loop in the simulator: simulated sensors -> laser detection -> vision
+//! model -> fusion and tracking -> controller -> robot dynamics.
+//!
+//! The pipeline under test drives the robot. Optional passenger pipelines (laser only,
+//! vision only) see exactly the same sensor data and are evaluated too, without
+//! driving. Faults can be injected between the simulator and the pipelines.
+
+use tether_core::{Gaussian2, LaserScan, Robot, Stamp};
+use tether_pipeline::{Pipeline, PipelineConfig, PipelineError, Tick};
+use tether_sim::{Command, Event, Scenario, SensorData, SimError, Simulation, Truth};
+
+/// Something that goes wrong on purpose between the sensors and the pipeline.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Fault {
+    /// Camera frames are lost during `[from_s, from_s + duration_s)`.
+    CameraDropout {
+        /// Start, s.
+        from_s: f64,
+        /// Length, s.
+        duration_s: f64,
+    },
+    /// Laser scans are lost during the interval.
+    LaserDropout {
+        /// Start, s.
+        from_s: f64,
+        /// Length, s.
+        duration_s: f64,
+    },
+    /// Every range of the scans in the interval is NaN.
+    NanBurst {
+        /// Start, s.
+        from_s: f64,
+        /// Length, s.
+        duration_s: f64,
+    },
+    /// From `at_s` on, every stamp is `jump_s` later than the truth.
+    StampJump {
+        /// When, s.
+        at_s: f64,
+        /// Size, s.
+        jump_s: f64,
+    },
+}
+
+impl Fault {
+    fn active(from_s: f64, duration_s: f64, t: f64) -> bool {
+        t >= from_s && t < from_s + duration_s
+    }
+}
+
+/// What triggered a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepKind {
+    /// A laser scan.
+    Scan,
+    /// A camera frame.
+    Camera,
+    /// The control timer.
+    Timer,
+}
+
+/// One tick of the run: the truth at that instant and what each pipeline made of it.
+#[derive(Debug, Clone)]
+pub struct StepRecord {
+    /// What triggered it.
+    pub kind: StepKind,
+    /// Ground truth.
+    pub truth: Truth,
+    /// The driving pipeline's tick (`None` when a fault swallowed the input).
+    pub tick: Option<Tick>,
+    /// The passengers' ticks, in the order they were given.
+    pub passengers: Vec<Option<Tick>>,
+}
+
+/// A finished run.
+#[derive(Debug, Clone)]
+pub struct RunLog {
+    /// Scenario name.
+    pub scenario: String,
+    /// Seed.
+    pub seed: u64,
+    /// Follow distance the controller aimed for, m.
+    pub follow_distance_m: f64,
+    /// Every tick.
+    pub steps: Vec<StepRecord>,
+    /// Robot collisions with walls and furniture.
+    pub collisions: u32,
+    /// Robot footprint radius, m.
+    pub robot_radius_m: f64,
+    /// Spring attachment ahead of the axle, m.
+    pub attach_ahead_m: f64,
+}
+
+/// Why a run failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The simulator refused the scenario.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// The pipeline refused its configuration.
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
+}
+
+/// The pipeline configuration that matches a scenario's robot: its laser and camera
+/// models, follow distance and base limits, on top of `base`.
+pub fn config_for(scenario: &Scenario, base: &PipelineConfig) -> PipelineConfig {
+    let mut c = base.clone();
+    c.laser = scenario.laser.clone();
+    c.camera = scenario.camera;
+    c.follower.follow_distance_m = scenario.robot.follow_distance_m;
+    c.limits.track_width_m = scenario.robot.track_width_m;
+    c.limits.max_wheel_speed_mps = scenario.robot.max_wheel_speed_mps;
+    c.safety.robot_radius_m = scenario.robot.radius_m;
+    c
+}
+
+/// Converts a frame's boxes to people in the robot frame (the vision model).
+pub type VisionModel<'a> = dyn Fn(&[tether_core::PixelBox]) -> Vec<Gaussian2<Robot>> + 'a;
+
+fn feed(pipeline: &mut Pipeline, event: &Event, faults: &[Fault], vision: &VisionModel<'_>) -> Option<Tick> {
+    let t = event.truth.stamp.secs_f64();
+    let mut stamp = event.truth.stamp;
+    for f in faults {
+        if let Fault::StampJump { at_s, jump_s } = *f
+            && t >= at_s
+        {
+            stamp = stamp.saturating_add_ns((jump_s * 1e9) as i64);
+        }
+    }
+    let pose = event.truth.world_from_robot;
+    match &event.data {
+        SensorData::Scan(scan) => {
+            if faults
+                .iter()
+                .any(|f| matches!(*f, Fault::LaserDropout { from_s, duration_s } if Fault::active(from_s, duration_s, t)))
+            {
+                return None;
+            }
+            let nan = faults
+                .iter()
+                .any(|f| matches!(*f, Fault::NanBurst { from_s, duration_s } if Fault::active(from_s, duration_s, t)));
+            let ranges = if nan { vec![f32::NAN; scan.len()] } else { scan.ranges_m().to_vec() };
+            let scan = LaserScan::new(
+                stamp,
+                scan.frame_id.clone(),
+                scan.angle_min_rad,
+                scan.angle_increment_rad,
+                scan.range_min_m,
+                scan.range_max_m,
+                ranges,
+            )
+            .ok()?;
+            Some(pipeline.on_scan(&scan, pose))
+        }
+        SensorData::Camera(frame) => {
+            if faults
+                .iter()
+                .any(|f| matches!(*f, Fault::CameraDropout { from_s, duration_s } if Fault::active(from_s, duration_s, t)))
+            {
+                return None;
+            }
+            let people = vision(&frame.boxes);
+            Some(pipeline.on_camera(stamp, &people, pose))
+        }
+        SensorData::Timer => Some(pipeline.on_timer(stamp, pose)),
+    }
+}
+
+/// Control rate of the closed loop (timer ticks besides sensor data), Hz.
+pub const CONTROL_RATE_HZ: f64 = 20.0;
+
+/// Runs `scenario` with the pipeline `config` driving the robot and `passengers`
+/// riding along.
+pub fn run(
+    scenario: &Scenario,
+    seed: u64,
+    config: &PipelineConfig,
+    passengers: &[PipelineConfig],
+    faults: &[Fault],
+    vision: &VisionModel<'_>,
+) -> Result<RunLog, RunError> {
+    let mut sim = Simulation::new(scenario, seed)?;
+    sim.set_control_rate_hz(CONTROL_RATE_HZ);
+    let mut driver = Pipeline::new(config.clone(), None)?;
+    let mut riders = passengers
+        .iter()
+        .map(|c| Pipeline::new(c.clone(), None))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut steps = Vec::new();
+    while let Some(event) = sim.advance() {
+        let tick = feed(&mut driver, &event, faults, vision);
+        if let Some(t) = &tick {
+            sim.set_command(Command {
+                v_mps: t.command.v_mps,
+                w_radps: t.command.w_radps,
+            });
+        }
+        let passengers = riders.iter_mut().map(|p| feed(p, &event, faults, vision)).collect();
+        let kind = match event.data {
+            SensorData::Scan(_) => StepKind::Scan,
+            SensorData::Camera(_) => StepKind::Camera,
+            SensorData::Timer => StepKind::Timer,
+        };
+        steps.push(StepRecord {
+            kind,
+            truth: event.truth,
+            tick,
+            passengers,
+        });
+    }
+    Ok(RunLog {
+        scenario: scenario.name.clone(),
+        seed,
+        follow_distance_m: config.follower.follow_distance_m,
+        collisions: sim.collisions(),
+        steps,
+        robot_radius_m: scenario.robot.radius_m,
+        attach_ahead_m: config.follower.attach_ahead_m,
+    })
+}
+
+/// Seconds since the start of a run.
+pub fn secs(stamp: Stamp) -> f64 {
+    stamp.secs_f64()
+}

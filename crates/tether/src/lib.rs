@@ -1,0 +1,5 @@
+//! The `tether` application: the closed loop in the simulator, its measures and the
+//! report, shared by the command line, the tests and the benchmarks.
+
+pub mod closed_loop;
+pub mod metrics;

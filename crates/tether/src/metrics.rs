@@ -1,0 +1,214 @@
+//! The measures of a closed-loop run (SPEC 8): estimation (RMSE, NEES), tracking
+//! (CLEAR MOT, target swaps) and following (distance error, minimum distance, time in
+//! the comfort band, time without a target, collisions, jerk).
+//!
+//! Distances to the target are measured from the spring's attachment point `J` (`L`
+//! ahead of the wheel axis), the distance the follower regulates to `d0`.
+
+use serde::Serialize;
+use tether_core::{Gaussian2, Point2, World};
+use tether_fusion::ClearMot;
+use tether_fusion::TargetState;
+use tether_pipeline::Tick;
+
+use crate::closed_loop::{RunLog, StepKind};
+
+/// Comfort band of the follow distance, m (SPEC 8).
+pub const BAND_M: (f64, f64) = (0.8, 1.5);
+
+/// Match threshold of CLEAR MOT and of target-swap detection, m.
+pub const MATCH_M: f64 = 0.75;
+
+/// Per-run measures, as written to `metrics.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunMetrics {
+    /// Scenario.
+    pub scenario: String,
+    /// Seed.
+    pub seed: u64,
+    /// RMSE of the driving (fused) pipeline's target estimate, m.
+    pub rmse_fused_m: Option<f64>,
+    /// RMSE of the laser-only passenger's target estimate, m.
+    pub rmse_laser_m: Option<f64>,
+    /// RMSE of the vision-only passenger's target estimate, m.
+    pub rmse_vision_m: Option<f64>,
+    /// Mean normalised estimation error squared of the fused target estimate (2 for a
+    /// consistent 2-D estimate).
+    pub nees_mean: Option<f64>,
+    /// CLEAR MOT accuracy of the confirmed tracks against the people the laser sees.
+    pub mota: f64,
+    /// CLEAR MOT precision, m.
+    pub motp_m: f64,
+    /// Identity switches.
+    pub id_switches: u64,
+    /// Times the followed estimate moved from the true target to someone else.
+    pub target_swaps: u32,
+    /// Mean |d - d0| after the first lock, m.
+    pub mean_abs_distance_error_m: Option<f64>,
+    /// RMS of d - d0 after the first lock, m.
+    pub rms_distance_error_m: Option<f64>,
+    /// Smallest d over the run, m.
+    pub min_distance_m: f64,
+    /// Share of time after the first lock with d in [0.8, 1.5] m.
+    pub time_in_band_frac: Option<f64>,
+    /// Time after the first lock without a locked target, s.
+    pub target_lost_s: f64,
+    /// Collisions of the robot with walls or furniture.
+    pub collisions: u32,
+    /// RMS jerk of the commanded speed, m/s^3.
+    pub rms_jerk: f64,
+    /// RMS jerk of the commanded turn rate, rad/s^3.
+    pub rms_angular_jerk: f64,
+    /// Time from the start to the first lock, s.
+    pub first_lock_s: Option<f64>,
+}
+
+fn rmse(errors: &[f64]) -> Option<f64> {
+    (!errors.is_empty()).then(|| (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt())
+}
+
+fn mean(v: &[f64]) -> Option<f64> {
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
+/// The target estimate of a tick, when locked.
+fn locked_estimate(tick: &Tick) -> Option<Gaussian2<World>> {
+    match tick.target.state {
+        TargetState::Locked { .. } => tick.target.estimate,
+        _ => None,
+    }
+}
+
+/// Computes the measures of a run. Passenger 0 is taken as laser-only and passenger 1
+/// as vision-only when present.
+pub fn measure(log: &RunLog) -> RunMetrics {
+    let mut fused_err = Vec::new();
+    let mut nees = Vec::new();
+    let mut laser_err = Vec::new();
+    let mut vision_err = Vec::new();
+    let mut mot = ClearMot::new(MATCH_M);
+    let mut swaps = 0u32;
+    let mut following_target: Option<bool> = None;
+
+    let mut first_lock: Option<f64> = None;
+    let mut d_err = Vec::new();
+    let mut in_band = 0usize;
+    let mut timer_ticks = 0usize;
+    let mut lost_ticks = 0usize;
+    let mut min_d = f64::INFINITY;
+    let mut commands: Vec<(f64, f64, f64)> = Vec::new();
+    let timer_dt = 1.0 / crate::closed_loop::CONTROL_RATE_HZ;
+
+    for step in &log.steps {
+        let truth = &step.truth;
+        let Some(target) = truth.target() else { continue };
+        let t = truth.stamp.secs_f64();
+        let j = truth.world_from_robot * Point2::new(log.attach_ahead_m, 0.0);
+        let d = target.position.distance_m(j);
+        min_d = min_d.min(d);
+
+        if let Some(tick) = &step.tick {
+            if first_lock.is_none() && matches!(tick.target.state, TargetState::Locked { .. }) {
+                first_lock = Some(t);
+            }
+            if step.kind == StepKind::Scan {
+                if let Some(est) = locked_estimate(tick) {
+                    let e = est.mean - target.position;
+                    fused_err.push(e.norm());
+                    nees.push(est.cov.mahalanobis_sq(e.x, e.y));
+                    // Who is being followed?
+                    let nearest = truth
+                        .people
+                        .iter()
+                        .map(|p| (p.position.distance_m(est.mean), p.target))
+                        .min_by(|a, b| a.0.total_cmp(&b.0));
+                    if let Some((dist, is_target)) = nearest
+                        && dist <= MATCH_M
+                    {
+                        if following_target == Some(true) && !is_target {
+                            swaps += 1;
+                        }
+                        following_target = Some(is_target);
+                    }
+                }
+                // CLEAR MOT against the people the laser sees.
+                let objects: Vec<(u64, Point2<World>)> = truth
+                    .people
+                    .iter()
+                    .filter(|p| p.laser_beams.is_some_and(|b| b > 0))
+                    .map(|p| (u64::from(p.id), p.position))
+                    .collect();
+                let hypotheses: Vec<(u64, Point2<World>)> = tick
+                    .tracks
+                    .iter()
+                    .filter(|tr| tr.confirmed)
+                    .map(|tr| (tr.id, tr.position.mean))
+                    .collect();
+                mot.add_frame(&objects, &hypotheses);
+            }
+        }
+        if step.kind == StepKind::Scan {
+            for (k, p) in step.passengers.iter().enumerate() {
+                if let Some(est) = p.as_ref().and_then(locked_estimate) {
+                    let e = (est.mean - target.position).norm();
+                    match k {
+                        0 => laser_err.push(e),
+                        1 => vision_err.push(e),
+                        _ => {}
+                    }
+                }
+            }
+        }
+        if step.kind == StepKind::Timer && first_lock.is_some() {
+            timer_ticks += 1;
+            d_err.push(d - log.follow_distance_m);
+            if (BAND_M.0..=BAND_M.1).contains(&d) {
+                in_band += 1;
+            }
+            let locked = step
+                .tick
+                .as_ref()
+                .is_some_and(|tick| matches!(tick.target.state, TargetState::Locked { .. }));
+            if !locked {
+                lost_ticks += 1;
+            }
+        }
+        if step.kind == StepKind::Timer
+            && let Some(tick) = &step.tick
+        {
+            commands.push((t, tick.command.v_mps, tick.command.w_radps));
+        }
+    }
+
+    // Jerk from the commands at the control rate: third differences.
+    let jerk = |component: fn(&(f64, f64, f64)) -> f64| {
+        let values: Vec<f64> = commands.iter().map(component).collect();
+        let j: Vec<f64> = values
+            .windows(4)
+            .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]) / timer_dt.powi(3))
+            .collect();
+        rmse(&j).unwrap_or(0.0)
+    };
+    let s = mot.summary();
+    RunMetrics {
+        scenario: log.scenario.clone(),
+        seed: log.seed,
+        rmse_fused_m: rmse(&fused_err),
+        rmse_laser_m: rmse(&laser_err),
+        rmse_vision_m: rmse(&vision_err),
+        nees_mean: mean(&nees),
+        mota: s.mota,
+        motp_m: s.motp_m,
+        id_switches: s.id_switches,
+        target_swaps: swaps,
+        mean_abs_distance_error_m: mean(&d_err.iter().map(|e| e.abs()).collect::<Vec<_>>()),
+        rms_distance_error_m: rmse(&d_err),
+        min_distance_m: min_d,
+        time_in_band_frac: (timer_ticks > 0).then(|| in_band as f64 / timer_ticks as f64),
+        target_lost_s: lost_ticks as f64 * timer_dt,
+        collisions: log.collisions,
+        rms_jerk: jerk(|c| c.1),
+        rms_angular_jerk: jerk(|c| c.2),
+        first_lock_s: first_lock,
+    }
+}
