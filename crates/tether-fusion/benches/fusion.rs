@@ -100,6 +100,7 @@ fn tick_10_people_30_leg_candidates(bencher: divan::Bencher) {
                 source: Source::Fused,
                 estimate: f.estimate,
                 may_spawn: true,
+                bearing: None,
             })
             .chain(
                 laser

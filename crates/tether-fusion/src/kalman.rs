@@ -167,37 +167,117 @@ impl CvFilter {
     }
 
     /// Covariance Intersection update with a position observation whose correlation
-    /// with the track is unknown: a Kalman update with the track's covariance inflated
-    /// to `P / w` and the observation's to `R / (1 - w)`, which is exactly CI's
-    /// `P'^-1 = w P^-1 + (1 - w) H^T R^-1 H` (Julier and Uhlmann). The weight comes from
-    /// the exact 2x2 closed form on the observed position block. Returns `w`; at
-    /// `w = 1` the observation adds nothing and the track is left as it is.
-    pub fn update_ci<F: Frame>(
-        &mut self,
-        z: &Gaussian2<F>,
-        criterion: crate::ci::CiCriterion,
-    ) -> f64 {
-        let w = crate::ci::ci_weight(&self.position::<F>().cov, &z.cov, criterion).clamp(1e-3, 1.0);
-        if w > 1.0 - 1e-3 {
-            return 1.0;
-        }
-        for row in &mut self.p {
-            for v in row.iter_mut() {
-                *v /= w;
+    /// with the track is unknown (Julier and Uhlmann):
+    /// `P'^-1 = w P^-1 + (1 - w) H^T R^-1 H`, computed as a Kalman update with the
+    /// track's covariance inflated to `P / w` and the observation's to `R / (1 - w)`.
+    /// The weight minimises the determinant of the whole posterior covariance (position
+    /// and velocity), found by golden-section search; at `w = 1` the observation adds
+    /// nothing and the track is left as it is. Returns `w`.
+    pub fn update_ci<F: Frame>(&mut self, z: &Gaussian2<F>) -> f64 {
+        let posterior = |w: f64| {
+            let mut f = *self;
+            for row in &mut f.p {
+                for v in row.iter_mut() {
+                    *v /= w;
+                }
+            }
+            let inflated = Gaussian2 {
+                mean: z.mean,
+                cov: z.cov.scaled(1.0 / (1.0 - w)).unwrap_or(z.cov),
+            };
+            f.update(&inflated);
+            f
+        };
+        let cost = |w: f64| det4(&posterior(w).p);
+        let before = det4(&self.p);
+        let phi = (5f64.sqrt() - 1.0) / 2.0;
+        let (mut lo, mut hi) = (1e-3f64, 1.0 - 1e-3);
+        let (mut x1, mut x2) = (hi - phi * (hi - lo), lo + phi * (hi - lo));
+        let (mut f1, mut f2) = (cost(x1), cost(x2));
+        for _ in 0..40 {
+            if f1 < f2 {
+                hi = x2;
+                (x2, f2) = (x1, f1);
+                x1 = hi - phi * (hi - lo);
+                f1 = cost(x1);
+            } else {
+                lo = x1;
+                (x1, f1) = (x2, f2);
+                x2 = lo + phi * (hi - lo);
+                f2 = cost(x2);
             }
         }
-        let inflated = Gaussian2 {
-            mean: z.mean,
-            cov: z.cov.scaled(1.0 / (1.0 - w)).unwrap_or(z.cov),
-        };
-        self.update(&inflated);
+        let w = 0.5 * (lo + hi);
+        if !(cost(w) < before) {
+            return 1.0;
+        }
+        *self = posterior(w);
         w
+    }
+
+    /// Extended Kalman update with a bearing-only observation: the direction from
+    /// `origin` to the person, `bearing_rad`, with standard deviation `sigma_rad`.
+    /// `h(x) = atan2(py - oy, px - ox)`, `H = [-dy/r^2, dx/r^2, 0, 0]`.
+    pub fn update_bearing<F: Frame>(
+        &mut self,
+        origin: Point2<F>,
+        bearing_rad: f64,
+        sigma_rad: f64,
+    ) {
+        let (dx, dy) = (self.x[0] - origin.x, self.x[1] - origin.y);
+        let r2 = dx * dx + dy * dy;
+        if !(r2 > 1e-4) || !bearing_rad.is_finite() || !(sigma_rad > 0.0) {
+            return;
+        }
+        let h = [-dy / r2, dx / r2];
+        let innovation = crate::wrap(bearing_rad - dy.atan2(dx));
+        // S = H P H^T + s^2 (scalar); K = P H^T / S.
+        let ph: Vec<f64> = (0..4)
+            .map(|i| self.p[i][0] * h[0] + self.p[i][1] * h[1])
+            .collect();
+        let s = h[0] * ph[0] + h[1] * ph[1] + sigma_rad * sigma_rad;
+        let k: Vec<f64> = ph.iter().map(|v| v / s).collect();
+        for i in 0..4 {
+            self.x[i] += k[i] * innovation;
+        }
+        // Joseph form with A = I - K H.
+        let mut a = [[0.0; 4]; 4];
+        for i in 0..4 {
+            a[i][i] = 1.0;
+            a[i][0] -= k[i] * h[0];
+            a[i][1] -= k[i] * h[1];
+        }
+        let mut p = mul_transposed(&mul(&a, &self.p), &a);
+        for i in 0..4 {
+            for j in 0..4 {
+                p[i][j] += k[i] * k[j] * sigma_rad * sigma_rad;
+            }
+        }
+        symmetrize(&mut p);
+        self.p = p;
     }
 
     /// True when every entry is finite.
     pub fn is_finite(&self) -> bool {
         self.x.iter().all(|v| v.is_finite()) && self.p.iter().flatten().all(|v| v.is_finite())
     }
+}
+
+/// Determinant of a 4x4 matrix by cofactor expansion over 2x2 minors.
+fn det4(m: &Mat4) -> f64 {
+    let s0 = m[0][0] * m[1][1] - m[1][0] * m[0][1];
+    let s1 = m[0][0] * m[1][2] - m[1][0] * m[0][2];
+    let s2 = m[0][0] * m[1][3] - m[1][0] * m[0][3];
+    let s3 = m[0][1] * m[1][2] - m[1][1] * m[0][2];
+    let s4 = m[0][1] * m[1][3] - m[1][1] * m[0][3];
+    let s5 = m[0][2] * m[1][3] - m[1][2] * m[0][3];
+    let c5 = m[2][2] * m[3][3] - m[3][2] * m[2][3];
+    let c4 = m[2][1] * m[3][3] - m[3][1] * m[2][3];
+    let c3 = m[2][1] * m[3][2] - m[3][1] * m[2][2];
+    let c2 = m[2][0] * m[3][3] - m[3][0] * m[2][3];
+    let c1 = m[2][0] * m[3][2] - m[3][0] * m[2][2];
+    let c0 = m[2][0] * m[3][1] - m[3][0] * m[2][1];
+    s0 * c5 - s1 * c4 + s2 * c3 + s3 * c2 - s4 * c1 + s5 * c0
 }
 
 fn mul(a: &Mat4, b: &Mat4) -> Mat4 {
@@ -265,7 +345,7 @@ mod tests {
         )
         .unwrap();
         kf.update(&z);
-        let w = ci.update_ci(&z, crate::ci::CiCriterion::Determinant);
+        let w = ci.update_ci(&z);
         assert!(w > 0.0 && w < 1.0);
         let (pk, pc) = (kf.position::<World>().cov, ci.position::<World>().cov);
         assert!(pc.det() >= pk.det());
@@ -275,11 +355,48 @@ mod tests {
         let before = ci;
         let vague =
             Gaussian2::<World>::new(Point2::new(1.0, 1.0), Cov2::isotropic(2.0).unwrap()).unwrap();
-        assert_eq!(
-            ci.update_ci(&vague, crate::ci::CiCriterion::Determinant),
-            1.0
-        );
+        assert_eq!(ci.update_ci(&vague), 1.0);
         assert_eq!(ci, before);
+    }
+
+    #[test]
+    fn det4_matches_a_diagonal_and_a_permutation() {
+        let d = [
+            [2.0, 0.0, 0.0, 0.0],
+            [0.0, 3.0, 0.0, 0.0],
+            [0.0, 0.0, 4.0, 0.0],
+            [0.0, 0.0, 0.0, 5.0],
+        ];
+        assert_eq!(det4(&d), 120.0);
+        let p = [
+            [0.0, 1.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ];
+        assert_eq!(det4(&p), -1.0);
+    }
+
+    #[test]
+    fn ci_update_keeps_the_velocity_it_knows() {
+        // A track with a well-known velocity, a vague position observation: CI must
+        // not trade the velocity away for the position.
+        let mut f = CvFilter::new(&obs(0.0, 0.0, 0.3), 0.1);
+        let v_before = f.velocity_cov().unwrap().det();
+        f.update_ci(&obs(0.2, 0.0, 0.3));
+        let v_after = f.velocity_cov().unwrap().det();
+        assert!(v_after < 4.0 * v_before, "{v_before} -> {v_after}");
+    }
+
+    #[test]
+    fn a_bearing_narrows_the_track_across_the_ray_only() {
+        let mut f = CvFilter::new(&obs(3.0, 0.0, 0.2), 0.5);
+        // Seen from the origin slightly to the left.
+        f.update_bearing(Point2::<World>::new(0.0, 0.0), 0.02, 0.005);
+        let p = f.position::<World>();
+        assert!((p.mean.y - 0.06).abs() < 0.01, "{:?}", p.mean);
+        assert!((p.mean.x - 3.0).abs() < 1e-3);
+        assert!(p.cov.yy() < 0.001 && (p.cov.xx() - 0.04).abs() < 1e-3);
     }
 
     #[test]

@@ -21,6 +21,11 @@ pub mod mot;
 pub mod target;
 pub mod tracker;
 
+/// Wraps an angle into (-pi, pi].
+pub(crate) fn wrap(angle_rad: f64) -> f64 {
+    tether_core::wrap_angle_rad(angle_rad)
+}
+
 pub use ci::{CiCriterion, Fused, ci_weight, covariance_intersection, independent_fusion};
 pub use complementary::{FusedPerson, FusionRule, complementary_fusion};
 pub use gate::{CHI2_2DOF_95, CHI2_2DOF_99, CHI2_2DOF_999, Gate, mahalanobis_sq};
@@ -28,5 +33,6 @@ pub use kalman::CvFilter;
 pub use mot::{ClearMot, MotSummary};
 pub use target::{TargetConfig, TargetSelector, TargetState, TargetStats};
 pub use tracker::{
-    BatchResult, Observation, Source, Track, Tracker, TrackerConfig, TrackerStats, UpdateRule,
+    BatchResult, Bearing, Observation, Source, Track, Tracker, TrackerConfig, TrackerStats,
+    UpdateRule,
 };

@@ -106,6 +106,9 @@ pub struct TargetSelector {
     config: TargetConfig,
     state: TargetState,
     stats: TargetStats,
+    /// The locked track's last estimate, velocity and update time, kept in case the
+    /// tracker drops the track between two calls.
+    last_seen: Option<(Gaussian2<World>, Vector2<World>, Stamp)>,
 }
 
 impl TargetSelector {
@@ -115,6 +118,7 @@ impl TargetSelector {
             config,
             state: TargetState::Searching,
             stats: TargetStats::default(),
+            last_seen: None,
         }
     }
 
@@ -159,7 +163,10 @@ impl TargetSelector {
         self.state = match self.state {
             TargetState::Searching => self.choose(now, tracks, world_from_robot),
             TargetState::Locked { track } => match tracks.iter().find(|t| t.id == track) {
-                Some(t) if fresh(t) => TargetState::Locked { track },
+                Some(t) if fresh(t) => {
+                    self.last_seen = Some((t.position(), t.velocity(), t.last_update));
+                    TargetState::Locked { track }
+                }
                 Some(t) => {
                     self.stats.losses += 1;
                     TargetState::Lost {
@@ -170,17 +177,21 @@ impl TargetSelector {
                     }
                 }
                 None => {
-                    // Dropped without going stale first (its uncertainty exploded).
+                    // Dropped between two calls: fall back on what it was last seen as.
                     self.stats.losses += 1;
+                    let (last, velocity, since) = self.last_seen.unwrap_or((
+                        Gaussian2 {
+                            mean: world_from_robot.translation(),
+                            cov: Cov2::IDENTITY,
+                        },
+                        Vector2::ZERO,
+                        now,
+                    ));
                     TargetState::Lost {
                         track,
-                        since: now,
-                        last: Gaussian2::new(world_from_robot.translation(), Cov2::IDENTITY)
-                            .unwrap_or(Gaussian2 {
-                                mean: world_from_robot.translation(),
-                                cov: Cov2::IDENTITY,
-                            }),
-                        velocity: Vector2::ZERO,
+                        since,
+                        last,
+                        velocity,
                     }
                 }
             },

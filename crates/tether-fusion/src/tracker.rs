@@ -9,11 +9,10 @@
 //! batches older than the tracker's clock, non-finite or absurd observations.
 
 use serde::{Deserialize, Serialize};
-use tether_core::{Gaussian2, Stamp, Vector2, World};
+use tether_core::{Gaussian2, Point2, Stamp, Vector2, World};
 use thiserror::Error;
 
 use crate::assign::assign;
-use crate::ci::CiCriterion;
 use crate::gate::Gate;
 use crate::kalman::CvFilter;
 
@@ -29,6 +28,19 @@ pub enum Source {
     Fused,
 }
 
+/// The bearing part of a camera observation: the direction from the camera to the
+/// person, which the camera measures well (its range, through an assumed person
+/// height, it measures poorly and with an error that persists from frame to frame).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bearing {
+    /// The camera's position.
+    pub origin: Point2<World>,
+    /// Direction to the person, rad (world frame).
+    pub bearing_rad: f64,
+    /// Standard deviation, rad.
+    pub sigma_rad: f64,
+}
+
 /// One person observation in the world frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Observation {
@@ -38,6 +50,10 @@ pub struct Observation {
     pub estimate: Gaussian2<World>,
     /// Whether it may start a new track (a lone leg, say, should not).
     pub may_spawn: bool,
+    /// For camera observations: the bearing alone, used instead of the full position
+    /// when the track has recent laser support (the complementary use of the two
+    /// sensors: range from the laser, bearing from both).
+    pub bearing: Option<Bearing>,
 }
 
 /// How an observation updates a track.
@@ -75,8 +91,11 @@ pub struct TrackerConfig {
     pub max_observation_sigma_m: f64,
     /// How laser (and fused) observations update tracks.
     pub laser_update: UpdateRule,
-    /// How vision observations update tracks.
+    /// How vision observations update tracks that lack recent laser support.
     pub vision_update: UpdateRule,
+    /// A track updated by the laser within this long takes only the bearing of a
+    /// vision observation, s (0: always the full position).
+    pub laser_support_s: f64,
 }
 
 impl Default for TrackerConfig {
@@ -92,6 +111,7 @@ impl Default for TrackerConfig {
             max_observation_sigma_m: 3.0,
             laser_update: UpdateRule::Kalman,
             vision_update: UpdateRule::CovarianceIntersection,
+            laser_support_s: 0.5,
         }
     }
 }
@@ -120,6 +140,13 @@ impl TrackerConfig {
             ("max_position_sigma_m", self.max_position_sigma_m),
             ("max_observation_sigma_m", self.max_observation_sigma_m),
         ];
+        if !(self.laser_support_s.is_finite() && self.laser_support_s >= 0.0) {
+            return Err(TrackerConfigError {
+                field: "laser_support_s",
+                value: self.laser_support_s,
+                why: "must be >= 0",
+            });
+        }
         for (field, value) in positive {
             if !(value.is_finite() && value > 0.0) {
                 return Err(TrackerConfigError {
@@ -313,14 +340,25 @@ impl Tracker {
             let o = &observations[oi];
             let t = &mut self.tracks[ti];
             let before = t.filter;
-            let rule = match o.source {
-                Source::Laser | Source::Fused => self.config.laser_update,
-                Source::Vision => self.config.vision_update,
-            };
-            match rule {
-                UpdateRule::Kalman => t.filter.update(&o.estimate),
-                UpdateRule::CovarianceIntersection => {
-                    t.filter.update_ci(&o.estimate, CiCriterion::Determinant);
+            let laser_support = t
+                .last_laser
+                .is_some_and(|l| stamp.secs_since(l) <= self.config.laser_support_s);
+            match (o.source, o.bearing) {
+                (Source::Vision, Some(b)) if laser_support => {
+                    t.filter
+                        .update_bearing(b.origin, b.bearing_rad, b.sigma_rad);
+                }
+                _ => {
+                    let rule = match o.source {
+                        Source::Laser | Source::Fused => self.config.laser_update,
+                        Source::Vision => self.config.vision_update,
+                    };
+                    match rule {
+                        UpdateRule::Kalman => t.filter.update(&o.estimate),
+                        UpdateRule::CovarianceIntersection => {
+                            t.filter.update_ci(&o.estimate);
+                        }
+                    }
                 }
             }
             if !t.filter.is_finite() {
@@ -402,13 +440,14 @@ impl Tracker {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tether_core::{Cov2, Point2};
+    use tether_core::Cov2;
 
     fn obs(x: f64, y: f64, source: Source) -> Observation {
         Observation {
             source,
             estimate: Gaussian2::new(Point2::new(x, y), Cov2::isotropic(0.05).unwrap()).unwrap(),
             may_spawn: true,
+            bearing: None,
         }
     }
 

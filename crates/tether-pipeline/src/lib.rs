@@ -13,6 +13,8 @@
 //! - `per_frame`: the paper's complementary fusion, frame by frame, with no memory: the
 //!   target is the fused laser-vision pair nearest the heading.
 
+pub mod vision;
+
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -24,8 +26,8 @@ use tether_core::{
     World,
 };
 use tether_fusion::{
-    FusionRule, Gate, Observation, Source, TargetConfig, TargetSelector, TargetState, Tracker,
-    TrackerConfig, complementary_fusion,
+    Bearing, FusionRule, Gate, Observation, Source, TargetConfig, TargetSelector, TargetState,
+    Tracker, TrackerConfig, complementary_fusion,
 };
 use tether_laser::{DetectorConfig, DetectorKind, LegClassifier, LegDetector, PersonKind};
 
@@ -56,6 +58,9 @@ pub struct FusionConfig {
     pub use_vision: bool,
     /// Let vision-only people start tracks (on when the laser is off).
     pub vision_spawns_tracks: bool,
+    /// Let a lone leg (a standing person's legs often merge into one blob) start a
+    /// track; confirmation still needs repeated detections.
+    pub lone_legs_spawn_tracks: bool,
     /// Newest laser people older than this are not paired with a camera frame, s.
     pub pair_max_age_s: f64,
 }
@@ -69,6 +74,7 @@ impl Default for FusionConfig {
             use_laser: true,
             use_vision: true,
             vision_spawns_tracks: false,
+            lone_legs_spawn_tracks: true,
             pair_max_age_s: 0.15,
         }
     }
@@ -103,6 +109,8 @@ pub struct PipelineConfig {
     pub camera: CameraModel,
     /// Leg detection.
     pub legs: LegsConfig,
+    /// The monocular person model of the camera.
+    pub vision: vision::VisionConfig,
     /// Fusion.
     pub fusion: FusionConfig,
     /// Tracking.
@@ -373,7 +381,8 @@ impl Pipeline {
                 .map(|(estimate, pair)| Observation {
                     source: Source::Laser,
                     estimate: *estimate,
-                    may_spawn: *pair,
+                    may_spawn: *pair || self.config.fusion.lone_legs_spawn_tracks,
+                    bearing: None,
                 })
                 .collect();
             self.tracker.process(stamp, &observations);
@@ -385,12 +394,27 @@ impl Pipeline {
         tick
     }
 
+    /// One camera frame's upper-body boxes, with the robot's pose at the frame's stamp:
+    /// the monocular model ([`vision::person_from_box`]), then [`Pipeline::on_camera`].
+    pub fn on_camera_boxes(
+        &mut self,
+        stamp: Stamp,
+        boxes: &[tether_core::PixelBox],
+        world_from_robot: Pose2<World, Robot>,
+    ) -> Tick {
+        let people: Vec<vision::VisionPerson> = boxes
+            .iter()
+            .filter_map(|b| vision::vision_person(&self.config.camera, &self.config.vision, b))
+            .collect();
+        self.on_camera(stamp, &people, world_from_robot)
+    }
+
     /// One camera frame's people (positions in the robot frame from the monocular
     /// model), with the robot's pose at the frame's stamp.
     pub fn on_camera(
         &mut self,
         stamp: Stamp,
-        people_in_robot: &[Gaussian2<Robot>],
+        people_in_robot: &[vision::VisionPerson],
         world_from_robot: Pose2<World, Robot>,
     ) -> Tick {
         if !self.accept(stamp, world_from_robot) {
@@ -398,7 +422,15 @@ impl Pipeline {
         }
         let vision: Vec<Gaussian2<World>> = people_in_robot
             .iter()
-            .map(|p| p.transformed(world_from_robot))
+            .map(|p| p.estimate.transformed(world_from_robot))
+            .collect();
+        let bearings: Vec<Bearing> = people_in_robot
+            .iter()
+            .map(|p| Bearing {
+                origin: world_from_robot * p.camera_in_robot,
+                bearing_rad: tether_core::wrap_angle_rad(world_from_robot.yaw + p.bearing_rad),
+                sigma_rad: p.bearing_sigma_rad,
+            })
             .collect();
         let fusion = &self.config.fusion;
         let laser_recent: Vec<Gaussian2<World>> = match &self.last_laser_people {
@@ -419,10 +451,12 @@ impl Pipeline {
                 if fusion.use_vision {
                     let observations: Vec<Observation> = vision
                         .iter()
-                        .map(|v| Observation {
+                        .zip(&bearings)
+                        .map(|(v, b)| Observation {
                             source: Source::Vision,
                             estimate: *v,
                             may_spawn: fusion.vision_spawns_tracks || !fusion.use_laser,
+                            bearing: fusion.use_laser.then_some(*b),
                         })
                         .collect();
                     self.tracker.process(stamp, &observations);

@@ -105,7 +105,9 @@ impl Person {
     /// Builds a person from the scenario, drawing unspecified body sizes from `rng`.
     pub fn from_spec(id: u32, spec: &PersonSpec, rng: &mut SimRng) -> Self {
         let body = Body {
-            height_m: spec.height_m.unwrap_or_else(|| rng.uniform(1.60, 1.90)),
+            height_m: spec
+                .height_m
+                .unwrap_or_else(|| rng.normal(1.75, 0.07).clamp(1.55, 1.95)),
             leg_radius_m: spec
                 .leg_radius_m
                 .unwrap_or_else(|| rng.uniform(0.058, 0.072)),

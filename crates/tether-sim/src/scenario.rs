@@ -385,7 +385,7 @@ pub struct PersonSpec {
     /// Walk the path again and again (back to the first waypoint after the last).
     #[serde(default)]
     pub repeat: bool,
-    /// Body height, m; drawn from 1.60-1.90 when absent.
+    /// Body height, m; drawn from N(1.75 m, (0.07 m)^2) (clamped to 1.55-1.95) when absent.
     #[serde(default)]
     pub height_m: Option<f64>,
     /// Radius of each leg at the laser's height, m; drawn from 0.058-0.072 when absent

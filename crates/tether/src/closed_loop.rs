@@ -5,7 +5,7 @@
 //! vision only) see exactly the same sensor data and are evaluated too, without
 //! driving. Faults can be injected between the simulator and the pipelines.
 
-use tether_core::{Gaussian2, LaserScan, Robot, Stamp};
+use tether_core::{LaserScan, Stamp};
 use tether_pipeline::{Pipeline, PipelineConfig, PipelineError, Tick};
 use tether_sim::{Command, Event, Scenario, SensorData, SimError, Simulation, Truth};
 
@@ -115,10 +115,7 @@ pub fn config_for(scenario: &Scenario, base: &PipelineConfig) -> PipelineConfig 
     c
 }
 
-/// Converts a frame's boxes to people in the robot frame (the vision model).
-pub type VisionModel<'a> = dyn Fn(&[tether_core::PixelBox]) -> Vec<Gaussian2<Robot>> + 'a;
-
-fn feed(pipeline: &mut Pipeline, event: &Event, faults: &[Fault], vision: &VisionModel<'_>) -> Option<Tick> {
+fn feed(pipeline: &mut Pipeline, event: &Event, faults: &[Fault]) -> Option<Tick> {
     let t = event.truth.stamp.secs_f64();
     let mut stamp = event.truth.stamp;
     for f in faults {
@@ -140,7 +137,11 @@ fn feed(pipeline: &mut Pipeline, event: &Event, faults: &[Fault], vision: &Visio
             let nan = faults
                 .iter()
                 .any(|f| matches!(*f, Fault::NanBurst { from_s, duration_s } if Fault::active(from_s, duration_s, t)));
-            let ranges = if nan { vec![f32::NAN; scan.len()] } else { scan.ranges_m().to_vec() };
+            let ranges = if nan {
+                vec![f32::NAN; scan.len()]
+            } else {
+                scan.ranges_m().to_vec()
+            };
             let scan = LaserScan::new(
                 stamp,
                 scan.frame_id.clone(),
@@ -160,8 +161,7 @@ fn feed(pipeline: &mut Pipeline, event: &Event, faults: &[Fault], vision: &Visio
             {
                 return None;
             }
-            let people = vision(&frame.boxes);
-            Some(pipeline.on_camera(stamp, &people, pose))
+            Some(pipeline.on_camera_boxes(stamp, &frame.boxes, pose))
         }
         SensorData::Timer => Some(pipeline.on_timer(stamp, pose)),
     }
@@ -178,7 +178,6 @@ pub fn run(
     config: &PipelineConfig,
     passengers: &[PipelineConfig],
     faults: &[Fault],
-    vision: &VisionModel<'_>,
 ) -> Result<RunLog, RunError> {
     let mut sim = Simulation::new(scenario, seed)?;
     sim.set_control_rate_hz(CONTROL_RATE_HZ);
@@ -189,14 +188,14 @@ pub fn run(
         .collect::<Result<Vec<_>, _>>()?;
     let mut steps = Vec::new();
     while let Some(event) = sim.advance() {
-        let tick = feed(&mut driver, &event, faults, vision);
+        let tick = feed(&mut driver, &event, faults);
         if let Some(t) = &tick {
             sim.set_command(Command {
                 v_mps: t.command.v_mps,
                 w_radps: t.command.w_radps,
             });
         }
-        let passengers = riders.iter_mut().map(|p| feed(p, &event, faults, vision)).collect();
+        let passengers = riders.iter_mut().map(|p| feed(p, &event, faults)).collect();
         let kind = match event.data {
             SensorData::Scan(_) => StepKind::Scan,
             SensorData::Camera(_) => StepKind::Camera,

@@ -3,3 +3,5 @@
 
 pub mod closed_loop;
 pub mod metrics;
+pub mod plot;
+pub mod report;

@@ -24,6 +24,8 @@ enum Command {
     Scenarios(cmd::scenarios::Args),
     /// Run a simulation scenario and write its sensor data, ground truth and a picture.
     Sim(cmd::sim::Args),
+    /// Run every built-in scenario with the full pipeline in the loop; write report.html.
+    Demo(cmd::demo::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -32,6 +34,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Scenarios(args) => cmd::scenarios::run(args),
         Command::Sim(args) => cmd::sim::run(args),
+        Command::Demo(args) => cmd::demo::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -64,7 +64,8 @@ pub struct RunMetrics {
 }
 
 fn rmse(errors: &[f64]) -> Option<f64> {
-    (!errors.is_empty()).then(|| (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt())
+    (!errors.is_empty())
+        .then(|| (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt())
 }
 
 fn mean(v: &[f64]) -> Option<f64> {
@@ -101,7 +102,9 @@ pub fn measure(log: &RunLog) -> RunMetrics {
 
     for step in &log.steps {
         let truth = &step.truth;
-        let Some(target) = truth.target() else { continue };
+        let Some(target) = truth.target() else {
+            continue;
+        };
         let t = truth.stamp.secs_f64();
         let j = truth.world_from_robot * Point2::new(log.attach_ahead_m, 0.0);
         let d = target.position.distance_m(j);

@@ -1,0 +1,141 @@
+//! `tether detect`: run an OpenCV Haar cascade on images, exactly as OpenCV 4.x's
+//! `CascadeClassifier::detectMultiScale` does, and print the boxes as JSON in the layout
+//! of `opencv_reference.py` (`images[].boxes` as sorted `[x, y, w, h]`).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context;
+use serde_json::json;
+use tether_vision::{Cascade, DetectParams, Detector, imread_gray};
+
+/// Where Debian's `opencv-data` installs the pretrained cascades.
+pub const DEBIAN_CASCADE_DIR: &str = "/usr/share/opencv4/haarcascades";
+
+/// The cascade used without `--cascade`.
+pub const DEFAULT_CASCADE: &str = "haarcascade_upperbody.xml";
+
+/// Options of `tether detect`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Cascade XML file (OpenCV's traincascade or haartraining layout). Default:
+    /// /usr/share/opencv4/haarcascades/haarcascade_upperbody.xml (Debian's opencv-data).
+    #[arg(long, value_name = "FILE")]
+    pub cascade: Option<PathBuf>,
+    /// Ratio between consecutive pyramid scales (> 1).
+    #[arg(long, default_value_t = 1.1, value_name = "F")]
+    pub scale_factor: f64,
+    /// Neighbours a group of windows needs to be kept; 0 prints the raw windows.
+    #[arg(long, default_value_t = 3, value_name = "N")]
+    pub min_neighbors: u32,
+    /// Smallest box, px.
+    #[arg(long, num_args = 2, value_names = ["W", "H"])]
+    pub min_size: Option<Vec<u32>>,
+    /// Largest box, px (default: the image size).
+    #[arg(long, num_args = 2, value_names = ["W", "H"])]
+    pub max_size: Option<Vec<u32>>,
+    /// Detection threads (0: one per core); the boxes do not depend on it.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub threads: usize,
+    /// Also time this many runs per image and report the mean (`ms_per_run`).
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub time_runs: usize,
+    /// PNG or JPEG images, read as 8-bit grey like cv2.imread(path, IMREAD_GRAYSCALE).
+    #[arg(required = true, value_name = "IMAGE")]
+    pub images: Vec<PathBuf>,
+}
+
+/// The cascade to use: the given file, or Debian's upper-body cascade.
+pub fn resolve_cascade(cascade: Option<&Path>) -> anyhow::Result<PathBuf> {
+    if let Some(path) = cascade {
+        return Ok(path.to_path_buf());
+    }
+    let default = Path::new(DEBIAN_CASCADE_DIR).join(DEFAULT_CASCADE);
+    anyhow::ensure!(
+        default.is_file(),
+        "no --cascade given and {} is missing: install OpenCV's pretrained cascades \
+         (Debian/Ubuntu: `sudo apt-get install opencv-data`) or pass --cascade FILE",
+        default.display()
+    );
+    Ok(default)
+}
+
+/// `[W, H]` from a two-value option.
+fn size(option: Option<&Vec<u32>>, name: &str) -> anyhow::Result<[u32; 2]> {
+    match option.map(Vec::as_slice) {
+        None => Ok([0, 0]),
+        Some([w, h]) => Ok([*w, *h]),
+        Some(other) => anyhow::bail!("--{name} takes two numbers, W and H; got {other:?}"),
+    }
+}
+
+/// Detection parameters from the common options.
+pub fn params(
+    scale_factor: f64,
+    min_neighbors: u32,
+    min_size: Option<&Vec<u32>>,
+    max_size: Option<&Vec<u32>>,
+) -> anyhow::Result<DetectParams> {
+    anyhow::ensure!(
+        scale_factor.is_finite() && scale_factor > 1.0,
+        "--scale-factor must be a number above 1 (OpenCV's default is 1.1), got {scale_factor}"
+    );
+    Ok(DetectParams {
+        scale_factor,
+        min_neighbors,
+        min_size_px: size(min_size, "min-size")?,
+        max_size_px: size(max_size, "max-size")?,
+    })
+}
+
+/// Runs the detector on every image and prints the JSON report.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let cascade_path = resolve_cascade(args.cascade.as_deref())?;
+    let cascade = Cascade::load(&cascade_path)?;
+    let params = params(
+        args.scale_factor,
+        args.min_neighbors,
+        args.min_size.as_ref(),
+        args.max_size.as_ref(),
+    )?;
+    let detector = Detector::new(cascade).with_threads(args.threads)?;
+    let mut images = Vec::with_capacity(args.images.len());
+    for path in &args.images {
+        let image = imread_gray(path)?;
+        let mut boxes = detector
+            .detect(&image, &params)
+            .with_context(|| format!("detecting in {}", path.display()))?;
+        boxes.sort();
+        let ms_per_run = if args.time_runs > 0 {
+            let start = Instant::now();
+            for _ in 0..args.time_runs {
+                detector.detect(&image, &params)?;
+            }
+            Some(start.elapsed().as_secs_f64() * 1e3 / args.time_runs as f64)
+        } else {
+            None
+        };
+        tracing::debug!("{}: {} boxes", path.display(), boxes.len());
+        images.push(json!({
+            "path": path.display().to_string(),
+            "width": image.width(),
+            "height": image.height(),
+            "boxes": boxes,
+            "ms_per_run": ms_per_run,
+        }));
+    }
+    let report = json!({
+        "tether": env!("CARGO_PKG_VERSION"),
+        "params": {
+            "cascade": cascade_path.display().to_string(),
+            "scale_factor": params.scale_factor,
+            "min_neighbors": params.min_neighbors,
+            "min_size": params.min_size_px,
+            "max_size": params.max_size_px,
+            "threads": detector.threads(),
+        },
+        "images": images,
+    });
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}

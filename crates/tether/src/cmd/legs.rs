@@ -1,0 +1,192 @@
+//! `tether legs`: detect legs and people in every scan of a ROS 1 bag and write them as
+//! JSON lines.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use serde::Serialize;
+use tether_core::LaserModel;
+use tether_io::rosbag::{Bag, LaserScanMsg};
+use tether_laser::{DetectorConfig, DetectorKind, LegClassifier, LegDetector};
+
+/// Options of `tether legs`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The ROS 1 bag to read (chunks uncompressed, bz2 or lz4).
+    pub bag: PathBuf,
+    /// The `sensor_msgs/LaserScan` topic, e.g. `/scan`.
+    #[arg(long)]
+    pub topic: String,
+    /// Which leg test to run.
+    #[arg(long, value_enum, default_value_t = Detector::Learned)]
+    pub detector: Detector,
+    /// A leg model from `tether train-legs` (default: the built-in one).
+    #[arg(long, value_name = "FILE")]
+    pub model: Option<PathBuf>,
+    /// A laser config (TOML, as `tether calibrate laser` writes) whose `[noise]`
+    /// calibration to apply (default: the uncalibrated URG-04LX model).
+    #[arg(long, value_name = "FILE")]
+    pub laser: Option<PathBuf>,
+    /// Where to write one JSON line per scan.
+    #[arg(long, value_name = "FILE.jsonl")]
+    pub out: PathBuf,
+}
+
+/// The leg test.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Detector {
+    /// The paper's arc test (bisectors of chords, delta = 40 mm).
+    Arc,
+    /// The learned classifier (AdaBoost on segment features).
+    Learned,
+}
+
+#[derive(Serialize)]
+struct LegLine {
+    x: f64,
+    y: f64,
+    radius_m: f64,
+    score: f64,
+}
+
+#[derive(Serialize)]
+struct PersonLine {
+    x: f64,
+    y: f64,
+    cov: [f64; 4],
+}
+
+#[derive(Serialize)]
+struct ScanLine {
+    stamp_ns: i64,
+    legs: Vec<LegLine>,
+    people: Vec<PersonLine>,
+}
+
+/// Reads the laser config, if any.
+pub(crate) fn laser_model(path: Option<&PathBuf>) -> anyhow::Result<LaserModel> {
+    let Some(path) = path else {
+        return Ok(LaserModel::urg_04lx());
+    };
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read laser config {}", path.display()))?;
+    let model: LaserModel = toml::from_str(&text)
+        .with_context(|| format!("laser config {} is not a valid laser model", path.display()))?;
+    model
+        .validate()
+        .with_context(|| format!("laser config {}", path.display()))?;
+    Ok(model)
+}
+
+/// Builds the detector the options ask for.
+pub(crate) fn detector(
+    kind: DetectorKind,
+    model: Option<&PathBuf>,
+    laser: &LaserModel,
+) -> anyhow::Result<LegDetector> {
+    let config = DetectorConfig::default();
+    let noise = laser.noise.clone();
+    Ok(match kind {
+        DetectorKind::Arc => LegDetector::arc(config, noise)?,
+        DetectorKind::Learned => {
+            let classifier = match model {
+                Some(path) => {
+                    let text = std::fs::read_to_string(path)
+                        .with_context(|| format!("cannot read leg model {}", path.display()))?;
+                    LegClassifier::from_json(&text)
+                        .with_context(|| format!("leg model {}", path.display()))?
+                }
+                None => LegClassifier::default_model().context("the built-in leg model")?,
+            };
+            LegDetector::learned(config, noise, classifier)?
+        }
+    })
+}
+
+/// Writes one line per scan message of the topic, in bag order, including scans in
+/// which nothing was found.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let kind = match args.detector {
+        Detector::Arc => DetectorKind::Arc,
+        Detector::Learned => DetectorKind::Learned,
+    };
+    if kind == DetectorKind::Arc && args.model.is_some() {
+        anyhow::bail!("--model applies to --detector learned only");
+    }
+    let laser = laser_model(args.laser.as_ref())?;
+    let mut detector = detector(kind, args.model.as_ref(), &laser)?;
+    let mut bag = Bag::open(&args.bag)?;
+    if !bag.topics().contains(&args.topic.as_str()) {
+        anyhow::bail!(
+            "bag {} has no topic {:?}; its topics are: {}",
+            args.bag.display(),
+            args.topic,
+            bag.topics().join(", ")
+        );
+    }
+    let file = std::fs::File::create(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let mut out = std::io::BufWriter::new(file);
+    let (mut scans, mut legs, mut people, mut malformed) = (0usize, 0usize, 0usize, 0usize);
+    let mut messages = bag.decoded::<LaserScanMsg>(&[args.topic.as_str()]);
+    for message in &mut messages {
+        let message = message?;
+        let scan = &message.message.scan;
+        malformed += scan.malformed_beams();
+        let detection = detector.detect(scan);
+        let line = ScanLine {
+            stamp_ns: scan.stamp.ns(),
+            legs: detection
+                .legs
+                .iter()
+                .map(|l| LegLine {
+                    x: l.centre_in_laser.x,
+                    y: l.centre_in_laser.y,
+                    radius_m: l.radius_m,
+                    score: l.score,
+                })
+                .collect(),
+            people: detection
+                .people
+                .iter()
+                .map(|p| PersonLine {
+                    x: p.estimate.mean.x,
+                    y: p.estimate.mean.y,
+                    cov: p.estimate.cov.to_array(),
+                })
+                .collect(),
+        };
+        serde_json::to_writer(&mut out, &line)?;
+        out.write_all(b"\n")?;
+        scans += 1;
+        legs += line.legs.len();
+        people += line.people.len();
+    }
+    out.flush()
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    if messages.bad_count() > 0 {
+        tracing::warn!(
+            "skipped {} scan messages that did not decode; first: {}",
+            messages.bad_count(),
+            messages
+                .bad_messages()
+                .first()
+                .map(|b| format!("{} at {}: {}", b.topic, b.at, b.error))
+                .or_else(|| messages
+                    .skipped()
+                    .first()
+                    .map(|s| format!("{}: {}", s.at, s.reason)))
+                .unwrap_or_default()
+        );
+    }
+    if malformed > 0 {
+        tracing::warn!("{malformed} beams were NaN or negative and were treated as no return");
+    }
+    tracing::info!(
+        "{scans} scans, {legs} legs, {people} people ({:?} detector) written to {}",
+        kind,
+        args.out.display()
+    );
+    Ok(())
+}

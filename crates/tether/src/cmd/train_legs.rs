@@ -1,0 +1,129 @@
+//! `tether train-legs`: train the learned leg classifier on leg_tracker's labelled
+//! recordings (the training split of issue 3 only).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
+use tether_io::rosbag::{read_labelled_scans, read_scans};
+use tether_laser::training::{
+    NEGATIVE_BAG, POSITIVE_LABEL_TOPIC, POSITIVE_SCAN_TOPIC, TRAIN_NEGATIVE_TOPICS,
+    TRAIN_POSITIVE_BAGS, default_adaboost_config, provenance, train_from_scans,
+};
+use tether_laser::{AdaBoostConfig, DetectorConfig, LegClassifier, LegDetector};
+
+/// Options of `tether train-legs`. The defaults reproduce the built-in model.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Folder with leg_tracker's bags (`positive_*_extracted.bag`, `negative_2.bag`).
+    #[arg(long, default_value = "../shared/data/laser/leg_tracker")]
+    pub data: PathBuf,
+    /// Where to write the model (JSON). The built-in model is
+    /// `crates/tether-laser/models/legs_default.json`.
+    #[arg(long, default_value = "legs.json", value_name = "FILE")]
+    pub out: PathBuf,
+    /// Boosting rounds.
+    #[arg(long, default_value_t = default_adaboost_config().rounds)]
+    pub rounds: usize,
+    /// Depth of each boosted tree (1: stumps).
+    #[arg(long, default_value_t = default_adaboost_config().max_depth)]
+    pub depth: usize,
+}
+
+/// The labelled scans of the given positive bags, as (scan, leg centres) pairs.
+pub(crate) fn labelled_scans(
+    data: &Path,
+    bags: &[&str],
+) -> anyhow::Result<Vec<(LaserScan, Vec<Point2<Laser>>)>> {
+    let mut out = Vec::new();
+    for bag in bags {
+        let path = data.join(bag);
+        let read = read_labelled_scans(&path, POSITIVE_SCAN_TOPIC, POSITIVE_LABEL_TOPIC)
+            .with_context(|| format!("reading {}", path.display()))?;
+        if read.bad_count > 0 || read.unlabelled > 0 {
+            tracing::warn!(
+                "{}: skipped {} bad messages and {} scans without labels",
+                path.display(),
+                read.bad_count,
+                read.unlabelled
+            );
+        }
+        tracing::info!("{}: {} labelled scans", path.display(), read.scans.len());
+        out.extend(
+            read.scans
+                .into_iter()
+                .map(|s| (s.scan.scan, s.legs_in_laser)),
+        );
+    }
+    Ok(out)
+}
+
+/// The scans of the given topics of the bag without people.
+pub(crate) fn negative_scans(data: &Path, topics: &[&str]) -> anyhow::Result<Vec<LaserScan>> {
+    let path = data.join(NEGATIVE_BAG);
+    let mut out = Vec::new();
+    for topic in topics {
+        let read =
+            read_scans(&path, topic).with_context(|| format!("reading {}", path.display()))?;
+        if read.bad_count > 0 {
+            tracing::warn!(
+                "{} {topic}: skipped {} bad messages",
+                path.display(),
+                read.bad_count
+            );
+        }
+        tracing::info!("{} {topic}: {} scans", path.display(), read.scans.len());
+        out.extend(read.scans.into_iter().map(|m| m.scan));
+    }
+    Ok(out)
+}
+
+/// Trains on the training split and writes the model.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if !args.data.is_dir() {
+        anyhow::bail!(
+            "{} is not a folder; pass --data with the folder of leg_tracker's bags",
+            args.data.display()
+        );
+    }
+    let config = AdaBoostConfig {
+        rounds: args.rounds,
+        max_depth: args.depth,
+        ..default_adaboost_config()
+    };
+    let positives = labelled_scans(&args.data, &TRAIN_POSITIVE_BAGS)?;
+    let negatives = negative_scans(&args.data, &TRAIN_NEGATIVE_TOPICS)?;
+    let mut detector = LegDetector::arc(DetectorConfig::default(), RangeNoiseModel::default())?;
+    let started = std::time::Instant::now();
+    let (model, set) = train_from_scans(
+        &mut detector,
+        positives.iter().map(|(s, l)| (s, l.as_slice())),
+        negatives.iter(),
+        &config,
+        provenance(&config),
+    )?;
+    println!(
+        "trained {} trees of depth {} on {} legs and {} non-legs in {:.1} s ({} labelled legs \
+         matched no segment)",
+        model.trees.len(),
+        config.max_depth,
+        set.positives(),
+        set.negatives(),
+        started.elapsed().as_secs_f64(),
+        set.unmatched_labels
+    );
+    let json = model.to_json();
+    std::fs::write(&args.out, &json)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    let same = LegClassifier::default_model().is_ok_and(|m| m.to_json() == json);
+    println!(
+        "wrote {} ({})",
+        args.out.display(),
+        if same {
+            "identical to the built-in model"
+        } else {
+            "differs from the built-in model"
+        }
+    );
+    Ok(())
+}

@@ -1,0 +1,329 @@
+//! `report.html`: one self-contained page (inline SVG, no scripts, no network) with,
+//! per scenario, a top-down map of the true and estimated paths of target and robot,
+//! the laser, vision and fused estimates with their covariance ellipses at a few
+//! instants (the paper's Fig. 14), distance and bearing to the target over time (Fig.
+//! 15) against the comfort band, the commands, and the measures.
+
+use std::fmt::Write as _;
+
+use tether_core::{Gaussian2, Point2, World, wrap_angle_rad};
+use tether_fusion::TargetState;
+use tether_sim::svg::{MapSvg, person_color, xml_escape};
+use tether_sim::{Scenario, StaticWorld};
+
+use crate::closed_loop::{RunLog, StepKind};
+use crate::metrics::{BAND_M, RunMetrics};
+use crate::plot::{Plot, Series};
+
+/// One scenario's material for the report.
+pub struct ScenarioRun<'a> {
+    /// The scenario.
+    pub scenario: &'a Scenario,
+    /// The run.
+    pub log: &'a RunLog,
+    /// Its measures.
+    pub metrics: &'a RunMetrics,
+}
+
+const LASER: &str = "#1f77b4";
+const VISION: &str = "#2ca02c";
+const FUSED: &str = "#9467bd";
+const ESTIMATE: &str = "#ff7f0e";
+
+fn fmt_opt(v: Option<f64>, digits: usize) -> String {
+    v.filter(|x| x.is_finite())
+        .map_or("–".to_owned(), |x| format!("{x:.digits$}"))
+}
+
+/// The table of measures, one row per run.
+pub fn metrics_table(rows: &[&RunMetrics]) -> String {
+    let mut s = String::from(
+        "<table><tr><th>scenario</th><th>seed</th><th>mean |d−d0| (m)</th><th>RMS d−d0 (m)</th><th>min d (m)</th>\
+         <th>in band</th><th>target lost (s)</th><th>swaps</th><th>collisions</th><th>RMSE fused / laser / vision (m)</th>\
+         <th>NEES</th><th>MOTA</th><th>MOTP (m)</th><th>ID sw.</th><th>RMS jerk (m/s³)</th></tr>\n",
+    );
+    for m in rows {
+        let _ = writeln!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{:.1}</td><td>{}</td><td>{}</td><td>{} / {} / {}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{}</td><td>{:.1}</td></tr>",
+            xml_escape(&m.scenario),
+            m.seed,
+            fmt_opt(m.mean_abs_distance_error_m, 3),
+            fmt_opt(m.rms_distance_error_m, 3),
+            m.min_distance_m,
+            m.time_in_band_frac
+                .map_or("–".to_owned(), |f| format!("{:.0} %", 100.0 * f)),
+            m.target_lost_s,
+            m.target_swaps,
+            m.collisions,
+            fmt_opt(m.rmse_fused_m, 3),
+            fmt_opt(m.rmse_laser_m, 3),
+            fmt_opt(m.rmse_vision_m, 3),
+            fmt_opt(m.nees_mean, 2),
+            m.mota,
+            m.motp_m,
+            m.id_switches,
+            m.rms_jerk
+        );
+    }
+    s.push_str("</table>\n");
+    s
+}
+
+/// The map of one run.
+pub fn run_map(scenario: &Scenario, log: &RunLog) -> String {
+    let world = StaticWorld::from_scenario(scenario);
+    let people_n = scenario.people.len();
+    let mut paths: Vec<Vec<Point2<World>>> = vec![Vec::new(); people_n];
+    let mut robot = Vec::new();
+    let mut estimate: Vec<Point2<World>> = Vec::new();
+    for step in log.steps.iter().filter(|s| s.kind == StepKind::Scan) {
+        for (k, p) in step.truth.people.iter().enumerate() {
+            if let Some(path) = paths.get_mut(k) {
+                path.push(p.position);
+            }
+        }
+        robot.push(step.truth.world_from_robot.translation());
+        if let Some(e) = step.tick.as_ref().and_then(|t| t.target.estimate) {
+            estimate.push(e.mean);
+        }
+    }
+    let extent = paths
+        .iter()
+        .flatten()
+        .chain(&robot)
+        .copied()
+        .collect::<Vec<_>>();
+    let mut map = MapSvg::new(scenario, &world, extent, 50.0);
+    for (k, (path, spec)) in paths.iter().zip(&scenario.people).enumerate() {
+        let label = if spec.target {
+            format!("{} (target), true", spec.name)
+        } else {
+            format!("{}, true", spec.name)
+        };
+        map.path(path, person_color(k, spec.target), false, &label, true);
+    }
+    map.path(&estimate, ESTIMATE, true, "target, tracked estimate", false);
+    map.path(&robot, "#222222", true, "robot", true);
+    // Ellipses at a few instants (the paper's Fig. 14): the camera frames nearest to
+    // five evenly spaced times, each sensor's estimate nearest the true target.
+    let frames: Vec<_> = log
+        .steps
+        .iter()
+        .filter(|s| {
+            s.kind == StepKind::Camera
+                && s.tick.as_ref().is_some_and(|t| !t.fused_people.is_empty())
+        })
+        .collect();
+    let nearest = |list: &[Gaussian2<World>], p: Point2<World>| {
+        list.iter()
+            .min_by(|a, b| a.mean.distance_m(p).total_cmp(&b.mean.distance_m(p)))
+            .filter(|g| g.mean.distance_m(p) < 1.0)
+            .copied()
+    };
+    for k in 0..5 {
+        let Some(step) = frames.get(k * frames.len().saturating_sub(1) / 4) else {
+            break;
+        };
+        let (Some(tick), Some(target)) = (&step.tick, step.truth.target()) else {
+            continue;
+        };
+        let laser = log
+            .steps
+            .iter()
+            .rev()
+            .find(|s| s.kind == StepKind::Scan && s.truth.stamp <= step.truth.stamp)
+            .and_then(|s| s.tick.as_ref())
+            .and_then(|t| nearest(&t.laser_people, target.position));
+        if let Some(g) = laser {
+            map.ellipse(&g, LASER, 2.0);
+        }
+        if let Some(g) = nearest(&tick.vision_people, target.position) {
+            map.ellipse(&g, VISION, 2.0);
+        }
+        if let Some(g) = nearest(&tick.fused_people, target.position) {
+            map.ellipse(&g, FUSED, 2.0);
+        }
+        map.robot(step.truth.world_from_robot, 0.5);
+        map.label(
+            target.position,
+            &format!("{:.1} s", step.truth.stamp.secs_f64()),
+            "#444444",
+        );
+    }
+    map.legend("laser estimate (2σ)", LASER, false);
+    map.legend("vision estimate (2σ)", VISION, false);
+    map.legend("fused estimate (2σ)", FUSED, false);
+    map.finish()
+}
+
+/// Distance and bearing to the target over time (the paper's Fig. 15) and the
+/// commands.
+pub fn run_plots(log: &RunLog) -> Vec<Plot> {
+    let mut d_true = Vec::new();
+    let mut d_est = Vec::new();
+    let mut b_true = Vec::new();
+    let mut b_est = Vec::new();
+    let mut v = Vec::new();
+    let mut w = Vec::new();
+    let mut lost_spans: Vec<(f64, f64)> = Vec::new();
+    let mut lost_from: Option<f64> = None;
+    for step in log.steps.iter().filter(|s| s.kind == StepKind::Timer) {
+        let t = step.truth.stamp.secs_f64();
+        let Some(target) = step.truth.target() else {
+            continue;
+        };
+        let robot_from_world = step.truth.world_from_robot.inverse();
+        let j = Point2::<tether_core::Robot>::new(log.attach_ahead_m, 0.0);
+        let p = robot_from_world * target.position;
+        d_true.push((t, Some(p.distance_m(j))));
+        b_true.push((t, Some(wrap_angle_rad(p.bearing_rad()).to_degrees())));
+        let tick = step.tick.as_ref();
+        let est = tick.and_then(|k| match k.target.state {
+            TargetState::Locked { .. } => k.target.estimate,
+            _ => None,
+        });
+        let pe = est.map(|e| robot_from_world * e.mean);
+        d_est.push((t, pe.map(|q| q.distance_m(j))));
+        b_est.push((t, pe.map(|q| wrap_angle_rad(q.bearing_rad()).to_degrees())));
+        v.push((t, tick.map(|k| k.command.v_mps)));
+        w.push((t, tick.map(|k| k.command.w_radps)));
+        match (est.is_none(), lost_from) {
+            (true, None) => lost_from = Some(t),
+            (false, Some(a)) => {
+                lost_spans.push((a, t));
+                lost_from = None;
+            }
+            _ => {}
+        }
+    }
+    if let (Some(a), Some(last)) = (lost_from, d_true.last()) {
+        lost_spans.push((a, last.0));
+    }
+    let spans: Vec<(f64, f64, String, String)> = lost_spans
+        .iter()
+        .enumerate()
+        .map(|(k, (a, b))| {
+            (
+                *a,
+                *b,
+                "#bbbbbb".to_owned(),
+                if k == 0 {
+                    "no locked target".to_owned()
+                } else {
+                    String::new()
+                },
+            )
+        })
+        .collect();
+    let series = |label: &str, color: &str, dashed: bool, points: Vec<(f64, Option<f64>)>| Series {
+        label: label.to_owned(),
+        color: color.to_owned(),
+        dashed,
+        points,
+    };
+    vec![
+        Plot {
+            title: "Distance to the target (from the spring's attachment point)".into(),
+            y_label: "d (m)".into(),
+            series: vec![
+                series("true", "#d62728", false, d_true),
+                series("estimated", ESTIMATE, true, d_est),
+            ],
+            bands: vec![(
+                BAND_M.0,
+                BAND_M.1,
+                "#2ca02c".into(),
+                "comfort band 0.8–1.5 m".into(),
+            )],
+            hlines: vec![(
+                log.follow_distance_m,
+                "#000000".into(),
+                format!("d0 = {} m", log.follow_distance_m),
+            )],
+            spans: spans.clone(),
+        },
+        Plot {
+            title: "Bearing to the target".into(),
+            y_label: "bearing (deg)".into(),
+            series: vec![
+                series("true", "#d62728", false, b_true),
+                series("estimated", ESTIMATE, true, b_est),
+            ],
+            bands: Vec::new(),
+            hlines: vec![(0.0, "#888888".into(), "straight ahead".into())],
+            spans: spans.clone(),
+        },
+        Plot {
+            title: "Commands".into(),
+            y_label: "v (m/s), w (rad/s)".into(),
+            series: vec![
+                series("v", "#1f77b4", false, v),
+                series("w", "#ff7f0e", false, w),
+            ],
+            bands: Vec::new(),
+            hlines: Vec::new(),
+            spans,
+        },
+    ]
+}
+
+/// A scenario's section.
+pub fn scenario_section(run: &ScenarioRun<'_>) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "<section id=\"{0}\"><h2>{0}</h2><p>{1}</p>",
+        xml_escape(&run.scenario.name),
+        xml_escape(&run.scenario.description)
+    );
+    let _ = writeln!(
+        s,
+        "<div class=\"figure\">{}</div>",
+        run_map(run.scenario, run.log)
+    );
+    for plot in run_plots(run.log) {
+        let _ = writeln!(s, "<div class=\"figure\">{}</div>", plot.svg());
+    }
+    s.push_str(&metrics_table(&[run.metrics]));
+    s.push_str("</section>\n");
+    s
+}
+
+/// The whole page. `extra` sections (title, HTML) come after the scenarios.
+pub fn html(
+    title: &str,
+    intro_html: &str,
+    runs: &[ScenarioRun<'_>],
+    extra: &[(String, String)],
+) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title>\n<style>\n\
+         body {{ font-family: sans-serif; margin: 24px auto; max-width: 1100px; color: #222; }}\n\
+         table {{ border-collapse: collapse; margin: 12px 0; font-size: 13px; }}\n\
+         th, td {{ border: 1px solid #ccc; padding: 3px 7px; text-align: right; }}\n\
+         th {{ background: #f3f3f3; }} td:first-child {{ text-align: left; }}\n\
+         .figure {{ margin: 10px 0; overflow-x: auto; }} nav a {{ margin-right: 12px; }}\n\
+         section {{ border-top: 1px solid #ddd; margin-top: 28px; }}\n</style></head><body>",
+        xml_escape(title)
+    );
+    let _ = writeln!(s, "<h1>{}</h1>{intro_html}", xml_escape(title));
+    s.push_str("<nav>");
+    for r in runs {
+        let _ = write!(s, "<a href=\"#{0}\">{0}</a>", xml_escape(&r.scenario.name));
+    }
+    s.push_str("</nav>\n<h2>Summary</h2>\n");
+    s.push_str(&metrics_table(
+        &runs.iter().map(|r| r.metrics).collect::<Vec<_>>(),
+    ));
+    for r in runs {
+        s.push_str(&scenario_section(r));
+    }
+    for (t, body) in extra {
+        let _ = writeln!(s, "<section><h2>{}</h2>{body}</section>", xml_escape(t));
+    }
+    s.push_str("</body></html>\n");
+    s
+}
