@@ -141,19 +141,17 @@ impl LaserScan {
         if !angle_increment_rad.is_finite() || angle_increment_rad == 0.0 {
             return Err(ScanError::BadAngleIncrement(angle_increment_rad));
         }
+        // Compare in floating point: a damaged header can imply more beams than any
+        // integer type holds.
         let span = (angle_max_rad - angle_min_rad) / angle_increment_rad;
-        if !span.is_finite() || span < -0.5 {
-            return Err(ScanError::LengthMismatch {
-                expected: 0,
-                got: ranges_m.len(),
-            });
-        }
-        let expected = span.round() as usize + 1;
-        if expected != ranges_m.len() {
-            return Err(ScanError::LengthMismatch {
-                expected,
-                got: ranges_m.len(),
-            });
+        let got = ranges_m.len();
+        if !span.is_finite() || span < -0.5 || (span.round() + 1.0) != got as f64 {
+            let expected = if span.is_finite() && span >= -0.5 && span < 1e15 {
+                span.round() as usize + 1
+            } else {
+                0
+            };
+            return Err(ScanError::LengthMismatch { expected, got });
         }
         Self::new(
             stamp,

@@ -5,7 +5,8 @@
 //! its angular extent as seen from the scanner, so a scan costs about one test per beam
 //! per wall behind it plus a dozen per nearby leg, not beams x primitives.
 //!
-//! A return is `r + bias(r) + N(0, sigma(r)^2)` from the laser model, quantised to the
+//! A return is `r + bias(r) + N(0, sigma(r)^2)` from the simulated scanner's own error
+//! model (`laser_sim.noise`, not the estimator's `laser.noise`), quantised to the
 //! URG-04LX's 1 mm, lost with probability `dropout_prob` plus a long-range term (real
 //! beams flicker between valid and invalid near the end of the range) and reported as
 //! "no return" when nothing is hit within range.
@@ -115,7 +116,7 @@ impl SimLaser {
                 ranges.push(f32::INFINITY);
                 continue;
             }
-            let noise = &self.model.noise;
+            let noise = &self.spec.noise;
             let measured = r + noise.bias_m(r) + self.rng.normal(0.0, noise.sigma_m(r));
             let far = ((r - self.spec.long_range_start_m) / span).clamp(0.0, 1.0);
             let p_drop = self.spec.dropout_prob + self.spec.long_range_dropout_prob * far;
@@ -249,14 +250,14 @@ mod tests {
     use crate::world::{Obstacle, ObstacleKind};
 
     fn quiet_laser() -> SimLaser {
-        let mut model = LaserModel::urg_04lx();
-        model.noise.sigma_m = tether_core::Polynomial(vec![0.0]);
-        model.noise.sigma_floor_m = 1e-9;
-        let spec = LaserSimSpec {
+        let model = LaserModel::urg_04lx();
+        let mut spec = LaserSimSpec {
             dropout_prob: 0.0,
             long_range_dropout_prob: 0.0,
             ..LaserSimSpec::default()
         };
+        spec.noise.sigma_m = tether_core::Polynomial(vec![0.0]);
+        spec.noise.sigma_floor_m = 1e-9;
         SimLaser::new(model, spec, SimRng::stream(0, "laser"))
     }
 

@@ -298,6 +298,11 @@ pub struct LaserSimSpec {
     pub long_range_dropout_prob: f64,
     /// Range where long-range dropouts begin, m.
     pub long_range_start_m: f64,
+    /// The range error the simulated scanner really makes (its "true" bias and noise):
+    /// real URG-04LX beams spread by 6-7 mm, well inside the datasheet's +-10 mm / 1 %
+    /// bound that the estimator's default model (`laser.noise`) assumes. Calibration
+    /// (`tether calibrate laser`) estimates this from samples.
+    pub noise: tether_core::RangeNoiseModel,
 }
 
 impl Default for LaserSimSpec {
@@ -307,6 +312,11 @@ impl Default for LaserSimSpec {
             dropout_prob: 0.002,
             long_range_dropout_prob: 0.45,
             long_range_start_m: 4.0,
+            noise: tether_core::RangeNoiseModel {
+                bias_m: tether_core::Polynomial(Vec::new()),
+                sigma_m: tether_core::Polynomial(vec![0.006, 0.0015]),
+                sigma_floor_m: 0.005,
+            },
         }
     }
 }
@@ -826,6 +836,11 @@ impl Scenario {
                     format!("a probability must lie in [0, 1], got {value}"),
                 );
             }
+        }
+        let mut noise_check = LaserModel::default();
+        noise_check.noise = ls.noise.clone();
+        if let Err(e) = noise_check.validate() {
+            bad(dotted("laser_sim", laser_error_field(&e)), e.to_string());
         }
         if !(ls.long_range_start_m.is_finite() && ls.long_range_start_m > 0.0) {
             bad(

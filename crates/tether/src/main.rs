@@ -26,6 +26,21 @@ enum Command {
     Sim(cmd::sim::Args),
     /// Run every built-in scenario with the full pipeline in the loop; write report.html.
     Demo(cmd::demo::Args),
+    /// Detect legs and people in every scan of a ROS 1 bag (JSON lines).
+    Legs(cmd::legs::Args),
+    /// Train the learned leg classifier on leg_tracker's labelled recordings.
+    TrainLegs(cmd::train_legs::Args),
+    /// Precision and recall of both leg detectors on the test recordings.
+    EvalLegs(cmd::eval_legs::Args),
+    /// Calibrate a sensor from measurements.
+    #[command(subcommand)]
+    Calibrate(Calibrate),
+}
+
+#[derive(Debug, Subcommand)]
+enum Calibrate {
+    /// Fit the laser's range bias and noise from samples at known distances.
+    Laser(cmd::calibrate_laser::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -35,6 +50,10 @@ fn main() -> std::process::ExitCode {
         Command::Scenarios(args) => cmd::scenarios::run(args),
         Command::Sim(args) => cmd::sim::run(args),
         Command::Demo(args) => cmd::demo::run(args),
+        Command::Legs(args) => cmd::legs::run(args),
+        Command::TrainLegs(args) => cmd::train_legs::run(args),
+        Command::EvalLegs(args) => cmd::eval_legs::run(args),
+        Command::Calibrate(Calibrate::Laser(args)) => cmd::calibrate_laser::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -1,5 +1,9 @@
 //! One module per subcommand: each has a clap `Args` struct and a `run` function.
 
+pub mod calibrate_laser;
 pub mod demo;
+pub mod eval_legs;
+pub mod legs;
 pub mod scenarios;
 pub mod sim;
+pub mod train_legs;

@@ -1,0 +1,193 @@
+//! What can go wrong when reading a bag, and where.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use thiserror::Error;
+
+/// Where in a bag something was found.
+///
+/// Records inside a chunk live in the chunk's *uncompressed* data, so their position is
+/// the chunk's offset in the file plus an offset into that data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Location {
+    /// This byte offset of the bag file.
+    File(u64),
+    /// `offset` bytes into the uncompressed data of the chunk record that starts at
+    /// byte `chunk` of the bag file.
+    InChunk {
+        /// Offset of the chunk record in the file.
+        chunk: u64,
+        /// Offset into the chunk's uncompressed data.
+        offset: u64,
+    },
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Location::File(offset) => write!(f, "byte {offset}"),
+            Location::InChunk { chunk, offset } => write!(
+                f,
+                "byte {offset} of the uncompressed data of the chunk at byte {chunk}"
+            ),
+        }
+    }
+}
+
+/// Why a bag cannot be read (any further). Every variant names the place in the file.
+///
+/// A bag that is damaged in one message only does not give this error: such messages
+/// are skipped and counted (see [`super::Messages::skipped`] and
+/// [`super::Decoded::bad_messages`]).
+#[derive(Debug, Error)]
+pub enum BagError {
+    /// The file could not be opened.
+    #[error("cannot open bag {path}: {source}")]
+    Open {
+        /// The path given.
+        path: PathBuf,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// The bag has no connection on the topic asked for.
+    #[error("bag {path} has no topic {topic:?}; its topics are: {available}")]
+    NoSuchTopic {
+        /// The bag.
+        path: PathBuf,
+        /// The topic asked for.
+        topic: String,
+        /// The topics it has, comma-separated.
+        available: String,
+    },
+    /// Reading failed for a reason other than the end of the file.
+    #[error("cannot read the bag at {at}: {source}")]
+    Io {
+        /// Where the read started.
+        at: Location,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// The file does not start with `#ROSBAG V2.0\n`.
+    #[error(
+        "not a ROS 1 bag of format 2.0: the file starts with {found:?}, expected \"#ROSBAG V2.0\" \
+         (ROS 2 bags are directories with .db3 or .mcap files; convert them or use an MCAP reader)"
+    )]
+    NotABag {
+        /// The first bytes of the file, lossily as text.
+        found: String,
+    },
+    /// The bag header says there is no index: the recording was not closed cleanly.
+    #[error(
+        "bag has no index (index_pos = 0 in the bag header at byte {at}): the recording was \
+         not closed cleanly; run `rosbag reindex` on it"
+    )]
+    NotIndexed {
+        /// Offset of the bag header record.
+        at: u64,
+    },
+    /// A record runs past the end of the file or of its chunk.
+    #[error(
+        "bag is truncated: the {record} at {at} needs {needed} bytes but only {available} \
+         remain; the file was cut short (an interrupted copy or recording)"
+    )]
+    Truncated {
+        /// Kind of record being read ("chunk record"; "record" before its kind is known).
+        record: &'static str,
+        /// Where the record starts.
+        at: Location,
+        /// Bytes the record needs from its start.
+        needed: u64,
+        /// Bytes left from its start to the end of the file or chunk.
+        available: u64,
+    },
+    /// A record's content contradicts the format.
+    #[error("bag is corrupt: {record} at {at}: {problem}")]
+    Corrupt {
+        /// Kind of record being read ("chunk record"; "record" before its kind is known).
+        record: &'static str,
+        /// Where the record starts.
+        at: Location,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// A chunk uses a compression this reader does not know.
+    #[error(
+        "chunk at byte {at} uses compression {compression:?}; this reader knows \"none\", \"bz2\" \
+         and \"lz4\""
+    )]
+    UnsupportedCompression {
+        /// Offset of the chunk record.
+        at: u64,
+        /// The `compression` field.
+        compression: String,
+    },
+    /// A chunk's data does not decompress into what its header promises.
+    #[error("bag is corrupt: {compression} chunk at byte {at} does not decompress: {problem}")]
+    Decompress {
+        /// Offset of the chunk record.
+        at: u64,
+        /// The `compression` field.
+        compression: String,
+        /// What the decompressor said.
+        problem: String,
+    },
+}
+
+/// Why one message could not be decoded. The bag itself may be fine: the caller skips
+/// the message and counts it.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum DecodeError {
+    /// The message is of another type than the decoder reads.
+    #[error("message is a {found} (md5 {found_md5}), not a {expected}")]
+    WrongType {
+        /// Type the decoder reads.
+        expected: &'static str,
+        /// Type of the connection.
+        found: String,
+        /// MD5 sum of the connection's definition.
+        found_md5: String,
+    },
+    /// The connection names the right type but a different definition (MD5 sum).
+    #[error(
+        "message type {msg_type} has md5 {found}, expected {expected}: the definition differs \
+         from the one this decoder reads"
+    )]
+    WrongDefinition {
+        /// The type name.
+        msg_type: &'static str,
+        /// MD5 sum the decoder reads.
+        expected: &'static str,
+        /// MD5 sum of the connection.
+        found: String,
+    },
+    /// The payload ends inside a field.
+    #[error(
+        "message ends inside field `{field}`: it needs {needed} bytes at byte {at}, {available} remain"
+    )]
+    Truncated {
+        /// Field being read.
+        field: &'static str,
+        /// Offset in the payload.
+        at: usize,
+        /// Bytes the field needs.
+        needed: u64,
+        /// Bytes left.
+        available: usize,
+    },
+    /// Bytes are left over after the last field.
+    #[error("{extra} bytes left over after the last field: is the message type right?")]
+    TrailingBytes {
+        /// Bytes left over.
+        extra: usize,
+    },
+    /// A string field is not UTF-8.
+    #[error("field `{field}` is not UTF-8 text")]
+    NotUtf8 {
+        /// Field being read.
+        field: &'static str,
+    },
+    /// The decoded scan header cannot describe a scan.
+    #[error("laser scan is invalid: {0}")]
+    Scan(#[from] tether_core::ScanError),
+}

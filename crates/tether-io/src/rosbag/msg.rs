@@ -1,0 +1,485 @@
+//! Decoders of the ROS 1 messages tether reads from bags.
+//!
+//! ROS 1 serialisation is plain little-endian: numbers at their natural width, a string
+//! or an array as a `u32` length followed by its elements, nested messages inline.
+
+use tether_core::{Frame, LaserScan, Point2, Stamp};
+
+use super::error::DecodeError;
+use super::record::time_from_bytes;
+
+/// A ROS 1 message type this crate can decode.
+pub trait RosMessage: Sized {
+    /// Type name as bags store it, e.g. `sensor_msgs/LaserScan`.
+    const TYPE: &'static str;
+    /// MD5 sum of the message definition, as `rosmsg md5` prints it.
+    const MD5SUM: &'static str;
+    /// Decodes a serialised message.
+    fn decode(data: &[u8]) -> Result<Self, DecodeError>;
+}
+
+/// A cursor over a serialised message that never reads past the end.
+struct Wire<'a> {
+    data: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> Wire<'a> {
+    fn new(data: &'a [u8]) -> Self {
+        Wire { data, pos: 0 }
+    }
+
+    fn take(&mut self, field: &'static str, n: u64) -> Result<&'a [u8], DecodeError> {
+        let available = self.data.len() - self.pos;
+        if n > available as u64 {
+            return Err(DecodeError::Truncated {
+                field,
+                at: self.pos,
+                needed: n,
+                available,
+            });
+        }
+        let out = &self.data[self.pos..self.pos + n as usize];
+        self.pos += n as usize;
+        Ok(out)
+    }
+
+    fn array<const N: usize>(&mut self, field: &'static str) -> Result<[u8; N], DecodeError> {
+        let b = self.take(field, N as u64)?;
+        let mut out = [0u8; N];
+        out.copy_from_slice(b);
+        Ok(out)
+    }
+
+    fn u32(&mut self, field: &'static str) -> Result<u32, DecodeError> {
+        self.array::<4>(field).map(u32::from_le_bytes)
+    }
+
+    fn f32(&mut self, field: &'static str) -> Result<f32, DecodeError> {
+        self.array::<4>(field).map(f32::from_le_bytes)
+    }
+
+    fn f64(&mut self, field: &'static str) -> Result<f64, DecodeError> {
+        self.array::<8>(field).map(f64::from_le_bytes)
+    }
+
+    fn time(&mut self, field: &'static str) -> Result<Stamp, DecodeError> {
+        self.array::<8>(field).map(time_from_bytes)
+    }
+
+    fn string(&mut self, field: &'static str) -> Result<String, DecodeError> {
+        let len = self.u32(field)?;
+        let bytes = self.take(field, u64::from(len))?;
+        String::from_utf8(bytes.to_vec()).map_err(|_| DecodeError::NotUtf8 { field })
+    }
+
+    fn f32_vec(&mut self, field: &'static str) -> Result<Vec<f32>, DecodeError> {
+        let len = self.u32(field)?;
+        let bytes = self.take(field, u64::from(len) * 4)?;
+        Ok(bytes
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect())
+    }
+
+    /// Number of elements of an array whose elements take at least `min_elem_len`
+    /// bytes each; refuses counts the remaining bytes cannot hold.
+    fn count(&mut self, field: &'static str, min_elem_len: u64) -> Result<usize, DecodeError> {
+        let at = self.pos;
+        let n = self.u32(field)?;
+        let available = self.data.len() - self.pos;
+        let needed = u64::from(n) * min_elem_len;
+        if needed > available as u64 {
+            return Err(DecodeError::Truncated {
+                field,
+                at,
+                needed,
+                available,
+            });
+        }
+        Ok(n as usize)
+    }
+
+    fn finish(self) -> Result<(), DecodeError> {
+        let extra = self.data.len() - self.pos;
+        if extra == 0 {
+            Ok(())
+        } else {
+            Err(DecodeError::TrailingBytes { extra })
+        }
+    }
+}
+
+/// `std_msgs/Header`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Header {
+    /// Sequence number.
+    pub seq: u32,
+    /// Time of the data (for a scan: of its first beam).
+    pub stamp: Stamp,
+    /// Frame the data is expressed in.
+    pub frame_id: String,
+}
+
+impl Header {
+    fn read(w: &mut Wire<'_>) -> Result<Header, DecodeError> {
+        Ok(Header {
+            seq: w.u32("header.seq")?,
+            stamp: w.time("header.stamp")?,
+            frame_id: w.string("header.frame_id")?,
+        })
+    }
+}
+
+/// `sensor_msgs/LaserScan`, decoded into a [`tether_core::LaserScan`].
+///
+/// The scan keeps the ROS header's stamp and `frame_id`; its ranges follow REP 117 and
+/// tether's convention: beams outside `[range_min, range_max]` or `+inf` are "no
+/// return" (`+inf`); NaN, negative values and `-inf` are also "no return" and are
+/// counted in [`LaserScan::malformed_beams`]. A header whose beam count
+/// (`(angle_max - angle_min) / angle_increment + 1`) disagrees with the ranges, or a
+/// zero angle increment, makes the message bad ([`DecodeError::Scan`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LaserScanMsg {
+    /// Sequence number of the ROS header.
+    pub seq: u32,
+    /// The scan (stamp and frame from the ROS header).
+    pub scan: LaserScan,
+    /// Direction of the last beam as the message states it, rad.
+    pub angle_max_rad: f64,
+    /// Time between beams, s.
+    pub time_increment_s: f64,
+    /// Time between scans, s.
+    pub scan_time_s: f64,
+    /// Intensities (often empty).
+    pub intensities: Vec<f32>,
+}
+
+/// `sensor_msgs/LaserScan` exactly as serialised, before any interpretation; what
+/// [`LaserScanMsg`] is built from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RawLaserScan {
+    /// ROS header.
+    pub header: Header,
+    /// Direction of the first beam, rad.
+    pub angle_min: f32,
+    /// Direction of the last beam, rad.
+    pub angle_max: f32,
+    /// Angle between beams, rad.
+    pub angle_increment: f32,
+    /// Time between beams, s.
+    pub time_increment: f32,
+    /// Time between scans, s.
+    pub scan_time: f32,
+    /// Shortest valid range, m.
+    pub range_min: f32,
+    /// Longest valid range, m.
+    pub range_max: f32,
+    /// Ranges as sent, m.
+    pub ranges: Vec<f32>,
+    /// Intensities as sent.
+    pub intensities: Vec<f32>,
+}
+
+impl RosMessage for RawLaserScan {
+    const TYPE: &'static str = "sensor_msgs/LaserScan";
+    const MD5SUM: &'static str = "90c7ef2dc6895d81024acba2ac42f369";
+
+    fn decode(data: &[u8]) -> Result<Self, DecodeError> {
+        let mut w = Wire::new(data);
+        let msg = RawLaserScan {
+            header: Header::read(&mut w)?,
+            angle_min: w.f32("angle_min")?,
+            angle_max: w.f32("angle_max")?,
+            angle_increment: w.f32("angle_increment")?,
+            time_increment: w.f32("time_increment")?,
+            scan_time: w.f32("scan_time")?,
+            range_min: w.f32("range_min")?,
+            range_max: w.f32("range_max")?,
+            ranges: w.f32_vec("ranges")?,
+            intensities: w.f32_vec("intensities")?,
+        };
+        w.finish()?;
+        Ok(msg)
+    }
+}
+
+impl RawLaserScan {
+    /// Interprets the message as a tether scan (see [`LaserScanMsg`]).
+    pub fn into_msg(self) -> Result<LaserScanMsg, DecodeError> {
+        // A beam count beyond any array (a corrupt angle field) is a length mismatch;
+        // checked here so that it never reaches integer arithmetic.
+        let span = (f64::from(self.angle_max) - f64::from(self.angle_min))
+            / f64::from(self.angle_increment);
+        if span.is_finite() && span.abs() > u32::MAX as f64 {
+            return Err(DecodeError::Scan(tether_core::ScanError::LengthMismatch {
+                expected: usize::MAX,
+                got: self.ranges.len(),
+            }));
+        }
+        let scan = LaserScan::with_angle_max(
+            self.header.stamp,
+            self.header.frame_id,
+            f64::from(self.angle_min),
+            f64::from(self.angle_max),
+            f64::from(self.angle_increment),
+            f64::from(self.range_min),
+            f64::from(self.range_max),
+            self.ranges,
+        )?;
+        Ok(LaserScanMsg {
+            seq: self.header.seq,
+            scan,
+            angle_max_rad: f64::from(self.angle_max),
+            time_increment_s: f64::from(self.time_increment),
+            scan_time_s: f64::from(self.scan_time),
+            intensities: self.intensities,
+        })
+    }
+}
+
+impl RosMessage for LaserScanMsg {
+    const TYPE: &'static str = RawLaserScan::TYPE;
+    const MD5SUM: &'static str = RawLaserScan::MD5SUM;
+
+    fn decode(data: &[u8]) -> Result<Self, DecodeError> {
+        RawLaserScan::decode(data)?.into_msg()
+    }
+}
+
+/// `geometry_msgs/Pose`: a position and an orientation quaternion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose3 {
+    /// Position `[x, y, z]`, m.
+    pub position_m: [f64; 3],
+    /// Orientation quaternion `[x, y, z, w]`.
+    pub orientation: [f64; 4],
+}
+
+impl Pose3 {
+    /// Heading about z, rad: the yaw of the quaternion,
+    /// `atan2(2 (w z + x y), 1 - 2 (y^2 + z^2))`.
+    pub fn yaw_rad(&self) -> f64 {
+        let [x, y, z, w] = self.orientation;
+        (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
+    }
+}
+
+/// `geometry_msgs/PoseArray`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseArrayMsg {
+    /// ROS header (stamp and the frame of the poses).
+    pub header: Header,
+    /// The poses.
+    pub poses: Vec<Pose3>,
+}
+
+impl PoseArrayMsg {
+    /// The poses' positions projected on the x-y plane, in frame `F`: the caller names
+    /// the tether frame that `header.frame_id` stands for.
+    pub fn positions_2d<F: Frame>(&self) -> Vec<Point2<F>> {
+        self.poses
+            .iter()
+            .map(|p| Point2::new(p.position_m[0], p.position_m[1]))
+            .collect()
+    }
+}
+
+impl RosMessage for PoseArrayMsg {
+    const TYPE: &'static str = "geometry_msgs/PoseArray";
+    const MD5SUM: &'static str = "916c28c5764443f268b296bb671b9d97";
+
+    fn decode(data: &[u8]) -> Result<Self, DecodeError> {
+        let mut w = Wire::new(data);
+        let header = Header::read(&mut w)?;
+        let n = w.count("poses", 7 * 8)?;
+        let mut poses = Vec::with_capacity(n);
+        for _ in 0..n {
+            let position_m = [
+                w.f64("poses.position")?,
+                w.f64("poses.position")?,
+                w.f64("poses.position")?,
+            ];
+            let orientation = [
+                w.f64("poses.orientation")?,
+                w.f64("poses.orientation")?,
+                w.f64("poses.orientation")?,
+                w.f64("poses.orientation")?,
+            ];
+            poses.push(Pose3 {
+                position_m,
+                orientation,
+            });
+        }
+        w.finish()?;
+        Ok(PoseArrayMsg { header, poses })
+    }
+}
+
+/// Serialises messages the way ROS 1 does; used to build test bags.
+#[cfg(test)]
+pub(crate) mod encode {
+    pub(crate) fn header(out: &mut Vec<u8>, seq: u32, stamp_ns: i64, frame_id: &str) {
+        out.extend(seq.to_le_bytes());
+        out.extend(((stamp_ns / 1_000_000_000) as u32).to_le_bytes());
+        out.extend(((stamp_ns % 1_000_000_000) as u32).to_le_bytes());
+        out.extend((frame_id.len() as u32).to_le_bytes());
+        out.extend(frame_id.as_bytes());
+    }
+
+    /// A LaserScan message with the given geometry and ranges.
+    pub(crate) fn laser_scan(
+        stamp_ns: i64,
+        frame_id: &str,
+        angle_min: f32,
+        angle_increment: f32,
+        ranges: &[f32],
+    ) -> Vec<u8> {
+        let mut out = Vec::new();
+        header(&mut out, 7, stamp_ns, frame_id);
+        let angle_max = angle_min + angle_increment * (ranges.len() as f32 - 1.0);
+        for v in [angle_min, angle_max, angle_increment, 1e-4, 0.1, 0.02, 5.6] {
+            out.extend(v.to_le_bytes());
+        }
+        out.extend((ranges.len() as u32).to_le_bytes());
+        for r in ranges {
+            out.extend(r.to_le_bytes());
+        }
+        out.extend(0u32.to_le_bytes());
+        out
+    }
+
+    /// A PoseArray of points on the x-y plane with identity orientation.
+    pub(crate) fn pose_array(stamp_ns: i64, frame_id: &str, xy: &[(f64, f64)]) -> Vec<u8> {
+        let mut out = Vec::new();
+        header(&mut out, 0, stamp_ns, frame_id);
+        out.extend((xy.len() as u32).to_le_bytes());
+        for &(x, y) in xy {
+            for v in [x, y, 0.0, 0.0, 0.0, 0.0, 1.0] {
+                out.extend(v.to_le_bytes());
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tether_core::Laser;
+
+    #[test]
+    fn decodes_a_laser_scan() {
+        let data = encode::laser_scan(
+            1_500_000_000,
+            "laser",
+            -0.5,
+            0.25,
+            &[1.0, f32::INFINITY, 0.0, f32::NAN, 2.0],
+        );
+        let m = LaserScanMsg::decode(&data).unwrap();
+        assert_eq!(m.seq, 7);
+        assert_eq!(m.scan.stamp, Stamp::from_ns(1_500_000_000));
+        assert_eq!(m.scan.frame_id, "laser");
+        assert_eq!(m.scan.len(), 5);
+        assert_eq!(m.scan.range_m(0), Some(1.0));
+        assert_eq!(m.scan.range_m(2), None, "below range_min is no return");
+        assert_eq!(m.scan.malformed_beams(), 1, "NaN is counted");
+        assert!((m.angle_max_rad - 0.5).abs() < 1e-6);
+        assert!((m.scan_time_s - 0.1).abs() < 1e-6);
+    }
+
+    #[test]
+    fn refuses_inconsistent_scans() {
+        let mut data = encode::laser_scan(0, "l", -0.5, 0.25, &[1.0; 5]);
+        // angle_increment (after header of 4 + 8 + 4 + 1 bytes and two f32) := 0
+        let at = 17 + 8;
+        data[at..at + 4].copy_from_slice(&0f32.to_le_bytes());
+        assert!(matches!(
+            LaserScanMsg::decode(&data),
+            Err(DecodeError::Scan(
+                tether_core::ScanError::BadAngleIncrement(_)
+            ))
+        ));
+        // angle_max says 6 beams, 5 are there.
+        let mut data = encode::laser_scan(0, "l", -0.5, 0.25, &[1.0; 5]);
+        data[21..25].copy_from_slice(&0.75f32.to_le_bytes());
+        assert!(matches!(
+            LaserScanMsg::decode(&data),
+            Err(DecodeError::Scan(
+                tether_core::ScanError::LengthMismatch { .. }
+            ))
+        ));
+    }
+
+    #[test]
+    fn refuses_absurd_beam_counts() {
+        // angle_max - angle_min of 1e30 increments: no scan has that many beams.
+        let mut data = encode::laser_scan(0, "l", -0.5, 0.25, &[1.0; 5]);
+        data[21..25].copy_from_slice(&1e30f32.to_le_bytes());
+        data[25..29].copy_from_slice(&1e-10f32.to_le_bytes());
+        assert!(matches!(
+            LaserScanMsg::decode(&data),
+            Err(DecodeError::Scan(
+                tether_core::ScanError::LengthMismatch { .. }
+            ))
+        ));
+    }
+
+    #[test]
+    fn refuses_truncated_and_padded_payloads() {
+        let data = encode::laser_scan(0, "laser", -0.5, 0.25, &[1.0; 5]);
+        for cut in 0..data.len() {
+            assert!(
+                RawLaserScan::decode(&data[..cut]).is_err(),
+                "a scan cut at {cut} must not decode"
+            );
+        }
+        let mut padded = data.clone();
+        padded.push(0);
+        assert_eq!(
+            RawLaserScan::decode(&padded),
+            Err(DecodeError::TrailingBytes { extra: 1 })
+        );
+        // A huge array length is refused before allocating.
+        let mut huge = data[..data.len() - 4 - 5 * 4 - 4].to_vec();
+        huge.extend(u32::MAX.to_le_bytes());
+        assert!(matches!(
+            RawLaserScan::decode(&huge),
+            Err(DecodeError::Truncated {
+                field: "ranges",
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn decodes_a_pose_array() {
+        let data = encode::pose_array(0, "right_laser", &[(1.5, -0.25), (2.0, 0.5)]);
+        let m = PoseArrayMsg::decode(&data).unwrap();
+        assert_eq!(m.header.frame_id, "right_laser");
+        let pts = m.positions_2d::<Laser>();
+        assert_eq!(pts, vec![Point2::new(1.5, -0.25), Point2::new(2.0, 0.5)]);
+        assert_eq!(m.poses[0].yaw_rad(), 0.0);
+        for cut in 0..data.len() {
+            assert!(PoseArrayMsg::decode(&data[..cut]).is_err());
+        }
+        let mut lying = data.clone();
+        let n_at = 4 + 8 + 4 + "right_laser".len();
+        lying[n_at..n_at + 4].copy_from_slice(&1_000_000u32.to_le_bytes());
+        assert!(matches!(
+            PoseArrayMsg::decode(&lying),
+            Err(DecodeError::Truncated { field: "poses", .. })
+        ));
+    }
+
+    #[test]
+    fn yaw_of_a_quarter_turn() {
+        let h = std::f64::consts::FRAC_PI_4;
+        let p = Pose3 {
+            position_m: [0.0; 3],
+            orientation: [0.0, 0.0, h.sin(), h.cos()],
+        };
+        assert!((p.yaw_rad() - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,349 @@
+//! The per-scan detector: pre-process, segment, find legs (arc test or learned
+//! classifier), pair them into people.
+
+use serde::{Deserialize, Serialize};
+use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
+use thiserror::Error;
+
+use crate::arc::{ArcTestConfig, arc_test};
+use crate::classifier::LegClassifier;
+use crate::features::{Candidate, FeatureScratch, add_context, segment_features};
+use crate::fit::centroid;
+use crate::people::{Leg, PairScratch, PairingConfig, PersonObservation, pair_legs};
+use crate::preprocess::{BeamTable, PreprocessStats, ScanPoint, preprocess_into};
+use crate::segment::{Breakpoint, Segment, segment_into};
+
+/// A detector configuration that cannot work.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("leg detector configuration is invalid: {0}")]
+pub struct ConfigError(pub String);
+
+/// Which test decides that a segment is a leg.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DetectorKind {
+    /// The paper's arc test ([`crate::arc`]).
+    Arc,
+    /// The learned classifier ([`crate::classifier`]).
+    Learned,
+}
+
+/// Parameters of the leg detector. Every field has the default it documents.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DetectorConfig {
+    /// Segmentation rule (default: adaptive breakpoint, lambda = 10 deg).
+    pub breakpoint: Breakpoint,
+    /// Fewest returns in a leg candidate (default 3).
+    pub min_points: usize,
+    /// Widest candidate segment, first to last return, m (default 0.5: wider than two
+    /// legs side by side, so no leg).
+    pub max_width_m: f64,
+    /// The arc test. Its diameter range also bounds the learned detector's radius
+    /// estimate.
+    pub arc: ArcTestConfig,
+    /// Pairing and covariance.
+    pub pairing: PairingConfig,
+}
+
+impl Default for DetectorConfig {
+    fn default() -> Self {
+        DetectorConfig {
+            breakpoint: Breakpoint::default(),
+            min_points: 3,
+            max_width_m: 0.5,
+            arc: ArcTestConfig::default(),
+            pairing: PairingConfig::default(),
+        }
+    }
+}
+
+impl DetectorConfig {
+    /// Checks every parameter.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.breakpoint.validate().map_err(ConfigError)?;
+        self.arc.validate().map_err(ConfigError)?;
+        self.pairing.validate().map_err(ConfigError)?;
+        if self.min_points < 3 {
+            return Err(ConfigError(format!(
+                "min_points must be >= 3 (three points define an arc), got {}",
+                self.min_points
+            )));
+        }
+        if !(self.max_width_m.is_finite() && self.max_width_m > 0.0) {
+            return Err(ConfigError(format!(
+                "max_width_m must be > 0, got {}",
+                self.max_width_m
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Counts for one scan.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct DetectionStats {
+    /// Pre-processing counts.
+    pub preprocess: PreprocessStats,
+    /// Segments found.
+    pub segments: usize,
+    /// Segments that were tested as legs.
+    pub candidates: usize,
+}
+
+/// What one scan shows: legs and people, in the scan's frame.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Detection {
+    /// Leg candidates that passed the test.
+    pub legs: Vec<Leg>,
+    /// Person observations built from them.
+    pub people: Vec<PersonObservation>,
+    /// Counts.
+    pub stats: DetectionStats,
+}
+
+/// Detects legs and people in scans, one call per scan.
+///
+/// It keeps its buffers between calls, so after the first scan a call allocates only
+/// when a scan has more of something than any before. Pure computation: no I/O, no
+/// clock; the same scans give the same detections.
+#[derive(Debug, Clone)]
+pub struct LegDetector {
+    config: DetectorConfig,
+    noise: RangeNoiseModel,
+    classifier: Option<LegClassifier>,
+    table: BeamTable,
+    points: Vec<ScanPoint>,
+    segments: Vec<Segment>,
+    candidates: Vec<Candidate>,
+    scratch: FeatureScratch,
+    pair_scratch: PairScratch,
+}
+
+impl LegDetector {
+    /// A detector using the paper's arc test.
+    pub fn arc(config: DetectorConfig, noise: RangeNoiseModel) -> Result<Self, ConfigError> {
+        Self::new(config, noise, None)
+    }
+
+    /// A detector using a learned classifier.
+    pub fn learned(
+        config: DetectorConfig,
+        noise: RangeNoiseModel,
+        classifier: LegClassifier,
+    ) -> Result<Self, ConfigError> {
+        classifier
+            .validate()
+            .map_err(|e| ConfigError(e.to_string()))?;
+        Self::new(config, noise, Some(classifier))
+    }
+
+    fn new(
+        config: DetectorConfig,
+        noise: RangeNoiseModel,
+        classifier: Option<LegClassifier>,
+    ) -> Result<Self, ConfigError> {
+        config.validate()?;
+        Ok(LegDetector {
+            config,
+            noise,
+            classifier,
+            table: BeamTable::default(),
+            points: Vec::new(),
+            segments: Vec::new(),
+            candidates: Vec::new(),
+            scratch: FeatureScratch::default(),
+            pair_scratch: PairScratch::default(),
+        })
+    }
+
+    /// Which test this detector runs.
+    pub fn kind(&self) -> DetectorKind {
+        if self.classifier.is_some() {
+            DetectorKind::Learned
+        } else {
+            DetectorKind::Arc
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &DetectorConfig {
+        &self.config
+    }
+
+    /// Detects legs and people in `scan`.
+    pub fn detect(&mut self, scan: &LaserScan) -> Detection {
+        let mut out = Detection::default();
+        self.detect_into(scan, &mut out);
+        out
+    }
+
+    /// Like [`LegDetector::detect`], reusing `out`'s buffers.
+    pub fn detect_into(&mut self, scan: &LaserScan, out: &mut Detection) {
+        out.legs.clear();
+        let learned = self.classifier.is_some();
+        out.stats = self.find_candidates(scan, learned);
+        for c in &self.candidates {
+            let pts = &self.points[c.segment.start..c.segment.end];
+            let leg = match &self.classifier {
+                None => arc_test(pts, &self.config.arc).ok().map(|arc| Leg {
+                    centre_in_laser: arc.centre_in_laser,
+                    radius_m: arc.radius_m,
+                    score: (1.0 - arc.spread_m / self.config.arc.delta_m).clamp(0.0, 1.0),
+                    first_beam: pts[0].beam,
+                    last_beam: pts[pts.len() - 1].beam,
+                    n_points: pts.len(),
+                }),
+                Some(model) => {
+                    let margin = model.margin(&c.features);
+                    (margin >= model.decision_margin).then(|| {
+                        learned_leg(pts, c.centroid_in_laser, &self.config, 0.5 * (margin + 1.0))
+                    })
+                }
+            };
+            out.legs.extend(leg);
+        }
+        pair_legs(
+            &out.legs,
+            scan.angle_increment_rad,
+            &self.noise,
+            &self.config.pairing,
+            &mut self.pair_scratch,
+            &mut out.people,
+        );
+    }
+
+    /// The leg candidates of `scan` with all their features, whatever the detector
+    /// kind: what the classifier is trained and evaluated on.
+    pub fn candidates(&mut self, scan: &LaserScan) -> Vec<Candidate> {
+        self.find_candidates(scan, true);
+        self.candidates.clone()
+    }
+
+    /// Pre-processes and segments `scan`, and keeps the candidate segments (with their
+    /// features if `with_features`) in `self.candidates`.
+    fn find_candidates(&mut self, scan: &LaserScan, with_features: bool) -> DetectionStats {
+        let mut stats = self.segment(scan);
+        self.candidates.clear();
+        for s in 0..self.segments.len() {
+            let seg = self.segments[s];
+            if !self.is_candidate(seg) {
+                continue;
+            }
+            let features = if with_features {
+                segment_features(&self.points, seg, &mut self.scratch)
+            } else {
+                [0.0; crate::features::N_FEATURES]
+            };
+            self.candidates.push(Candidate {
+                segment: seg,
+                centroid_in_laser: centroid(&self.points[seg.start..seg.end]),
+                features,
+            });
+        }
+        if with_features {
+            add_context(&mut self.candidates);
+        }
+        stats.candidates = self.candidates.len();
+        stats
+    }
+
+    /// Pre-processes and segments `scan` into the detector's buffers.
+    fn segment(&mut self, scan: &LaserScan) -> DetectionStats {
+        self.table.update(scan);
+        let preprocess = preprocess_into(scan, &self.noise, &self.table, &mut self.points);
+        segment_into(
+            &self.points,
+            scan.angle_increment_rad,
+            &self.noise,
+            self.config.breakpoint,
+            &mut self.segments,
+        );
+        DetectionStats {
+            preprocess,
+            segments: self.segments.len(),
+            candidates: 0,
+        }
+    }
+
+    fn is_candidate(&self, seg: Segment) -> bool {
+        if seg.len() < self.config.min_points {
+            return false;
+        }
+        let (a, b) = (
+            self.points[seg.start].point_in_laser,
+            self.points[seg.end - 1].point_in_laser,
+        );
+        a.distance_m(b) <= self.config.max_width_m
+    }
+}
+
+/// The leg a classified segment stands for. The returns cover the side facing the
+/// sensor, so their centroid lies in front of the leg's axis: for a circle of
+/// radius `R` whose visible half is sampled evenly across the line of sight, by
+/// `mean(sqrt(R^2 - y^2)) = pi R / 4`. The centre is the centroid moved that far
+/// away from the sensor, with `R` = half the segment's width clamped to the leg
+/// diameter range.
+fn learned_leg(pts: &[ScanPoint], c: Point2<Laser>, config: &DetectorConfig, score: f64) -> Leg {
+    let (first, last) = (pts[0], pts[pts.len() - 1]);
+    let radius_m = (0.5 * first.point_in_laser.distance_m(last.point_in_laser)).clamp(
+        0.5 * config.arc.diameter_min_m,
+        0.5 * config.arc.diameter_max_m,
+    );
+    let range = c.range_m();
+    let push = std::f64::consts::FRAC_PI_4 * radius_m;
+    let centre_in_laser = if range > 0.0 {
+        Point2::new(c.x * (1.0 + push / range), c.y * (1.0 + push / range))
+    } else {
+        c
+    };
+    Leg {
+        centre_in_laser,
+        radius_m,
+        score,
+        first_beam: first.beam,
+        last_beam: last.beam,
+        n_points: pts.len(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn config_round_trips_and_is_checked() {
+        let config = DetectorConfig::default();
+        let json = serde_json::to_string(&config).unwrap();
+        assert!(json.contains("\"rule\":\"adaptive_or_jump\""), "{json}");
+        let back: DetectorConfig = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, config);
+        let partial: DetectorConfig =
+            serde_json::from_str(r#"{"breakpoint": {"rule": "fixed_jump", "jump_m": 0.15}}"#)
+                .unwrap();
+        assert_eq!(partial.breakpoint, Breakpoint::FixedJump { jump_m: 0.15 });
+        assert_eq!(partial.min_points, 3);
+        assert!(serde_json::from_str::<DetectorConfig>(r#"{"min_pts": 3}"#).is_err());
+        let bad = DetectorConfig {
+            min_points: 2,
+            ..DetectorConfig::default()
+        };
+        assert!(LegDetector::arc(bad, RangeNoiseModel::default()).is_err());
+        let bad = DetectorConfig {
+            max_width_m: f64::NAN,
+            ..DetectorConfig::default()
+        };
+        assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn kind_follows_the_constructor() {
+        let arc = LegDetector::arc(DetectorConfig::default(), RangeNoiseModel::default()).unwrap();
+        assert_eq!(arc.kind(), DetectorKind::Arc);
+        let model = LegClassifier::default_model().unwrap();
+        let learned =
+            LegDetector::learned(DetectorConfig::default(), RangeNoiseModel::default(), model)
+                .unwrap();
+        assert_eq!(learned.kind(), DetectorKind::Learned);
+    }
+}

@@ -1,0 +1,52 @@
+//! Laser person detection for tether (SPEC section 4): from a 2-D scan to person
+//! observations with honest covariances.
+//!
+//! The pipeline, one call per scan ([`LegDetector::detect`]):
+//!
+//! 1. [`preprocess`](mod@preprocess): drop beams with no return, subtract the calibrated range bias
+//!    `bias(r)` ([`tether_core::RangeNoiseModel`]).
+//! 2. [`segment`]: split where consecutive returns jump more than Borges and Aldon's
+//!    adaptive breakpoint or a fixed distance.
+//! 3. Leg candidates, by either
+//!    - [`arc`]: the paper's test (bisectors of chords meeting within delta = 40 mm,
+//!      centre behind the arc, leg-sized diameter), or
+//!    - [`classifier`]: AdaBoost on stumps over the segment [`features`] of Arras,
+//!      Mozos and Burgard (2007), trained on labelled recordings ([`training`]); a
+//!      default model is built in ([`LegClassifier::default_model`]).
+//! 4. [`people`]: pair legs within 0.6 m into people at the midpoint, keep lone legs as
+//!    weaker hypotheses, and give each a covariance: the polar range and bearing noise
+//!    propagated to Cartesian plus the spread of the leg midpoint during gait.
+//!
+//! [`calibration`] fits `bias(r)` and `sigma(r)` from measurements at known distances
+//! (the paper's Fig. 9).
+//!
+//! Pure algorithms: no I/O and no clock. Any scan the core type can hold, however
+//! broken its ranges, gives a result and never a panic.
+
+pub mod arc;
+pub mod calibration;
+pub mod classifier;
+pub mod detector;
+pub mod features;
+mod fit;
+pub mod people;
+pub mod preprocess;
+pub mod segment;
+pub mod training;
+
+pub use arc::{ArcLeg, ArcReject, ArcTestConfig, arc_test};
+pub use calibration::{
+    CalibrationConfig, CalibrationError, CalibrationFit, CalibrationSample, RangeStats,
+    fit_range_noise, simulate_samples,
+};
+pub use classifier::{
+    AdaBoostConfig, LegClassifier, ModelError, Node, Provenance, TrainError, Tree, train_adaboost,
+};
+pub use detector::{
+    ConfigError, Detection, DetectionStats, DetectorConfig, DetectorKind, LegDetector,
+};
+pub use features::{Candidate, FEATURE_NAMES, FeatureVector, N_FEATURES};
+pub use fit::Circle;
+pub use people::{Leg, PairingConfig, PersonKind, PersonObservation, pair_legs};
+pub use preprocess::{ScanPoint, preprocess};
+pub use segment::{Breakpoint, Segment};

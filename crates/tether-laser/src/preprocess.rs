@@ -1,0 +1,159 @@
+//! Pre-processing (SPEC 4.1): keep the beams with a return and remove the range bias.
+
+use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
+
+/// One return of a scan after pre-processing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScanPoint {
+    /// Index of the beam in the scan.
+    pub beam: usize,
+    /// Range with the bias removed, `r - bias(r)`, m.
+    pub range_m: f64,
+    /// Direction of the beam, rad.
+    pub bearing_rad: f64,
+    /// The return as a point: `(r cos(bearing), r sin(bearing))`, m.
+    pub point_in_laser: Point2<Laser>,
+}
+
+/// Cosines and sines of a scan's beam directions, kept between scans of the same
+/// geometry so that a scan costs no trigonometry.
+#[derive(Debug, Clone, Default)]
+pub struct BeamTable {
+    angle_min_rad: f64,
+    angle_increment_rad: f64,
+    cos_sin: Vec<(f64, f64)>,
+}
+
+impl BeamTable {
+    /// Makes the table fit `scan` (recomputing it only if the geometry changed).
+    pub fn update(&mut self, scan: &LaserScan) {
+        if self.cos_sin.len() == scan.len()
+            && self.angle_min_rad == scan.angle_min_rad
+            && self.angle_increment_rad == scan.angle_increment_rad
+        {
+            return;
+        }
+        self.angle_min_rad = scan.angle_min_rad;
+        self.angle_increment_rad = scan.angle_increment_rad;
+        self.cos_sin.clear();
+        self.cos_sin.extend((0..scan.len()).map(|i| {
+            let (s, c) = scan.angle_rad(i).sin_cos();
+            (c, s)
+        }));
+    }
+}
+
+/// Pre-processing counts for one scan.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct PreprocessStats {
+    /// Beams with no return (error codes, out of range, malformed), dropped.
+    pub no_return: usize,
+    /// Returns whose bias-corrected range is not a positive finite number, dropped.
+    pub bad_after_correction: usize,
+}
+
+/// Turns the returns of `scan` into points with the range calibration applied:
+/// `r_corrected = r - bias(r)` (SPEC 2.1, 4.1). Beams with no return are dropped (the
+/// scan already maps error codes, NaN and out-of-range values to "no return").
+/// `table` must have been updated for `scan` ([`BeamTable::update`]).
+pub fn preprocess_into(
+    scan: &LaserScan,
+    noise: &RangeNoiseModel,
+    table: &BeamTable,
+    out: &mut Vec<ScanPoint>,
+) -> PreprocessStats {
+    out.clear();
+    let mut stats = PreprocessStats::default();
+    let unbiased = noise.bias_m.0.is_empty();
+    for (beam, (&r, &(c, s))) in scan.ranges_m().iter().zip(&table.cos_sin).enumerate() {
+        if !r.is_finite() {
+            stats.no_return += 1;
+            continue;
+        }
+        let measured_m = f64::from(r);
+        let range_m = if unbiased {
+            measured_m
+        } else {
+            noise.corrected_m(measured_m)
+        };
+        if !(range_m.is_finite() && range_m > 0.0) {
+            stats.bad_after_correction += 1;
+            continue;
+        }
+        out.push(ScanPoint {
+            beam,
+            range_m,
+            bearing_rad: scan.angle_min_rad + beam as f64 * scan.angle_increment_rad,
+            point_in_laser: Point2::new(range_m * c, range_m * s),
+        });
+    }
+    stats
+}
+
+/// [`preprocess_into`] for a one-off call.
+pub fn preprocess(scan: &LaserScan, noise: &RangeNoiseModel) -> Vec<ScanPoint> {
+    let mut table = BeamTable::default();
+    table.update(scan);
+    let mut out = Vec::with_capacity(scan.len());
+    preprocess_into(scan, noise, &table, &mut out);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tether_core::{Polynomial, Stamp};
+
+    #[test]
+    fn drops_no_return_and_removes_bias() {
+        let scan = LaserScan::new(
+            Stamp::ZERO,
+            "laser",
+            0.0,
+            std::f64::consts::FRAC_PI_2,
+            0.02,
+            5.6,
+            vec![1.0, f32::INFINITY, f32::NAN, 2.0],
+        )
+        .unwrap();
+        let noise = RangeNoiseModel {
+            bias_m: Polynomial(vec![0.01, 0.02]),
+            ..RangeNoiseModel::default()
+        };
+        let pts = preprocess(&scan, &noise);
+        assert_eq!(pts.len(), 2);
+        assert_eq!(pts[0].beam, 0);
+        assert!((pts[0].range_m - (1.0 - 0.03)).abs() < 1e-12);
+        assert_eq!(pts[1].beam, 3);
+        // Beam 3 points along 3 * 90 deg = -y.
+        assert!((pts[1].point_in_laser.y + (2.0 - 0.05)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_bias_larger_than_the_range_drops_the_return() {
+        let scan =
+            LaserScan::new(Stamp::ZERO, "laser", 0.0, 0.1, 0.02, 5.6, vec![0.05, 1.0]).unwrap();
+        let noise = RangeNoiseModel {
+            bias_m: Polynomial(vec![0.1]),
+            ..RangeNoiseModel::default()
+        };
+        let mut table = BeamTable::default();
+        table.update(&scan);
+        let mut out = Vec::new();
+        let stats = preprocess_into(&scan, &noise, &table, &mut out);
+        assert_eq!(out.len(), 1);
+        assert_eq!(stats.bad_after_correction, 1);
+    }
+
+    #[test]
+    fn table_follows_the_geometry() {
+        let a = LaserScan::new(Stamp::ZERO, "l", 0.0, 0.1, 0.02, 5.6, vec![1.0; 3]).unwrap();
+        let b = LaserScan::new(Stamp::ZERO, "l", 0.5, 0.1, 0.02, 5.6, vec![1.0; 3]).unwrap();
+        let mut table = BeamTable::default();
+        table.update(&a);
+        table.update(&b);
+        let mut out = Vec::new();
+        preprocess_into(&b, &RangeNoiseModel::default(), &table, &mut out);
+        assert!((out[0].point_in_laser.x - 0.5f64.cos()).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,237 @@
+//! Bad input never panics (issue 3): scans with NaN, negative, infinite or all-missing
+//! ranges, odd angle increments; and the detectors on synthetic URG-04LX scans, where
+//! the truth is known, including determinism.
+//!
+//! A zero angle increment and ranges whose number disagrees with the header cannot
+//! reach the detector: `tether_core::LaserScan` refuses them, and tether-io counts
+//! such messages as bad (its tests cover both).
+
+#![allow(
+    clippy::unwrap_used,
+    reason = "test code: a failed unwrap is a failed test"
+)]
+
+#[path = "support/synthetic.rs"]
+mod synthetic;
+
+use proptest::prelude::*;
+use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel, ScanError, Stamp};
+use tether_laser::{Detection, DetectorConfig, LegClassifier, LegDetector, PersonKind};
+
+fn detectors() -> [LegDetector; 2] {
+    let noise = RangeNoiseModel::default();
+    [
+        LegDetector::arc(DetectorConfig::default(), noise.clone()).unwrap(),
+        LegDetector::learned(
+            DetectorConfig::default(),
+            noise,
+            LegClassifier::default_model().unwrap(),
+        )
+        .unwrap(),
+    ]
+}
+
+fn check(detection: &Detection) {
+    for leg in &detection.legs {
+        assert!(leg.centre_in_laser.is_finite() && leg.radius_m.is_finite());
+        assert!((0.0..=1.0).contains(&leg.score));
+    }
+    for p in &detection.people {
+        assert!(p.estimate.mean.is_finite());
+        assert!(p.estimate.cov.det() > 0.0);
+        assert!((0.0..=1.0).contains(&p.score));
+    }
+}
+
+fn scan(ranges: Vec<f32>) -> LaserScan {
+    LaserScan::new(
+        Stamp::ZERO,
+        "laser",
+        -2.0862,
+        0.006_135_92,
+        0.02,
+        5.6,
+        ranges,
+    )
+    .unwrap()
+}
+
+#[test]
+fn all_missing_nan_negative_and_infinite_scans_give_nothing() {
+    for ranges in [
+        vec![f32::INFINITY; 682],
+        vec![f32::NAN; 682],
+        vec![-1.0; 682],
+        vec![f32::NEG_INFINITY; 682],
+        vec![0.0; 682],
+        vec![1e30; 682],
+        vec![1.0],
+        vec![1.0, 1.0],
+    ] {
+        for mut d in detectors() {
+            let out = d.detect(&scan(ranges.clone()));
+            assert!(
+                out.legs.is_empty() && out.people.is_empty(),
+                "{:?}",
+                &ranges[..1]
+            );
+        }
+    }
+    let nan = scan(vec![f32::NAN; 682]);
+    assert_eq!(nan.malformed_beams(), 682);
+    let mut d = detectors();
+    assert_eq!(d[0].detect(&nan).stats.preprocess.no_return, 682);
+}
+
+#[test]
+fn headers_that_describe_no_scan_are_refused_before_detection() {
+    assert!(matches!(
+        LaserScan::new(Stamp::ZERO, "l", 0.0, 0.0, 0.02, 5.6, vec![1.0; 10]),
+        Err(ScanError::BadAngleIncrement(_))
+    ));
+    assert!(matches!(
+        LaserScan::with_angle_max(Stamp::ZERO, "l", -1.0, 1.0, 0.01, 0.02, 5.6, vec![1.0; 10]),
+        Err(ScanError::LengthMismatch { .. })
+    ));
+}
+
+#[test]
+fn a_clockwise_scanner_finds_the_same_legs() {
+    // The same scan with the beams listed in the other direction.
+    let ccw = synthetic::urg_scan(&synthetic::office_circles(), 0.007, 3);
+    let mut reversed: Vec<f32> = ccw.ranges_m().to_vec();
+    reversed.reverse();
+    let cw = LaserScan::new(
+        Stamp::ZERO,
+        "laser",
+        ccw.angle_max_rad(),
+        -ccw.angle_increment_rad,
+        ccw.range_min_m,
+        ccw.range_max_m,
+        reversed,
+    )
+    .unwrap();
+    let [mut arc, _] = detectors();
+    let sort = |d: &Detection| {
+        let mut v: Vec<(i64, i64)> = d
+            .legs
+            .iter()
+            .map(|l| {
+                (
+                    (l.centre_in_laser.x * 100.0).round() as i64,
+                    (l.centre_in_laser.y * 100.0).round() as i64,
+                )
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let (a, b) = (arc.detect(&ccw), arc.detect(&cw));
+    assert!(!a.legs.is_empty());
+    assert_eq!(sort(&a), sort(&b));
+}
+
+fn near(d: &Detection, x: f64, y: f64, within_m: f64) -> bool {
+    d.people
+        .iter()
+        .any(|p| p.estimate.mean.distance_m(Point2::<Laser>::new(x, y)) < within_m)
+}
+
+#[test]
+fn both_detectors_see_the_walker_in_synthetic_scans() {
+    // A walker with legs at (3.0, -0.9) and (3.05, -1.15): the person is between.
+    let mut hits = [0usize; 2];
+    for seed in 0..10 {
+        let scan = synthetic::urg_scan(&synthetic::office_circles(), 0.007, seed);
+        for (k, d) in detectors().iter_mut().enumerate() {
+            let out = d.detect(&scan);
+            check(&out);
+            if near(&out, 3.03, -1.03, 0.2) {
+                hits[k] += 1;
+            }
+        }
+    }
+    assert!(hits[0] >= 6 && hits[1] >= 8, "arc, learned: {hits:?} of 10");
+}
+
+#[test]
+fn a_pair_gives_one_person_with_a_stride_shaped_covariance() {
+    let scan = synthetic::urg_scan(&synthetic::office_circles(), 0.007, 1);
+    let [_, mut learned] = detectors();
+    let out = learned.detect(&scan);
+    let person = out
+        .people
+        .iter()
+        .find(|p| matches!(p.kind, PersonKind::TwoLegs(_)))
+        .expect("the walker's two legs pair up");
+    let (major, minor, angle) = person.estimate.cov.principal_axes();
+    // The long axis lies along the line through the two legs (the stride).
+    let PersonKind::TwoLegs([i, j]) = person.kind else {
+        unreachable!()
+    };
+    let stride = (out.legs[j].centre_in_laser - out.legs[i].centre_in_laser).angle_rad();
+    let off = (angle - stride).rem_euclid(std::f64::consts::PI);
+    assert!(
+        off.min(std::f64::consts::PI - off) < 0.1,
+        "{angle} vs {stride}"
+    );
+    assert!(major.sqrt() > 0.09 && major.sqrt() < 0.12, "{major}");
+    assert!(minor.sqrt() > 0.03 && minor.sqrt() < 0.05, "{minor}");
+}
+
+#[test]
+fn detection_is_deterministic() {
+    let scans: Vec<LaserScan> = (0..5)
+        .map(|s| synthetic::urg_scan(&synthetic::office_circles(), 0.007, s))
+        .collect();
+    let run = || -> Vec<Detection> {
+        let [mut arc, mut learned] = detectors();
+        scans
+            .iter()
+            .flat_map(|s| [arc.detect(s), learned.detect(s)])
+            .collect()
+    };
+    assert_eq!(run(), run());
+}
+
+/// Any of the values a driver or a corrupt file may produce.
+fn any_range() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        4 => 0.02f32..5.6,
+        1 => Just(f32::NAN),
+        1 => Just(f32::INFINITY),
+        1 => Just(f32::NEG_INFINITY),
+        1 => -10.0f32..0.0,
+        1 => Just(0.0f32),
+        1 => 5.6f32..1e30,
+        1 => Just(f32::MIN_POSITIVE),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    #[test]
+    fn arbitrary_scans_never_panic(
+        ranges in prop::collection::vec(any_range(), 1..800),
+        angle_min in -10.0f64..10.0,
+        increment in prop_oneof![1e-9f64..1e-3, 1e-3f64..0.1, -0.1f64..-1e-3, 0.1f64..7.0],
+        smooth in any::<bool>(),
+    ) {
+        // Half the cases: runs of equal ranges, which make segments (and collinear
+        // points) out of the noise.
+        let ranges: Vec<f32> = if smooth {
+            ranges.iter().enumerate().map(|(i, r)| ranges[i - i % 7].min(*r + 0.0)).collect()
+        } else {
+            ranges
+        };
+        let Ok(scan) = LaserScan::new(Stamp::ZERO, "l", angle_min, increment, 0.02, 5.6, ranges) else {
+            return Ok(());
+        };
+        for mut d in detectors() {
+            let out = d.detect(&scan);
+            check(&out);
+            prop_assert!(out.stats.candidates <= out.stats.segments);
+        }
+    }
+}
