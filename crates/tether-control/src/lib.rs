@@ -12,7 +12,7 @@ pub mod limits;
 pub mod safety;
 pub mod spring;
 
-pub use limits::{LimitsError, MotionLimits, Twist};
+pub use limits::{LimitsError, MotionLimits, MotionState, Twist};
 pub use safety::{SafetyConfig, StopReason};
 pub use spring::{
     PersonInRobot, SpringConfig, SpringConfigError, SpringGains, SpringVariant, VirtualSpring,

@@ -36,7 +36,8 @@ impl Twist {
 pub struct MotionLimits {
     /// Top forward speed, m/s.
     pub max_speed_mps: f64,
-    /// Top reverse speed, m/s (0: never reverse; the laser does not see behind).
+    /// Top reverse speed, m/s (0: never reverse). The laser does not see behind, so the
+    /// pipeline only reverses along the path the robot has just driven.
     pub max_reverse_mps: f64,
     /// Top turn rate, rad/s.
     pub max_turn_radps: f64,
@@ -50,19 +51,26 @@ pub struct MotionLimits {
     pub max_decel_mps2: f64,
     /// Largest change of turn rate, rad/s^2.
     pub max_angular_accel_radps2: f64,
+    /// Largest change of the linear acceleration, m/s^3 (smoothness; emergency stops
+    /// ignore it).
+    pub max_jerk_mps3: f64,
+    /// Largest change of the angular acceleration, rad/s^3.
+    pub max_angular_jerk_radps3: f64,
 }
 
 impl Default for MotionLimits {
     fn default() -> Self {
         MotionLimits {
             max_speed_mps: 1.4,
-            max_reverse_mps: 0.0,
+            max_reverse_mps: 0.2,
             max_turn_radps: 1.8,
             max_wheel_speed_mps: 1.6,
             track_width_m: 0.3,
             max_accel_mps2: 1.2,
             max_decel_mps2: 2.5,
             max_angular_accel_radps2: 4.0,
+            max_jerk_mps3: 10.0,
+            max_angular_jerk_radps3: 30.0,
         }
     }
 }
@@ -90,6 +98,8 @@ impl MotionLimits {
             ("max_accel_mps2", self.max_accel_mps2),
             ("max_decel_mps2", self.max_decel_mps2),
             ("max_angular_accel_radps2", self.max_angular_accel_radps2),
+            ("max_jerk_mps3", self.max_jerk_mps3),
+            ("max_angular_jerk_radps3", self.max_angular_jerk_radps3),
         ] {
             if !(value.is_finite() && value > 0.0) {
                 return Err(LimitsError {
@@ -171,6 +181,57 @@ impl MotionLimits {
     pub fn apply(&self, previous: Twist, desired: Twist, dt_s: f64) -> Twist {
         self.saturate(self.limit_acceleration(previous, self.saturate(desired), dt_s))
     }
+
+    /// Saturation, jerk and acceleration limits from the previous motion state: the
+    /// acceleration moves towards the one `desired` asks for by at most
+    /// `max_jerk * dt`, then the acceleration limits apply. With `emergency` the jerk
+    /// limit is skipped (braking as hard as allowed at once).
+    pub fn apply_smooth(
+        &self,
+        previous: MotionState,
+        desired: Twist,
+        dt_s: f64,
+        emergency: bool,
+    ) -> MotionState {
+        if !dt_s.is_finite() || dt_s <= 0.0 {
+            return previous;
+        }
+        let target = self.saturate(desired);
+        let want_av = (target.v_mps - previous.twist.v_mps) / dt_s;
+        let want_aw = (target.w_radps - previous.twist.w_radps) / dt_s;
+        let (av, aw) = if emergency {
+            (want_av, want_aw)
+        } else {
+            let jv = self.max_jerk_mps3 * dt_s;
+            let jw = self.max_angular_jerk_radps3 * dt_s;
+            (
+                previous.accel_mps2 + (want_av - previous.accel_mps2).clamp(-jv, jv),
+                previous.angular_accel_radps2
+                    + (want_aw - previous.angular_accel_radps2).clamp(-jw, jw),
+            )
+        };
+        let stepped = Twist {
+            v_mps: previous.twist.v_mps + av * dt_s,
+            w_radps: previous.twist.w_radps + aw * dt_s,
+        };
+        let twist = self.saturate(self.limit_acceleration(previous.twist, stepped, dt_s));
+        MotionState {
+            twist,
+            accel_mps2: (twist.v_mps - previous.twist.v_mps) / dt_s,
+            angular_accel_radps2: (twist.w_radps - previous.twist.w_radps) / dt_s,
+        }
+    }
+}
+
+/// The commanded motion and its rate of change, for jerk limiting.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MotionState {
+    /// The command.
+    pub twist: Twist,
+    /// Its linear acceleration, m/s^2.
+    pub accel_mps2: f64,
+    /// Its angular acceleration, rad/s^2.
+    pub angular_accel_radps2: f64,
 }
 
 #[cfg(test)]
@@ -203,8 +264,31 @@ mod tests {
     }
 
     #[test]
-    fn no_reverse_by_default_and_nan_stops() {
+    fn jerk_is_bounded_unless_braking_in_an_emergency() {
         let lim = MotionLimits::default();
+        let dt = 0.05;
+        let mut s = MotionState::default();
+        let go = Twist {
+            v_mps: 1.0,
+            w_radps: 0.0,
+        };
+        let mut last_a = 0.0;
+        for _ in 0..40 {
+            s = lim.apply_smooth(s, go, dt, false);
+            assert!((s.accel_mps2 - last_a).abs() <= lim.max_jerk_mps3 * dt + 1e-9);
+            last_a = s.accel_mps2;
+        }
+        assert!((s.twist.v_mps - 1.0).abs() < 1e-6);
+        let stopped = lim.apply_smooth(s, Twist::STOP, dt, true);
+        assert!((stopped.twist.v_mps - (1.0 - lim.max_decel_mps2 * dt)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn no_reverse_by_default_and_nan_stops() {
+        let lim = MotionLimits {
+            max_reverse_mps: 0.0,
+            ..MotionLimits::default()
+        };
         assert_eq!(
             lim.saturate(Twist {
                 v_mps: -0.5,

@@ -152,12 +152,26 @@ impl TargetSelector {
     }
 
     /// Updates the state from the current tracks; `world_from_robot` is the robot's pose
-    /// at `now`.
+    /// at `now`. Every person is taken to be in the camera's view (see
+    /// [`TargetSelector::update_with_view`]).
     pub fn update(
         &mut self,
         now: Stamp,
         tracks: &[Track],
         world_from_robot: Pose2<World, Robot>,
+    ) -> TargetState {
+        self.update_with_view(now, tracks, world_from_robot, &|_| true)
+    }
+
+    /// Like [`TargetSelector::update`], with `camera_sees` telling whether a point is in
+    /// the camera's field of view: a lost target that reappears outside it can be
+    /// re-acquired by the laser alone, while inside it the camera must vouch too.
+    pub fn update_with_view(
+        &mut self,
+        now: Stamp,
+        tracks: &[Track],
+        world_from_robot: Pose2<World, Robot>,
+        camera_sees: &dyn Fn(tether_core::Point2<World>) -> bool,
     ) -> TargetState {
         let fresh = |t: &Track| now.secs_since(t.last_update) <= self.config.lost_after_s;
         self.state = match self.state {
@@ -196,14 +210,26 @@ impl TargetSelector {
                 }
             },
             TargetState::Lost { track, .. } => {
+                // While lost, a track only counts if both sensors vouch for it again (when
+                // both are in use): a coasting track can latch onto a pillar or a table
+                // leg that the camera would never call a person.
+                let window = self.config.both_sensors_window_s;
+                let vouched = |t: &Track| {
+                    !self.config.require_both_sensors
+                        || t.seen_by_both(now, window)
+                        || !camera_sees(t.position().mean)
+                };
                 // The same track came back: the tracker kept its identity.
-                if tracks.iter().any(|t| t.id == track && fresh(t)) {
+                if tracks
+                    .iter()
+                    .any(|t| t.id == track && fresh(t) && vouched(t))
+                {
                     self.stats.reacquisitions += 1;
                     TargetState::Locked { track }
                 } else if let Some(predicted) = self.lost_prediction(now) {
                     let candidates: Vec<&Track> = tracks
                         .iter()
-                        .filter(|t| t.confirmed && fresh(t))
+                        .filter(|t| t.confirmed && fresh(t) && vouched(t))
                         .filter(|t| {
                             let p = t.position();
                             let s = predicted.cov.add(&p.cov);

@@ -13,13 +13,15 @@
 //! - `per_frame`: the paper's complementary fusion, frame by frame, with no memory: the
 //!   target is the fused laser-vision pair nearest the heading.
 
+pub mod follow;
 pub mod vision;
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use tether_control::{
-    MotionLimits, PersonInRobot, SafetyConfig, SpringConfig, StopReason, Twist, VirtualSpring,
+    MotionLimits, MotionState, PersonInRobot, SafetyConfig, SpringConfig, StopReason, Twist,
+    VirtualSpring,
 };
 use tether_core::{
     CameraModel, Gaussian2, Laser, LaserModel, LaserScan, Point2, Pose2, Robot, Stamp, Vector2,
@@ -240,6 +242,8 @@ pub struct Pipeline {
     last_laser_people: Option<(Stamp, Vec<Gaussian2<World>>)>,
     obstacle_points: Vec<Point2<Robot>>,
     per_frame_target: Option<(Stamp, Gaussian2<World>)>,
+    trails: follow::Trails,
+    motion: MotionState,
     stats: PipelineStats,
 }
 
@@ -292,6 +296,8 @@ impl Pipeline {
             last_laser_people: None,
             obstacle_points: Vec::new(),
             per_frame_target: None,
+            trails: follow::Trails::default(),
+            motion: MotionState::default(),
             stats: PipelineStats::default(),
             config,
         })
@@ -563,8 +569,25 @@ impl Pipeline {
             .clamp(0.0, 0.2);
         self.last_tick = Some(stamp);
         if self.config.fusion.mode == FusionMode::Tracker {
-            self.selector
-                .update(stamp, self.tracker.tracks(), world_from_robot);
+            let camera = self.config.camera;
+            let half_fov = 0.5 * camera.horizontal_fov_rad();
+            let max_range = self.config.vision.max_range_m;
+            let world_from_camera = world_from_robot * camera.robot_from_camera();
+            let camera_from_world = world_from_camera.inverse();
+            let use_vision = self.config.fusion.use_vision;
+            let camera_sees = move |p: Point2<World>| {
+                let q = camera_from_world * p;
+                use_vision
+                    && q.x > 0.3
+                    && q.range_m() <= max_range
+                    && q.bearing_rad().abs() <= half_fov
+            };
+            self.selector.update_with_view(
+                stamp,
+                self.tracker.tracks(),
+                world_from_robot,
+                &camera_sees,
+            );
         }
         let target = self.target_view();
 
@@ -585,17 +608,44 @@ impl Pipeline {
                     .watchdog(stamp, self.last_scan, last_target_update)
             }
         };
+        self.trails
+            .record_robot(stamp, world_from_robot.translation());
+        if let (Some(id), Some(estimate), TargetState::Locked { .. }) =
+            (target.id, target.estimate, target.state)
+        {
+            self.trails.record_target(id, estimate.mean);
+        }
+        let safety = &self.config.safety;
         let desired = match (stop, target.estimate) {
             (None, Some(estimate)) => {
                 let robot_from_world = world_from_robot.inverse();
-                let p = robot_from_world * estimate.mean;
+                let attach =
+                    world_from_robot * Point2::new(self.config.follower.attach_ahead_m, 0.0);
+                let obstacles: Vec<Point2<World>> = self
+                    .obstacle_points
+                    .iter()
+                    .map(|p| world_from_robot * *p)
+                    .collect();
+                let aim = self.trails.aim(
+                    world_from_robot,
+                    attach,
+                    estimate.mean,
+                    &obstacles,
+                    safety.robot_radius_m + safety.corridor_margin_m,
+                );
+                // The spring sees a person in the aim's direction at the (possibly
+                // along-the-trail) distance.
+                let direction = aim.point - attach;
+                let norm = direction.norm().max(1e-6);
+                let virtual_person =
+                    robot_from_world * (attach + direction * (aim.distance_m / norm));
                 let vx = target
                     .velocity
                     .map_or(0.0, |v| robot_from_world.rotate(v).x);
                 let (v, w) = self.spring.step(
                     &PersonInRobot {
-                        x_m: p.x,
-                        y_m: p.y,
+                        x_m: virtual_person.x,
+                        y_m: virtual_person.y,
                         vx_mps: vx,
                     },
                     dt_s,
@@ -612,16 +662,29 @@ impl Pipeline {
         };
         let mut desired = desired;
         if desired.v_mps > 0.0
-            && self
-                .config
-                .safety
+            && safety
                 .obstacle_ahead_m(self.obstacle_points.iter().copied())
                 .is_some()
         {
             desired.v_mps = 0.0;
             stop = stop.or(Some(StopReason::Obstacle));
         }
-        let command = self.config.limits.apply(self.command, desired, dt_s);
+        if desired.v_mps < 0.0
+            && !self
+                .trails
+                .may_reverse(stamp, world_from_robot, safety.robot_radius_m)
+        {
+            desired.v_mps = 0.0;
+        }
+        let emergency = matches!(
+            stop,
+            Some(StopReason::Obstacle | StopReason::StaleLaser | StopReason::StaleTarget)
+        );
+        self.motion = self
+            .config
+            .limits
+            .apply_smooth(self.motion, desired, dt_s, emergency);
+        let command = self.motion.twist;
         self.spring.sync(command.v_mps, command.w_radps);
         self.command = command;
         Tick {
