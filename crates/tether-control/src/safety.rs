@@ -19,6 +19,9 @@ pub struct SafetyConfig {
     pub robot_radius_m: f64,
     /// Extra width on each side of the footprint's corridor, m.
     pub corridor_margin_m: f64,
+    /// For this long after losing the target the robot, standing, turns on the spot
+    /// towards where the target should be, s (0: it only stands).
+    pub search_turn_s: f64,
 }
 
 impl Default for SafetyConfig {
@@ -29,6 +32,7 @@ impl Default for SafetyConfig {
             stop_distance_m: 0.35,
             robot_radius_m: 0.2,
             corridor_margin_m: 0.05,
+            search_turn_s: 3.0,
         }
     }
 }
@@ -98,6 +102,43 @@ impl SafetyConfig {
     }
 }
 
+impl SafetyConfig {
+    /// Distance along the arc the robot drives at turn rate `w` for speed `v` (> 0) to
+    /// the first return its footprint (plus margin) would touch, if that happens within
+    /// the stop distance; `None` when the arc is clear. The straight corridor of
+    /// [`SafetyConfig::obstacle_ahead_m`] misses what a turning robot sweeps into.
+    pub fn obstacle_on_arc_m(
+        &self,
+        points_in_robot: &[Point2<Robot>],
+        v_mps: f64,
+        w_radps: f64,
+    ) -> Option<f64> {
+        if !(v_mps > 0.0) || !w_radps.is_finite() {
+            return None;
+        }
+        let reach = self.robot_radius_m + self.corridor_margin_m;
+        let curvature = w_radps / v_mps;
+        let steps = 12;
+        let length = self.stop_distance_m;
+        // Poses along the arc, from just ahead of the start.
+        (1..=steps).find_map(|k| {
+            let s = length * f64::from(k) / f64::from(steps);
+            let (x, y) = if curvature.abs() < 1e-6 {
+                (s, 0.0)
+            } else {
+                let th = curvature * s;
+                (th.sin() / curvature, (1.0 - th.cos()) / curvature)
+            };
+            let centre = Point2::<Robot>::new(x, y);
+            points_in_robot
+                .iter()
+                .filter(|p| p.is_finite() && p.x > -0.05)
+                .any(|p| p.distance_m(centre) < reach)
+                .then_some(s)
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -119,6 +160,18 @@ mod tests {
             s.watchdog(at(1000), Some(at(950)), Some(at(400))),
             Some(StopReason::StaleTarget)
         );
+    }
+
+    #[test]
+    fn a_turning_robot_sees_what_it_will_sweep() {
+        let s = SafetyConfig::default();
+        // A chair leg ahead-left, clear of the straight corridor.
+        let leg = [Point2::<Robot>::new(0.45, 0.33)];
+        assert_eq!(s.obstacle_ahead_m(leg), None);
+        assert_eq!(s.obstacle_on_arc_m(&leg, 0.5, 0.0), None);
+        assert!(s.obstacle_on_arc_m(&leg, 0.5, 1.5).is_some(), "turning left into it");
+        assert_eq!(s.obstacle_on_arc_m(&leg, 0.5, -1.5), None, "turning away");
+        assert_eq!(s.obstacle_on_arc_m(&leg, 0.0, 1.5), None, "turning on the spot");
     }
 
     #[test]

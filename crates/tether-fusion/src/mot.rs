@@ -133,6 +133,11 @@ impl ClearMot {
         self.previous = current;
     }
 
+    /// The correspondences of the last frame: object id -> hypothesis id.
+    pub fn current_matches(&self) -> &BTreeMap<u64, u64> {
+        &self.previous
+    }
+
     /// The figures so far.
     pub fn summary(&self) -> MotSummary {
         let mota = if self.objects > 0 {

@@ -64,15 +64,13 @@ impl Trails {
         self.target_id = None;
     }
 
-    /// Records where the target `id` is.
+    /// Records where the target `id` is. A new id after a re-acquisition is the same
+    /// person: the trail carries on.
     pub fn record_target(&mut self, id: u64, p: Point2<World>) {
         if !p.is_finite() {
             return;
         }
-        if self.target_id != Some(id) {
-            self.target.clear();
-            self.target_id = Some(id);
-        }
+        self.target_id = Some(id);
         if self
             .target
             .back()

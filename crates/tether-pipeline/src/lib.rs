@@ -244,6 +244,7 @@ pub struct Pipeline {
     per_frame_target: Option<(Stamp, Gaussian2<World>)>,
     trails: follow::Trails,
     motion: MotionState,
+    heights: std::collections::BTreeMap<u64, vision::LearnedHeight>,
     stats: PipelineStats,
 }
 
@@ -298,6 +299,7 @@ impl Pipeline {
             per_frame_target: None,
             trails: follow::Trails::default(),
             motion: MotionState::default(),
+            heights: std::collections::BTreeMap::new(),
             stats: PipelineStats::default(),
             config,
         })
@@ -410,9 +412,61 @@ impl Pipeline {
     ) -> Tick {
         let people: Vec<vision::VisionPerson> = boxes
             .iter()
-            .filter_map(|b| vision::vision_person(&self.config.camera, &self.config.vision, b))
+            .filter_map(|b| self.vision_person(stamp, b, world_from_robot))
             .collect();
         self.on_camera(stamp, &people, world_from_robot)
+    }
+
+    /// The monocular model for one box, with the head height learned for the track the
+    /// box's bearing points at (when exactly one does): each person's own height, learned
+    /// while the laser measured their range, removes the range error an assumed height
+    /// makes, which matters when the laser loses them.
+    fn vision_person(
+        &mut self,
+        stamp: Stamp,
+        b: &tether_core::PixelBox,
+        world_from_robot: Pose2<World, Robot>,
+    ) -> Option<vision::VisionPerson> {
+        let camera = self.config.camera;
+        let base = vision::vision_person(&camera, &self.config.vision, b)?;
+        let world_from_camera = world_from_robot * camera.robot_from_camera();
+        let camera_from_world = world_from_camera.inverse();
+        let box_bearing = base.bearing_rad - camera.mount.yaw_rad;
+        // Tracks whose predicted bearing from the camera matches the box's.
+        let gate = (4.0 * base.bearing_sigma_rad).max(0.04);
+        let candidates: Vec<(u64, f64, bool)> = self
+            .tracker
+            .tracks()
+            .iter()
+            .filter(|t| t.confirmed)
+            .filter_map(|t| {
+                let q = camera_from_world * t.position().mean;
+                (q.x > 0.3 && (q.bearing_rad() - box_bearing).abs() < gate).then(|| {
+                    let supported = t.last_laser.is_some_and(|l| stamp.secs_since(l) <= 0.15);
+                    (t.id, q.range_m(), supported)
+                })
+            })
+            .collect();
+        let [(track, distance_m, supported)] = candidates.as_slice() else {
+            return Some(base);
+        };
+        if *supported
+            && let Some(h) = vision::implied_head_height_m(&camera, &self.config.vision, b, *distance_m)
+            && (1.2..=2.3).contains(&h)
+        {
+            self.heights.entry(*track).or_default().add(h);
+        }
+        match self.heights.get(track) {
+            Some(learned) if learned.n >= 5 => {
+                let own = vision::VisionConfig {
+                    head_height_m: learned.mean_m,
+                    head_height_sigma_m: learned.sigma_of_mean_m(self.config.vision.head_height_sigma_m).max(0.01),
+                    ..self.config.vision.clone()
+                };
+                vision::vision_person(&camera, &own, b).or(Some(base))
+            }
+            _ => Some(base),
+        }
     }
 
     /// One camera frame's people (positions in the robot frame from the monocular
@@ -568,6 +622,8 @@ impl Pipeline {
             .map_or(0.0, |t| stamp.secs_since(t))
             .clamp(0.0, 0.2);
         self.last_tick = Some(stamp);
+        let tracker = &self.tracker;
+        self.heights.retain(|id, _| tracker.track(*id).is_some());
         if self.config.fusion.mode == FusionMode::Tracker {
             let camera = self.config.camera;
             let half_fov = 0.5 * camera.horizontal_fov_rad();
@@ -657,14 +713,27 @@ impl Pipeline {
             }
             _ => {
                 self.spring.reset();
-                Twist::STOP
+                // A target lost a moment ago: stay put but turn on the spot towards where
+                // it should be (it may have stepped out of the sensors' field of view
+                // beside the robot). Turning in place sweeps no new ground.
+                match (target.state, self.selector.lost_prediction(stamp)) {
+                    (TargetState::Lost { since, .. }, Some(predicted))
+                        if stamp.secs_since(since) <= self.config.safety.search_turn_s =>
+                    {
+                        let p = world_from_robot.inverse() * predicted.mean;
+                        let w = (1.5 * p.bearing_rad()).clamp(-1.0, 1.0);
+                        Twist { v_mps: 0.0, w_radps: if p.bearing_rad().abs() > 0.2 { w } else { 0.0 } }
+                    }
+                    _ => Twist::STOP,
+                }
             }
         };
         let mut desired = desired;
         if desired.v_mps > 0.0
-            && safety
-                .obstacle_ahead_m(self.obstacle_points.iter().copied())
-                .is_some()
+            && (safety.obstacle_ahead_m(self.obstacle_points.iter().copied()).is_some()
+                || safety
+                    .obstacle_on_arc_m(&self.obstacle_points, desired.v_mps, desired.w_radps)
+                    .is_some())
         {
             desired.v_mps = 0.0;
             stop = stop.or(Some(StopReason::Obstacle));

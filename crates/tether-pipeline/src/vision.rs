@@ -188,6 +188,50 @@ pub fn vision_person(
     })
 }
 
+/// The head-top height implied by a box whose person is known (from the laser) to
+/// stand `distance_m` away horizontally from the camera: the ray through the box's
+/// reference point rises `C / hypot(A, B)` per metre, so `H = Hc + distance C /
+/// hypot(A, B)`. `None` when the ray points down or the box is degenerate.
+pub fn implied_head_height_m(camera: &CameraModel, config: &VisionConfig, b: &PixelBox, distance_m: f64) -> Option<f64> {
+    if !(b.x.is_finite() && b.y.is_finite() && b.h.is_finite() && distance_m.is_finite() && distance_m > 0.0) {
+        return None;
+    }
+    let (u, v) = b.reference_point(config.box_margin_frac);
+    let (a, bl, up) = camera.pixel_ray(u, v);
+    let horizontal = a.hypot(bl);
+    (horizontal > 1e-6).then(|| camera.mount.height_m + distance_m * up / horizontal)
+}
+
+/// A person's head height learned from boxes seen while the laser measured their range:
+/// a running mean and variance (Welford).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LearnedHeight {
+    /// Samples.
+    pub n: u32,
+    /// Mean, m.
+    pub mean_m: f64,
+    m2: f64,
+}
+
+impl LearnedHeight {
+    /// Adds a sample.
+    pub fn add(&mut self, h_m: f64) {
+        self.n += 1;
+        let delta = h_m - self.mean_m;
+        self.mean_m += delta / f64::from(self.n);
+        self.m2 += delta * (h_m - self.mean_m);
+    }
+
+    /// Standard deviation of the mean, m (of the samples when fewer than two).
+    pub fn sigma_of_mean_m(&self, prior_sigma_m: f64) -> f64 {
+        if self.n < 2 {
+            return prior_sigma_m;
+        }
+        let var = self.m2 / f64::from(self.n - 1);
+        (var / f64::from(self.n)).sqrt()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -274,6 +318,23 @@ mod tests {
         };
         let dh = (range(&b, &taller, &camera).unwrap_or_default() - base).abs();
         assert!((0.12..0.25).contains(&dh), "7 cm -> {dh} m");
+    }
+
+    #[test]
+    fn implied_height_inverts_the_range_model() {
+        let camera = CameraModel::default();
+        let config = VisionConfig { head_height_m: 1.62, ..VisionConfig::default() };
+        let head = Point3::<Robot>::new(3.0, 0.4, 1.62);
+        let b = box_of(&camera, head).unwrap();
+        let cam = camera.robot_from_camera().translation();
+        let d = (3.0 - cam.x).hypot(0.4 - cam.y);
+        let h = implied_head_height_m(&camera, &config, &b, d).unwrap();
+        assert!((h - 1.62).abs() < 1e-9, "{h}");
+        let mut learned = LearnedHeight::default();
+        for x in [1.6, 1.7, 1.65, 1.62] {
+            learned.add(x);
+        }
+        assert!((learned.mean_m - 1.6425).abs() < 1e-12 && learned.sigma_of_mean_m(0.07) < 0.03);
     }
 
     #[test]

@@ -119,20 +119,6 @@ pub fn measure(log: &RunLog) -> RunMetrics {
                     let e = est.mean - target.position;
                     fused_err.push(e.norm());
                     nees.push(est.cov.mahalanobis_sq(e.x, e.y));
-                    // Who is being followed?
-                    let nearest = truth
-                        .people
-                        .iter()
-                        .map(|p| (p.position.distance_m(est.mean), p.target))
-                        .min_by(|a, b| a.0.total_cmp(&b.0));
-                    if let Some((dist, is_target)) = nearest
-                        && dist <= MATCH_M
-                    {
-                        if following_target == Some(true) && !is_target {
-                            swaps += 1;
-                        }
-                        following_target = Some(is_target);
-                    }
                 }
                 // CLEAR MOT against the people the laser sees.
                 let objects: Vec<(u64, Point2<World>)> = truth
@@ -148,6 +134,22 @@ pub fn measure(log: &RunLog) -> RunMetrics {
                     .map(|tr| (tr.id, tr.position.mean))
                     .collect();
                 mot.add_frame(&objects, &hypotheses);
+                // Who is being followed: the person the CLEAR MOT correspondence ties the
+                // locked track to (correspondences persist while they hold, so two
+                // people passing close by do not count as a swap).
+                if let (TargetState::Locked { track }, Some(_)) = (tick.target.state, locked_estimate(tick)) {
+                    let followed = mot
+                        .current_matches()
+                        .iter()
+                        .find(|(_, h)| **h == track)
+                        .map(|(o, _)| *o == u64::from(target.id));
+                    if let Some(is_target) = followed {
+                        if following_target == Some(true) && !is_target {
+                            swaps += 1;
+                        }
+                        following_target = Some(is_target);
+                    }
+                }
             }
         }
         if step.kind == StepKind::Scan {
