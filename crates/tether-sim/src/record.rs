@@ -26,6 +26,7 @@ use crate::driver::Driver;
 use crate::robot::Command;
 use crate::scenario::Scenario;
 use crate::sim::{Event, SensorData, SimError, Simulation, Truth};
+use crate::world::StaticWorld;
 use crate::svg::{Track, person_color, scene_svg};
 
 /// Why a run could not be recorded.
@@ -131,23 +132,22 @@ fn create(dir: &Path, name: &str) -> Result<BufWriter<File>, RecordError> {
 
 impl RunRecorder {
     /// Creates `dir` and the per-event files in it.
-    pub fn create(dir: &Path, sim: &Simulation, seed: u64) -> Result<Self, RecordError> {
+    pub fn create(dir: &Path, scenario: &Scenario, seed: u64) -> Result<Self, RecordError> {
         std::fs::create_dir_all(dir).map_err(|source| RecordError::Io {
             path: dir.to_owned(),
             source,
         })?;
-        let scenario = sim.scenario();
-        let tracks = sim
-            .people()
+        let tracks = scenario
+            .people
             .iter()
             .enumerate()
             .map(|(i, p)| Track {
-                label: if p.is_target {
+                label: if p.target {
                     format!("{} (target)", p.name)
                 } else {
                     p.name.clone()
                 },
-                color: person_color(i, p.is_target).to_owned(),
+                color: person_color(i, p.target).to_owned(),
                 points: Vec::new(),
             })
             .collect();
@@ -262,10 +262,12 @@ impl RunRecorder {
     /// Flushes the streams and writes the picture, the scenario and the summary.
     pub fn finish(
         mut self,
-        sim: &Simulation,
+        scenario: &Scenario,
+        world: &StaticWorld,
+        collisions: u32,
         scenario_toml: &str,
     ) -> Result<RunSummary, RecordError> {
-        self.summary.collisions = sim.collisions();
+        self.summary.collisions = collisions;
         for (w, name) in [
             (&mut self.scans, "scans.jsonl"),
             (&mut self.camera, "camera.jsonl"),
@@ -278,8 +280,8 @@ impl RunRecorder {
             })?;
         }
         let svg = scene_svg(
-            sim.scenario(),
-            sim.world(),
+            scenario,
+            world,
             &self.tracks,
             &self.robot_track,
             &self.robot_poses,
@@ -332,12 +334,12 @@ pub fn run_to_dir(
 ) -> Result<RunSummary, RecordError> {
     let mut sim = Simulation::new(scenario, seed)?;
     let mut driver = crate::driver::driver_for(scenario);
-    let mut recorder = RunRecorder::create(dir, &sim, seed)?;
+    let mut recorder = RunRecorder::create(dir, scenario, seed)?;
     let end = sim.end();
     run(&mut sim, driver.as_mut(), |event, _| {
         progress(event.truth.stamp, end);
         recorder.record(event)
     })?;
     progress(end, end);
-    recorder.finish(&sim, scenario_toml)
+    recorder.finish(scenario, sim.world(), sim.collisions(), scenario_toml)
 }

@@ -100,6 +100,9 @@ pub enum RunError {
     /// The pipeline refused its configuration.
     #[error(transparent)]
     Pipeline(#[from] PipelineError),
+    /// Recording the run failed.
+    #[error(transparent)]
+    Record(#[from] tether_sim::record::RecordError),
 }
 
 /// The pipeline configuration that matches a scenario's robot: its laser and camera
@@ -179,6 +182,19 @@ pub fn run(
     passengers: &[PipelineConfig],
     faults: &[Fault],
 ) -> Result<RunLog, RunError> {
+    run_observed(scenario, seed, config, passengers, faults, &mut |_, _| Ok(()))
+}
+
+/// Like [`run`], calling `observe` with every event and the driving pipeline's tick
+/// (to record the run, show progress...).
+pub fn run_observed(
+    scenario: &Scenario,
+    seed: u64,
+    config: &PipelineConfig,
+    passengers: &[PipelineConfig],
+    faults: &[Fault],
+    observe: &mut dyn FnMut(&Event, Option<&Tick>) -> Result<(), RunError>,
+) -> Result<RunLog, RunError> {
     let mut sim = Simulation::new(scenario, seed)?;
     sim.set_control_rate_hz(CONTROL_RATE_HZ);
     let mut driver = Pipeline::new(config.clone(), None)?;
@@ -195,6 +211,7 @@ pub fn run(
                 w_radps: t.command.w_radps,
             });
         }
+        observe(&event, tick.as_ref())?;
         let passengers = riders.iter_mut().map(|p| feed(p, &event, faults)).collect();
         let kind = match event.data {
             SensorData::Scan(_) => StepKind::Scan,
