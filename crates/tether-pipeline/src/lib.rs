@@ -226,6 +226,8 @@ pub struct PipelineStats {
     pub malformed_beams: u64,
     /// Ticks with a non-finite odometry pose (treated as no data).
     pub bad_odometry: u64,
+    /// Scans with more malformed beams than good ones (treated as no data).
+    pub unusable_scans: u64,
 }
 
 /// The pipeline.
@@ -346,6 +348,13 @@ impl Pipeline {
     /// [`Pipeline::on_laser_people`].
     pub fn on_scan(&mut self, scan: &LaserScan, world_from_robot: Pose2<World, Robot>) -> Tick {
         self.stats.malformed_beams += scan.malformed_beams() as u64;
+        if 2 * scan.malformed_beams() > scan.len() {
+            // Mostly NaN or negative ranges: a sick sensor, not an empty room. The scan
+            // neither feeds the tracks nor counts as fresh data, so the watchdog stops
+            // the robot rather than let it drive blind.
+            self.stats.unusable_scans += 1;
+            return self.idle_tick(scan.stamp, TickInput::Scan);
+        }
         let detection = self.detector.detect(scan);
         let people: Vec<LaserPerson> = detection
             .people

@@ -32,6 +32,8 @@ enum Command {
     TrainLegs(cmd::train_legs::Args),
     /// Precision and recall of both leg detectors on the test recordings.
     EvalLegs(cmd::eval_legs::Args),
+    /// Detect, fuse and track people over a recording (one JSON line per scan).
+    Track(cmd::track::Args),
     /// Calibrate a sensor from measurements.
     #[command(subcommand)]
     Calibrate(Calibrate),
@@ -53,6 +55,7 @@ fn main() -> std::process::ExitCode {
         Command::Legs(args) => cmd::legs::run(args),
         Command::TrainLegs(args) => cmd::train_legs::run(args),
         Command::EvalLegs(args) => cmd::eval_legs::run(args),
+        Command::Track(args) => cmd::track::run(args),
         Command::Calibrate(Calibrate::Laser(args)) => cmd::calibrate_laser::run(args),
     };
     match result {

@@ -6,4 +6,5 @@ pub mod eval_legs;
 pub mod legs;
 pub mod scenarios;
 pub mod sim;
+pub mod track;
 pub mod train_legs;
