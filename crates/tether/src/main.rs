@@ -34,6 +34,10 @@ enum Command {
     EvalLegs(cmd::eval_legs::Args),
     /// Detect, fuse and track people over a recording (one JSON line per scan).
     Track(cmd::track::Args),
+    /// Measure fusion and tracking over many simulated seeds (RMSE, NEES, CLEAR MOT).
+    EvalFusion(cmd::eval_fusion::Args),
+    /// Detect objects with an OpenCV Haar cascade (prints opencv_reference.py's JSON).
+    Detect(cmd::detect::Args),
     /// Calibrate a sensor from measurements.
     #[command(subcommand)]
     Calibrate(Calibrate),
@@ -43,6 +47,8 @@ enum Command {
 enum Calibrate {
     /// Fit the laser's range bias and noise from samples at known distances.
     Laser(cmd::calibrate_laser::Args),
+    /// Fit the camera tilt and box margin from boxes of a person at known distances.
+    Camera(cmd::calibrate_camera::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -56,6 +62,9 @@ fn main() -> std::process::ExitCode {
         Command::TrainLegs(args) => cmd::train_legs::run(args),
         Command::EvalLegs(args) => cmd::eval_legs::run(args),
         Command::Track(args) => cmd::track::run(args),
+        Command::EvalFusion(args) => cmd::eval_fusion::run(args),
+        Command::Detect(args) => cmd::detect::run(args),
+        Command::Calibrate(Calibrate::Camera(args)) => cmd::calibrate_camera::run(args),
         Command::Calibrate(Calibrate::Laser(args)) => cmd::calibrate_laser::run(args),
     };
     match result {

@@ -61,6 +61,34 @@ pub struct RunMetrics {
     pub rms_angular_jerk: f64,
     /// Time from the start to the first lock, s.
     pub first_lock_s: Option<f64>,
+    /// RMSE of the per-frame laser-vision fusion (the paper's complementary fusion) of
+    /// the target, m.
+    pub rmse_per_frame_fused_m: Option<f64>,
+    /// Mean NEES of that per-frame fused estimate.
+    pub nees_per_frame_fused: Option<f64>,
+}
+
+/// RMSE and mean NEES of the per-frame fused estimate of the target in the camera ticks
+/// of `ticks` (the fused person nearest the true target, within the match threshold).
+pub fn per_frame_fused<'a>(
+    steps: impl Iterator<Item = (&'a tether_sim::Truth, Option<&'a Tick>)>,
+) -> (Option<f64>, Option<f64>) {
+    let mut errors = Vec::new();
+    let mut nees = Vec::new();
+    for (truth, tick) in steps {
+        let (Some(target), Some(tick)) = (truth.target(), tick) else { continue };
+        let nearest = tick
+            .fused_people
+            .iter()
+            .min_by(|a, b| a.mean.distance_m(target.position).total_cmp(&b.mean.distance_m(target.position)))
+            .filter(|g| g.mean.distance_m(target.position) <= MATCH_M);
+        if let Some(g) = nearest {
+            let e = g.mean - target.position;
+            errors.push(e.norm());
+            nees.push(g.cov.mahalanobis_sq(e.x, e.y));
+        }
+    }
+    (rmse(&errors), mean(&nees))
 }
 
 fn rmse(errors: &[f64]) -> Option<f64> {
@@ -195,6 +223,12 @@ pub fn measure(log: &RunLog) -> RunMetrics {
         rmse(&j).unwrap_or(0.0)
     };
     let s = mot.summary();
+    let (rmse_per_frame_fused_m, nees_per_frame_fused) = per_frame_fused(
+        log.steps
+            .iter()
+            .filter(|s| s.kind == StepKind::Camera)
+            .map(|s| (&s.truth, s.tick.as_ref())),
+    );
     RunMetrics {
         scenario: log.scenario.clone(),
         seed: log.seed,
@@ -215,5 +249,7 @@ pub fn measure(log: &RunLog) -> RunMetrics {
         rms_jerk: jerk(|c| c.1),
         rms_angular_jerk: jerk(|c| c.2),
         first_lock_s: first_lock,
+        rmse_per_frame_fused_m,
+        nees_per_frame_fused,
     }
 }

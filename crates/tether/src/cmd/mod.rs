@@ -1,7 +1,10 @@
 //! One module per subcommand: each has a clap `Args` struct and a `run` function.
 
+pub mod calibrate_camera;
 pub mod calibrate_laser;
 pub mod demo;
+pub mod detect;
+pub mod eval_fusion;
 pub mod eval_legs;
 pub mod legs;
 pub mod scenarios;

@@ -1,0 +1,476 @@
+//! PNG and JPEG files to 8-bit grey, as `cv2.imread(path, cv2.IMREAD_GRAYSCALE)` gives
+//! them (OpenCV 4.x with its libpng and libjpeg-turbo), so that detections on a file match
+//! OpenCV's.
+//!
+//! OpenCV does not decode to colour and convert: it asks the codec libraries for grey.
+//!
+//! **PNG** (libpng, measured against OpenCV 4.14 and libpng 1.6):
+//! - palette images are expanded to RGB, grey images below 8 bits are scaled to 8 bits,
+//!   alpha is dropped (not composited);
+//! - RGB becomes grey with libpng's `png_set_rgb_to_gray(1, 0.299, 0.587)`: 15-bit
+//!   coefficients `rc = 9797, gc = 19234, bc = 3737` and, for a pixel with unequal
+//!   channels, `(rc R + gc G + bc B) >> 15` (truncating); a pixel with `R = G = B` keeps
+//!   its value;
+//! - when the file declares a gamma that is not close to 1 (`gAMA` outside
+//!   0.95..1.05, or `sRGB`, which means 0.45455), libpng converts in linear light:
+//!   `from1[(rc to1[R] + gc to1[G] + bc to1[B] + 16384) >> 15]` with 8-bit tables
+//!   `to1[i] = floor(255 (i/255)^(1/g) + 0.5)` and `from1[i] = floor(255 (i/255)^g + 0.5)`
+//!   (`png_build_8bit_table`);
+//! - 16-bit samples are converted at 16 bits (`(rc R + gc G + bc B + 16384) >> 15`, and with
+//!   a file gamma through libpng's 16-bit tables indexed by the top 11 bits) and then reduced
+//!   by keeping the high byte (`png_set_strip_16`). One case is approximate: the grey
+//!   pixels (`R = G = B`) of a 16-bit colour PNG with a gamma chunk go through a libpng
+//!   16-to-8 table tether does not reproduce; they keep their high byte, which can be one
+//!   level off.
+//!
+//! **JPEG**: libjpeg's grey output of a YCbCr file is the decoded luma plane (no colour
+//! conversion). tether decodes the luma plane with `zune-jpeg`, whose integer IDCT is not
+//! libjpeg's `jidctint.c`: on photographs a few percent of pixels differ from OpenCV's by
+//! one grey level (see the parity test's report).
+//!
+//! **Orientation**: like `imread` without `IMREAD_IGNORE_ORIENTATION`, an EXIF
+//! orientation tag (JPEG APP1 or PNG `eXIf`) is applied.
+
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+
+use tether_core::{GrayImage, ImageError};
+
+/// Why an image file cannot be read as grey.
+#[derive(Debug, Error)]
+pub enum ImreadError {
+    /// The file could not be read.
+    #[error("cannot read image {path} (check the path and permissions)")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The reason.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Neither PNG nor JPEG.
+    #[error(
+        "unsupported image format (the file starts with {magic:02x?}): tether reads PNG and \
+         JPEG; convert other formats first, e.g. `convert in.bmp out.png`"
+    )]
+    UnknownFormat {
+        /// The first bytes.
+        magic: Vec<u8>,
+    },
+    /// The PNG decoder refused the data.
+    #[error("invalid PNG: {0}; the file is damaged or truncated")]
+    Png(String),
+    /// The JPEG decoder refused the data.
+    #[error("invalid JPEG: {0}; the file is damaged, truncated or uses an unusual coding")]
+    Jpeg(String),
+    /// The decoded pixels do not form an image.
+    #[error("decoded image is unusable: {0}")]
+    Image(#[from] ImageError),
+}
+
+/// Reads a PNG or JPEG file as 8-bit grey, like `cv2.imread(path, cv2.IMREAD_GRAYSCALE)`.
+pub fn imread_gray(path: impl AsRef<Path>) -> Result<GrayImage, ImreadError> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| ImreadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    decode_gray(&bytes)
+}
+
+/// Decodes PNG or JPEG bytes (recognised by their signature) as 8-bit grey.
+pub fn decode_gray(bytes: &[u8]) -> Result<GrayImage, ImreadError> {
+    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        decode_png(bytes)
+    } else if bytes.starts_with(&[0xff, 0xd8]) {
+        decode_jpeg(bytes)
+    } else {
+        Err(ImreadError::UnknownFormat {
+            magic: bytes.iter().take(8).copied().collect(),
+        })
+    }
+}
+
+/// libpng's `rgb_to_gray` coefficients for `png_set_rgb_to_gray(png, 1, 0.299, 0.587)`:
+/// `(png_uint_16)(fixed * 32768 / 100000)` for red and green, blue the remainder.
+const RC: u32 = 29_900 * 32_768 / 100_000;
+const GC: u32 = 58_700 * 32_768 / 100_000;
+const BC: u32 = 32_768 - RC - GC;
+
+/// libpng's `png_reciprocal`: `1 / a` in its 1e5 fixed point.
+fn png_reciprocal(a: i64) -> i64 {
+    (1e10 / a as f64 + 0.5).floor() as i64
+}
+
+/// libpng's `png_gamma_significant`: further than 0.05 from 1.
+fn gamma_significant(gamma_fixed: i64) -> bool {
+    !(95_000..=105_000).contains(&gamma_fixed)
+}
+
+/// libpng's `png_build_16bit_table` for samples reduced to their top `16 - shift` bits:
+/// `floor(65535 (i / max)^g + 0.5)`, or a plain rescaling when `g` is close to 1.
+fn gamma_table_16(gamma_fixed: i64, shift: u32) -> Vec<u16> {
+    let max = (1u32 << (16 - shift)) - 1;
+    (0..=max)
+        .map(|i| {
+            if gamma_significant(gamma_fixed) {
+                (65535.0 * (f64::from(i) / f64::from(max)).powf(gamma_fixed as f64 * 1e-5) + 0.5)
+                    .floor() as u16
+            } else {
+                ((i * 65535 + max / 2) / max) as u16
+            }
+        })
+        .collect()
+}
+
+/// libpng's `png_build_8bit_table`.
+fn gamma_table_8(gamma_fixed: i64) -> [u8; 256] {
+    let mut t = [0u8; 256];
+    for (i, v) in t.iter_mut().enumerate() {
+        *v = if i > 0 && i < 255 && gamma_significant(gamma_fixed) {
+            (255.0 * (i as f64 / 255.0).powf(gamma_fixed as f64 * 1e-5) + 0.5).floor() as u8
+        } else {
+            i as u8
+        };
+    }
+    t
+}
+
+fn decode_png(bytes: &[u8]) -> Result<GrayImage, ImreadError> {
+    use png::{BitDepth, ColorType, Transformations};
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    decoder.set_limits(png::Limits { bytes: 1 << 30 });
+    // Palette to RGB, low-bit grey to 8 bits, tRNS to alpha (dropped below): what libpng
+    // does for OpenCV. 16-bit samples stay 16-bit so grey is computed before stripping.
+    decoder.set_transformations(Transformations::EXPAND);
+    let mut reader = decoder
+        .read_info()
+        .map_err(|e| ImreadError::Png(e.to_string()))?;
+    let info = reader.info();
+    let (width, height) = (info.width as usize, info.height as usize);
+    // libpng takes sRGB to mean gamma 0.45455 and lets it override gAMA.
+    let file_gamma = if info.srgb.is_some() {
+        Some(45_455)
+    } else {
+        info.gama_chunk.map(|g| i64::from(g.into_scaled()))
+    };
+    let exif = info.exif_metadata.as_ref().map(|e| e.to_vec());
+    let sbit: Vec<u8> = info.sbit.as_deref().map(<[u8]>::to_vec).unwrap_or_default();
+    let size = reader
+        .output_buffer_size()
+        .ok_or_else(|| ImreadError::Png("image too large".into()))?;
+    let mut buf = vec![0u8; size];
+    let frame = reader
+        .next_frame(&mut buf)
+        .map_err(|e| ImreadError::Png(e.to_string()))?;
+    let line = frame.line_size;
+    let channels = frame.color_type.samples();
+    let sixteen = frame.bit_depth == BitDepth::Sixteen;
+    let color = matches!(frame.color_type, ColorType::Rgb | ColorType::Rgba);
+    let gamma = file_gamma.filter(|g| *g > 0 && gamma_significant(*g));
+    // libpng's gamma tables: 8-bit ones, or for 16-bit samples tables indexed by the top
+    // `16 - shift` bits (`png_build_16bit_table`; `shift` is at least 5 when stripping to
+    // 8 bits, more when sBIT says fewer bits are significant).
+    let shift = {
+        let sig = sbit.iter().copied().max().unwrap_or(0);
+        let from_sbit = if sig > 0 && sig < 16 {
+            16 - u32::from(sig)
+        } else {
+            0
+        };
+        from_sbit.clamp(5, 8)
+    };
+    let tables = gamma.map(|g| {
+        let screen = png_reciprocal(g);
+        if sixteen {
+            (
+                gamma_table_16(png_reciprocal(g), shift),
+                gamma_table_16(png_reciprocal(screen), shift),
+            )
+        } else {
+            (
+                gamma_table_8(png_reciprocal(g)).map(u16::from).to_vec(),
+                gamma_table_8(png_reciprocal(screen))
+                    .map(u16::from)
+                    .to_vec(),
+            )
+        }
+    });
+    // Index of a sample in a table: 8-bit samples as they are, 16-bit ones by their top
+    // bits.
+    let index = |v: u32| {
+        if sixteen {
+            (v >> shift) as usize
+        } else {
+            v as usize
+        }
+    };
+    let mut grey = vec![0u8; width * height];
+    for y in 0..height {
+        let row = &buf[y * line..y * line + width * channels * if sixteen { 2 } else { 1 }];
+        let out = &mut grey[y * width..(y + 1) * width];
+        for (x, o) in out.iter_mut().enumerate() {
+            let sample = |c: usize| -> u32 {
+                let i = x * channels + c;
+                if sixteen {
+                    u32::from(row[2 * i]) << 8 | u32::from(row[2 * i + 1])
+                } else {
+                    u32::from(row[i])
+                }
+            };
+            let v = if color {
+                let (r, g, b) = (sample(0), sample(1), sample(2));
+                if r == g && r == b {
+                    r
+                } else if let Some((to1, from1)) = &tables {
+                    let lin = |c: u32| u32::from(to1.get(index(c)).copied().unwrap_or(0));
+                    let w = (RC * lin(r) + GC * lin(g) + BC * lin(b) + 16_384) >> 15;
+                    u32::from(from1.get(index(w)).copied().unwrap_or(0))
+                } else if sixteen {
+                    // libpng rounds in its 16-bit path.
+                    (RC * r + GC * g + BC * b + 16_384) >> 15
+                } else {
+                    (RC * r + GC * g + BC * b) >> 15
+                }
+            } else {
+                sample(0)
+            };
+            *o = if sixteen { (v >> 8) as u8 } else { v as u8 };
+        }
+    }
+    let image = GrayImage::from_raw(width, height, grey)?;
+    Ok(match exif.as_deref().and_then(exif_orientation) {
+        Some(o) => apply_orientation(&image, o),
+        None => image,
+    })
+}
+
+fn decode_jpeg(bytes: &[u8]) -> Result<GrayImage, ImreadError> {
+    use zune_core::colorspace::ColorSpace;
+    use zune_core::options::DecoderOptions;
+    let options = DecoderOptions::default()
+        .jpeg_set_out_colorspace(ColorSpace::Luma)
+        .set_max_width(1 << 16)
+        .set_max_height(1 << 16);
+    let mut decoder =
+        zune_jpeg::JpegDecoder::new_with_options(std::io::Cursor::new(bytes), options);
+    let pixels = decoder
+        .decode()
+        .map_err(|e| ImreadError::Jpeg(format!("{e:?}")))?;
+    let info = decoder
+        .info()
+        .ok_or_else(|| ImreadError::Jpeg("no image header".into()))?;
+    let (width, height) = (usize::from(info.width), usize::from(info.height));
+    if pixels.len() != width * height {
+        return Err(ImreadError::Jpeg(format!(
+            "decoder returned {} bytes for a {width}x{height} grey image",
+            pixels.len()
+        )));
+    }
+    let image = GrayImage::from_raw(width, height, pixels)?;
+    Ok(match decoder.exif().and_then(|e| exif_orientation(e)) {
+        Some(o) => apply_orientation(&image, o),
+        None => image,
+    })
+}
+
+/// The EXIF orientation tag (0x0112) of IFD0 in a TIFF-structured EXIF block (with or
+/// without the `Exif\0\0` prefix), when it is 2..=8.
+pub fn exif_orientation(exif: &[u8]) -> Option<u16> {
+    let tiff = exif.strip_prefix(b"Exif\0\0").unwrap_or(exif);
+    let big = match tiff.get(..2)? {
+        b"MM" => true,
+        b"II" => false,
+        _ => return None,
+    };
+    let u16_at = |o: usize| -> Option<u16> {
+        let b = tiff.get(o..o + 2)?;
+        Some(if big {
+            u16::from_be_bytes([b[0], b[1]])
+        } else {
+            u16::from_le_bytes([b[0], b[1]])
+        })
+    };
+    let u32_at = |o: usize| -> Option<u32> {
+        let b = tiff.get(o..o + 4)?;
+        let a = [b[0], b[1], b[2], b[3]];
+        Some(if big {
+            u32::from_be_bytes(a)
+        } else {
+            u32::from_le_bytes(a)
+        })
+    };
+    let ifd = u32_at(4)? as usize;
+    let count = usize::from(u16_at(ifd)?);
+    (0..count)
+        .find_map(|i| {
+            let entry = ifd + 2 + 12 * i;
+            (u16_at(entry)? == 0x0112)
+                .then(|| u16_at(entry + 8))
+                .flatten()
+        })
+        .filter(|o| (2..=8).contains(o))
+}
+
+/// Applies an EXIF orientation as OpenCV's `ExifTransform` does (flips and transposes).
+pub fn apply_orientation(image: &GrayImage, orientation: u16) -> GrayImage {
+    let (w, h) = (image.width(), image.height());
+    let transpose = orientation >= 5;
+    // After the optional transpose: flip columns and/or rows.
+    let (flip_x, flip_y) = match orientation {
+        2 | 6 => (true, false),
+        3 | 7 => (true, true),
+        4 | 8 => (false, true),
+        _ => (false, false),
+    };
+    let (ow, oh) = if transpose { (h, w) } else { (w, h) };
+    let src = image.pixels();
+    let mut out = vec![0u8; w * h];
+    for y in 0..oh {
+        for x in 0..ow {
+            let (tx, ty) = (
+                if flip_x { ow - 1 - x } else { x },
+                if flip_y { oh - 1 - y } else { y },
+            );
+            let (sx, sy) = if transpose { (ty, tx) } else { (tx, ty) };
+            out[y * ow + x] = src[sy * w + sx];
+        }
+    }
+    GrayImage::from_raw(ow, oh, out).unwrap_or_else(|_| image.clone())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn encode_png(
+        w: u32,
+        h: u32,
+        color: png::ColorType,
+        depth: png::BitDepth,
+        data: &[u8],
+        gamma: Option<u32>,
+    ) -> Vec<u8> {
+        let mut out = Vec::new();
+        {
+            let mut enc = png::Encoder::new(&mut out, w, h);
+            enc.set_color(color);
+            enc.set_depth(depth);
+            if let Some(g) = gamma {
+                enc.set_source_gamma(png::ScaledFloat::from_scaled(g));
+            }
+            let mut writer = enc.write_header().unwrap();
+            writer.write_image_data(data).unwrap();
+        }
+        out
+    }
+
+    #[test]
+    fn rgb_png_uses_libpng_truncating_coefficients() {
+        assert_eq!((RC, GC, BC), (9797, 19234, 3737));
+        let data = [255, 0, 0, 0, 255, 0, 0, 0, 255, 7, 7, 7, 10, 20, 30];
+        let png = encode_png(5, 1, png::ColorType::Rgb, png::BitDepth::Eight, &data, None);
+        let g = decode_gray(&png).unwrap();
+        // 255 * 9797 >> 15 = 76; 255 * 19234 >> 15 = 149; 255 * 3737 >> 15 = 29.
+        let mixed = ((10 * 9797 + 20 * 19234 + 30 * 3737) >> 15) as u8;
+        assert_eq!(g.pixels(), &[76, 149, 29, 7, mixed]);
+    }
+
+    #[test]
+    fn sixteen_bit_keeps_the_high_byte_and_alpha_is_dropped() {
+        let data = [0x12, 0xff, 0xab, 0x01];
+        let png = encode_png(
+            2,
+            1,
+            png::ColorType::Grayscale,
+            png::BitDepth::Sixteen,
+            &data,
+            None,
+        );
+        assert_eq!(decode_gray(&png).unwrap().pixels(), &[0x12, 0xab]);
+        let rgba = [10, 10, 10, 0, 200, 200, 200, 255];
+        let png = encode_png(
+            2,
+            1,
+            png::ColorType::Rgba,
+            png::BitDepth::Eight,
+            &rgba,
+            None,
+        );
+        assert_eq!(decode_gray(&png).unwrap().pixels(), &[10, 200]);
+    }
+
+    #[test]
+    fn gamma_tagged_png_converts_in_linear_light() {
+        let data = [200, 100, 50];
+        let plain = encode_png(1, 1, png::ColorType::Rgb, png::BitDepth::Eight, &data, None);
+        let tagged = encode_png(
+            1,
+            1,
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            &data,
+            Some(45_455),
+        );
+        let near_one = encode_png(
+            1,
+            1,
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            &data,
+            Some(100_000),
+        );
+        let p = decode_gray(&plain).unwrap().pixels()[0];
+        assert_eq!(p, ((200 * RC + 100 * GC + 50 * BC) >> 15) as u8);
+        assert_eq!(decode_gray(&near_one).unwrap().pixels()[0], p);
+        // In linear light the bright red dominates more: the result is brighter.
+        assert!(decode_gray(&tagged).unwrap().pixels()[0] > p);
+    }
+
+    #[test]
+    fn refuses_other_formats() {
+        let e = decode_gray(b"BM\x00\x00garbage").unwrap_err();
+        assert!(e.to_string().contains("PNG and JPEG"), "{e}");
+        assert!(matches!(
+            decode_gray(b"\x89PNG\r\n\x1a\nbroken"),
+            Err(ImreadError::Png(_))
+        ));
+        assert!(matches!(
+            decode_gray(&[0xff, 0xd8, 0xff, 0x00]),
+            Err(ImreadError::Jpeg(_))
+        ));
+        assert!(
+            imread_gray("/nonexistent.png")
+                .unwrap_err()
+                .to_string()
+                .contains("/nonexistent.png")
+        );
+    }
+
+    #[test]
+    fn orientations_match_opencv() {
+        // 3x2 image:  a b c / d e f
+        let img = GrayImage::from_raw(3, 2, vec![1, 2, 3, 4, 5, 6]).unwrap();
+        let o = |k| apply_orientation(&img, k);
+        assert_eq!(o(2).pixels(), &[3, 2, 1, 6, 5, 4]);
+        assert_eq!(o(3).pixels(), &[6, 5, 4, 3, 2, 1]);
+        assert_eq!(o(4).pixels(), &[4, 5, 6, 1, 2, 3]);
+        // Transpose: 2x3  a d / b e / c f
+        assert_eq!(o(5).pixels(), &[1, 4, 2, 5, 3, 6]);
+        // Transpose then flip horizontally (rotate 90 degrees clockwise).
+        assert_eq!(o(6).pixels(), &[4, 1, 5, 2, 6, 3]);
+        assert_eq!(o(7).pixels(), &[6, 3, 5, 2, 4, 1]);
+        assert_eq!(o(8).pixels(), &[3, 6, 2, 5, 1, 4]);
+    }
+
+    #[test]
+    fn reads_exif_orientation() {
+        // Little-endian TIFF, IFD at 8 with one entry: tag 0x0112, SHORT, count 1, value 6.
+        let mut exif = b"Exif\0\0II*\0\x08\0\0\0\x01\0".to_vec();
+        exif.extend_from_slice(&[0x12, 0x01, 3, 0, 1, 0, 0, 0, 6, 0, 0, 0]);
+        assert_eq!(exif_orientation(&exif), Some(6));
+        assert_eq!(exif_orientation(b"Exif\0\0II"), None);
+        assert_eq!(exif_orientation(&exif[..20]), None);
+    }
+}
