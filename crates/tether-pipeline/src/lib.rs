@@ -24,8 +24,8 @@ use tether_control::{
     VirtualSpring,
 };
 use tether_core::{
-    CameraModel, Gaussian2, Laser, LaserModel, LaserScan, Point2, Pose2, Robot, Stamp, Vector2,
-    World,
+    CameraModel, Cov2, Gaussian2, Laser, LaserModel, LaserScan, Point2, Pose2, Robot, Stamp,
+    Vector2, World,
 };
 use tether_fusion::{
     Bearing, FusionRule, Gate, Observation, Source, TargetConfig, TargetSelector, TargetState,
@@ -147,6 +147,14 @@ fn config_err(part: &'static str, e: impl std::fmt::Display) -> PipelineError {
     }
 }
 
+/// A laser person of the last scan as a camera frame needs it: where it was, how its
+/// track moves (velocity and its covariance), and which track it updated.
+type LaserMemory = (
+    Gaussian2<World>,
+    Option<(Vector2<World>, Cov2)>,
+    Option<u64>,
+);
+
 /// A person found by the laser, in the laser frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LaserPerson {
@@ -241,7 +249,9 @@ pub struct Pipeline {
     command: Twist,
     last_tick: Option<Stamp>,
     last_scan: Option<Stamp>,
-    last_laser_people: Option<(Stamp, Vec<Gaussian2<World>>)>,
+    /// The last scan's people (world) and the velocity of the track each updated, to
+    /// carry them to a camera frame's time.
+    last_laser_people: Option<(Stamp, Vec<LaserMemory>)>,
     obstacle_points: Vec<Point2<Robot>>,
     per_frame_target: Option<(Stamp, Gaussian2<World>)>,
     trails: follow::Trails,
@@ -391,7 +401,7 @@ impl Pipeline {
             .map(|p| (p.estimate.transformed(world_from_laser), p.two_legs))
             .collect();
         let laser_people: Vec<Gaussian2<World>> = people.iter().map(|p| p.0).collect();
-        self.last_laser_people = Some((stamp, laser_people.clone()));
+        let mut track_of = vec![None; people.len()];
         if self.config.fusion.use_laser && self.config.fusion.mode == FusionMode::Tracker {
             let observations: Vec<Observation> = people
                 .iter()
@@ -402,10 +412,22 @@ impl Pipeline {
                     bearing: None,
                 })
                 .collect();
-            self.tracker.process(stamp, &observations);
+            track_of = self.tracker.process(stamp, &observations).track_of;
         } else {
             self.tracker.advance(stamp);
         }
+        let motion = |id: Option<u64>| {
+            let t = self.tracker.track(id?)?;
+            Some((t.velocity(), t.filter.velocity_cov()?))
+        };
+        self.last_laser_people = Some((
+            stamp,
+            laser_people
+                .iter()
+                .zip(&track_of)
+                .map(|(g, id)| (*g, motion(*id), *id))
+                .collect(),
+        ));
         let mut tick = self.finish(stamp, TickInput::Scan, world_from_robot);
         tick.laser_people = laser_people;
         tick
@@ -460,7 +482,8 @@ impl Pipeline {
             return Some(base);
         };
         if *supported
-            && let Some(h) = vision::implied_head_height_m(&camera, &self.config.vision, b, *distance_m)
+            && let Some(h) =
+                vision::implied_head_height_m(&camera, &self.config.vision, b, *distance_m)
             && (1.2..=2.3).contains(&h)
         {
             self.heights.entry(*track).or_default().add(h);
@@ -469,10 +492,17 @@ impl Pipeline {
             Some(learned) if learned.n >= 5 => {
                 let own = vision::VisionConfig {
                     head_height_m: learned.mean_m,
-                    head_height_sigma_m: learned.sigma_of_mean_m(self.config.vision.head_height_sigma_m).max(0.01),
+                    head_height_sigma_m: learned
+                        .sigma_of_mean_m(self.config.vision.head_height_sigma_m)
+                        .max(0.01),
                     ..self.config.vision.clone()
                 };
-                vision::vision_person(&camera, &own, b).or(Some(base))
+                vision::vision_person(&camera, &own, b)
+                    .map(|p| vision::VisionPerson {
+                        own_height: true,
+                        ..p
+                    })
+                    .or(Some(base))
             }
             _ => Some(base),
         }
@@ -502,39 +532,72 @@ impl Pipeline {
             })
             .collect();
         let fusion = &self.config.fusion;
-        let laser_recent: Vec<Gaussian2<World>> = match &self.last_laser_people {
+        // The last scan's people carried to this frame's time: moved by their track's
+        // velocity, with the velocity's uncertainty over that time added (people without
+        // a track get a walking-pace allowance).
+        let laser_recent: Vec<(Gaussian2<World>, Option<u64>)> = match &self.last_laser_people {
             Some((t, people))
                 if stamp.secs_since(*t) <= fusion.pair_max_age_s && fusion.use_laser =>
             {
-                people.clone()
+                let age = stamp.secs_since(*t).max(0.0);
+                people
+                    .iter()
+                    .map(|(g, motion, id)| {
+                        let (velocity, spread) = match motion {
+                            Some((v, c)) => (*v, c.scaled(age * age).ok()),
+                            None => (Vector2::ZERO, Cov2::isotropic(1.0 * age).ok()),
+                        };
+                        let moved = Gaussian2 {
+                            mean: g.mean + velocity * age,
+                            cov: spread.map_or(g.cov, |c| g.cov.add(&c)),
+                        };
+                        (moved, *id)
+                    })
+                    .collect()
             }
             _ => Vec::new(),
         };
-        let fused = if fusion.use_vision {
-            complementary_fusion(&vision, &laser_recent, &fusion.gate, fusion.rule)
-        } else {
-            Vec::new()
-        };
-        match fusion.mode {
+        let fused: Vec<Gaussian2<World>> = match fusion.mode {
             FusionMode::Tracker => {
                 if fusion.use_vision {
                     let observations: Vec<Observation> = vision
                         .iter()
                         .zip(&bearings)
-                        .map(|(v, b)| Observation {
+                        .zip(people_in_robot)
+                        .map(|((v, b), p)| Observation {
                             source: Source::Vision,
                             estimate: *v,
                             may_spawn: fusion.vision_spawns_tracks || !fusion.use_laser,
-                            bearing: fusion.use_laser.then_some(*b),
+                            bearing: (fusion.use_laser && !p.own_height).then_some(*b),
                         })
                         .collect();
-                    self.tracker.process(stamp, &observations);
+                    let track_of = self.tracker.process(stamp, &observations).track_of;
+                    // The paper's fusion of a vision and a laser estimate of the same
+                    // person, paired through the tracks they updated rather than by
+                    // proximity alone (two people on one viewing ray pass any gate).
+                    vision
+                        .iter()
+                        .zip(&track_of)
+                        .filter_map(|(v, id)| {
+                            let id = (*id)?;
+                            let (l, _) = laser_recent.iter().find(|(_, lid)| *lid == Some(id))?;
+                            fusion.gate.test(v, l).map(|_| fusion.rule.fuse(v, l))
+                        })
+                        .collect()
                 } else {
                     self.tracker.advance(stamp);
+                    Vec::new()
                 }
             }
             FusionMode::PerFrame => {
                 self.tracker.advance(stamp);
+                let laser_only: Vec<Gaussian2<World>> =
+                    laser_recent.iter().map(|(g, _)| *g).collect();
+                let fused = if fusion.use_vision {
+                    complementary_fusion(&vision, &laser_only, &fusion.gate, fusion.rule)
+                } else {
+                    Vec::new()
+                };
                 // The fused person nearest the previous target, else nearest the heading.
                 let robot_from_world = world_from_robot.inverse();
                 let previous = self.per_frame_target.map(|(_, g)| g.mean);
@@ -548,11 +611,12 @@ impl Pipeline {
                 if let Some(f) = pick {
                     self.per_frame_target = Some((stamp, f.estimate));
                 }
+                fused.iter().map(|f| f.estimate).collect()
             }
-        }
+        };
         let mut tick = self.finish(stamp, TickInput::Camera, world_from_robot);
         tick.vision_people = vision;
-        tick.fused_people = fused.iter().map(|f| f.estimate).collect();
+        tick.fused_people = fused;
         tick
     }
 
@@ -731,7 +795,10 @@ impl Pipeline {
                     {
                         let p = world_from_robot.inverse() * predicted.mean;
                         let w = (1.5 * p.bearing_rad()).clamp(-1.0, 1.0);
-                        Twist { v_mps: 0.0, w_radps: if p.bearing_rad().abs() > 0.2 { w } else { 0.0 } }
+                        Twist {
+                            v_mps: 0.0,
+                            w_radps: if p.bearing_rad().abs() > 0.2 { w } else { 0.0 },
+                        }
                     }
                     _ => Twist::STOP,
                 }
@@ -739,7 +806,9 @@ impl Pipeline {
         };
         let mut desired = desired;
         if desired.v_mps > 0.0
-            && (safety.obstacle_ahead_m(self.obstacle_points.iter().copied()).is_some()
+            && (safety
+                .obstacle_ahead_m(self.obstacle_points.iter().copied())
+                .is_some()
                 || safety
                     .obstacle_on_arc_m(&self.obstacle_points, desired.v_mps, desired.w_radps)
                     .is_some())

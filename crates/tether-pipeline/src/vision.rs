@@ -1,38 +1,13 @@
-//! A person's position from an upper-body box: the paper's eq. 1-3 as SPEC 3.2
-//! restates them, with the covariance propagated through the Jacobian.
-//!
-//! The reference point is the top-centre of the box, `(u', v') = (x + w/2, y + m h)`,
-//! where `m` is the share of the box above the head. With the optical-frame ray
-//! `(x_n, y_n, 1) = ((u' - cx)/fx, (v' - cy)/fy, 1)` and the camera pitched up by
-//! `t`, the ray in the camera's ground frame is
-//!
-//! ```text
-//! (A, B, C) = (cos t + y_n sin t,  -x_n,  sin t - y_n cos t)     (forward, left, up)
-//! ```
-//!
-//! and it meets the plane of the head top, `z = Hm`, at `k = (Hm - Hc) / C`:
-//! forward `X = k A` (exactly the paper's eq. 1, `Dm = (Hm - Hc) / tan(t + atan(-y_n))`)
-//! and left `Y = k B` (eq. 3 is its small-tilt approximation `Dm tan(beta)`). Then the
-//! camera's pose on the robot (offset and yaw) maps it into the robot frame.
-//!
-//! Covariance: `J diag(s_u^2, s_v^2, s_H^2, s_t^2) J^T` for the pixel noise of the
-//! reference point (which grows with the box, as a cascade's boxes jitter with the
-//! pyramid's scale steps), the spread of people's heights and the tilt uncertainty:
-//!
-//! ```text
-//! dX/du = 0                dY/du = -k / fx
-//! dX/dv = k_v A + k s/fy   dY/dv = k_v B,     k_v = (Hm - Hc) cos t / (fy C^2)
-//! dX/dH = A / C            dY/dH = B / C
-//! dX/dt = k_t A + k (y_n cos t - sin t)       k_t = -(Hm - Hc)(cos t + y_n sin t) / C^2
-//! dY/dt = k_t B
-//! ```
-//!
-//! The result is long along the viewing ray (range is poor) and thin across it
-//! (bearing is good). At 3 m one pixel of row error moves the range ~2 cm, one degree
-//! of tilt ~15 cm and 7 cm of height ~18 cm (SPEC 3.2).
+//! The camera's people for the pipeline: the monocular model of
+//! [`tether_vision::monocular::locate`] (the paper's eq. 1-3 as SPEC 3.2 restates them,
+//! covariance through the Jacobian), fed with pixel noise that grows with the box (a
+//! cascade's boxes jitter with the pyramid's scale steps), plus what the tracker needs:
+//! the bearing as a measurement of its own, and each person's own head height learned
+//! while the laser measured their range.
 
 use serde::{Deserialize, Serialize};
-use tether_core::{CameraModel, Cov2, Gaussian2, PixelBox, Point2, Robot};
+use tether_core::{CameraModel, Gaussian2, PixelBox, Point2, Robot};
+use tether_vision::monocular::{MonocularParams, locate};
 
 /// Settings of the monocular person model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -112,6 +87,9 @@ pub struct VisionPerson {
     pub bearing_rad: f64,
     /// Standard deviation of that bearing, rad.
     pub bearing_sigma_rad: f64,
+    /// True when the range came from this person's own learned head height rather than
+    /// the population's: then the range is worth using even beside the laser's.
+    pub own_height: bool,
 }
 
 /// The person under a box, in the robot frame, or `None` when the box cannot be a
@@ -126,65 +104,40 @@ pub fn person_from_box(
 }
 
 /// Like [`person_from_box`], with the bearing as a measurement of its own: the
-/// horizontal direction of the ray, `atan2(B, A)` in the camera's ground frame, whose
-/// standard deviation is about `s_u / fx`.
+/// horizontal direction of the ray, whose standard deviation is about `s_u / fx`.
 pub fn vision_person(
     camera: &CameraModel,
     config: &VisionConfig,
     b: &PixelBox,
 ) -> Option<VisionPerson> {
-    if !(b.x.is_finite() && b.y.is_finite() && b.w.is_finite() && b.h.is_finite()) || b.w <= 0.0 {
+    if !(b.h.is_finite() && b.w.is_finite()) || b.h < config.min_box_height_px {
         return None;
     }
-    if b.h < config.min_box_height_px {
+    // The reference point: the centre of two edges for u, the top edge for v.
+    let sigma_u_px =
+        (config.pixel_sigma_px + config.size_sigma_frac * b.w) / std::f64::consts::SQRT_2;
+    let params = MonocularParams {
+        head_height_m: config.head_height_m,
+        head_height_sigma_m: config.head_height_sigma_m,
+        margin_frac: config.box_margin_frac,
+        sigma_u_px,
+        sigma_v_px: config.pixel_sigma_px + config.size_sigma_frac * b.h,
+        tilt_sigma_rad: config.tilt_sigma_rad,
+    };
+    let fix = locate(camera, b, &params).ok()?;
+    if !(fix.forward_m > 0.0) || fix.forward_m.hypot(fix.left_m) > config.max_range_m {
         return None;
     }
-    let i = &camera.intrinsics;
-    let (u, v) = b.reference_point(config.box_margin_frac);
-    let xn = (u - i.cx_px) / i.fx_px;
-    let yn = (v - i.cy_px) / i.fy_px;
-    let (s, c) = camera.mount.tilt_rad.sin_cos();
-    let (a, bl, up) = (c + yn * s, -xn, s - yn * c);
-    let rise = config.head_height_m - camera.mount.height_m;
-    if up.abs() < 1e-6 || rise / up <= 0.0 {
-        return None;
-    }
-    let k = rise / up;
-    let (x, y) = (k * a, k * bl);
-    if !(x > 0.0) || x.hypot(y) > config.max_range_m {
-        return None;
-    }
-    // Jacobian columns: u, v, H, tilt.
-    let k_v = rise * c / (i.fy_px * up * up);
-    let k_t = -rise * (c + yn * s) / (up * up);
-    let j = [
-        [
-            0.0,
-            k_v * a + k * s / i.fy_px,
-            a / up,
-            k_t * a + k * (yn * c - s),
-        ],
-        [-k / i.fx_px, k_v * bl, bl / up, k_t * bl],
-    ];
-    // The reference point: centre of two edges for u, the top edge for v.
-    let sigma_u = (config.pixel_sigma_px + config.size_sigma_frac * b.w) / std::f64::consts::SQRT_2;
-    let sigma_v = config.pixel_sigma_px + config.size_sigma_frac * b.h;
-    let var = [
-        sigma_u * sigma_u,
-        sigma_v * sigma_v,
-        config.head_height_sigma_m.powi(2),
-        config.tilt_sigma_rad.powi(2),
-    ];
-    let entry = |r: usize, q: usize| (0..4).map(|n| j[r][n] * var[n] * j[q][n]).sum::<f64>();
-    let cov = Cov2::repaired(entry(0, 0), entry(0, 1), entry(1, 1), 1e-6)?;
-    let in_camera = Gaussian2::<tether_core::Camera>::new(Point2::new(x, y), cov).ok()?;
     let robot_from_camera = camera.robot_from_camera();
-    let horizontal = a.hypot(bl);
+    // d(bearing)/du = -cos^2(bearing) / fx for the horizontal ray direction.
+    let bearing_sigma_rad =
+        sigma_u_px / camera.intrinsics.fx_px * fix.bearing_rad.cos().powi(2).max(0.1);
     Some(VisionPerson {
-        estimate: in_camera.transformed(robot_from_camera),
+        estimate: fix.in_robot,
         camera_in_robot: robot_from_camera.translation(),
-        bearing_rad: tether_core::wrap_angle_rad(robot_from_camera.yaw + bl.atan2(a)),
-        bearing_sigma_rad: sigma_u / i.fx_px * (a / horizontal).powi(2).max(0.1),
+        bearing_rad: tether_core::wrap_angle_rad(robot_from_camera.yaw + fix.bearing_rad),
+        bearing_sigma_rad,
+        own_height: false,
     })
 }
 
@@ -192,8 +145,18 @@ pub fn vision_person(
 /// stand `distance_m` away horizontally from the camera: the ray through the box's
 /// reference point rises `C / hypot(A, B)` per metre, so `H = Hc + distance C /
 /// hypot(A, B)`. `None` when the ray points down or the box is degenerate.
-pub fn implied_head_height_m(camera: &CameraModel, config: &VisionConfig, b: &PixelBox, distance_m: f64) -> Option<f64> {
-    if !(b.x.is_finite() && b.y.is_finite() && b.h.is_finite() && distance_m.is_finite() && distance_m > 0.0) {
+pub fn implied_head_height_m(
+    camera: &CameraModel,
+    config: &VisionConfig,
+    b: &PixelBox,
+    distance_m: f64,
+) -> Option<f64> {
+    if !(b.x.is_finite()
+        && b.y.is_finite()
+        && b.h.is_finite()
+        && distance_m.is_finite()
+        && distance_m > 0.0)
+    {
         return None;
     }
     let (u, v) = b.reference_point(config.box_margin_frac);
@@ -235,7 +198,6 @@ impl LearnedHeight {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use proptest::prelude::*;
     use tether_core::Point3;
 
     /// The box whose top-centre is the projection of a head top at `p` (robot frame).
@@ -249,81 +211,34 @@ mod tests {
         })
     }
 
-    proptest! {
-        /// Projecting a head top into the image and back recovers it, for a camera
-        /// that is tilted, yawed and offset on the robot.
-        #[test]
-        fn projection_and_back_recover_the_head(x in 0.8..6.0f64, y in -2.0..2.0f64, tilt in 0.0..0.6f64,
-                                                 yaw in -0.4..0.4f64, ox in -0.2..0.3f64, oy in -0.2..0.2f64) {
-            let mut camera = CameraModel::default();
-            camera.mount.tilt_rad = tilt;
-            camera.mount.yaw_rad = yaw;
-            camera.mount.x_m = ox;
-            camera.mount.y_m = oy;
-            let config = VisionConfig::default();
-            let head = Point3::<Robot>::new(x, y, config.head_height_m);
-            prop_assume!((x - ox).hypot(y - oy) > 0.5);
-            if let Some(b) = box_of(&camera, head) {
-                let g = person_from_box(&camera, &config, &b);
-                prop_assert!(g.is_some());
-                let g = g.unwrap();
-                prop_assert!((g.mean.x - x).abs() < 1e-6 && (g.mean.y - y).abs() < 1e-6, "{:?} vs ({x}, {y})", g.mean);
-            }
-        }
-
-        /// The covariance is long along the viewing ray and thin across it.
-        #[test]
-        fn covariance_is_long_along_the_ray(x in 1.5..5.0f64, y in -1.0..1.0f64) {
-            let camera = CameraModel { mount: tether_core::CameraMount { x_m: 0.0, ..Default::default() }, ..Default::default() };
-            let config = VisionConfig::default();
-            if let Some(b) = box_of(&camera, Point3::new(x, y, config.head_height_m)) {
-                let g = person_from_box(&camera, &config, &b).unwrap();
-                let (major, minor, angle) = g.cov.principal_axes();
-                prop_assert!(major > 9.0 * minor, "major {major} minor {minor}");
-                let ray = y.atan2(x);
-                let off = tether_core::wrap_angle_rad(2.0 * (angle - ray)) / 2.0;
-                prop_assert!(off.abs() < 0.1, "ellipse at {angle}, ray at {ray}");
-            }
-        }
-    }
-
     #[test]
-    fn sensitivities_at_three_metres_match_the_spec() {
-        let camera = CameraModel {
-            mount: tether_core::CameraMount {
-                x_m: 0.0,
-                ..Default::default()
-            },
-            ..Default::default()
-        };
+    fn boxes_become_people_where_the_camera_model_puts_them() {
+        let camera = CameraModel::default();
         let config = VisionConfig::default();
-        let range = |b: &PixelBox, cfg: &VisionConfig, cam: &CameraModel| {
-            person_from_box(cam, cfg, b).map(|g| g.mean.x)
+        let head = Point3::<Robot>::new(3.0, 0.5, config.head_height_m);
+        let b = box_of(&camera, head).unwrap();
+        let p = vision_person(&camera, &config, &b).unwrap();
+        assert!((p.estimate.mean.x - 3.0).abs() < 1e-6 && (p.estimate.mean.y - 0.5).abs() < 1e-6);
+        let cam = camera.robot_from_camera().translation();
+        assert!((p.bearing_rad - (0.5 - cam.y).atan2(3.0 - cam.x)).abs() < 1e-9);
+        // Pixel noise grows with the box: a bigger box of the same person is less sure.
+        let big = PixelBox {
+            w: 2.0 * b.w,
+            h: 2.0 * b.h,
+            x: b.x - 0.5 * b.w,
+            ..b
         };
-        let b = box_of(&camera, Point3::new(3.0, 0.0, config.head_height_m)).unwrap();
-        let base = range(&b, &config, &camera).unwrap_or_default();
-        // One pixel of row error.
-        let lower = PixelBox { y: b.y + 1.0, ..b };
-        let dpx = (range(&lower, &config, &camera).unwrap_or_default() - base).abs();
-        assert!((0.01..0.04).contains(&dpx), "1 px -> {dpx} m");
-        // One degree of tilt.
-        let mut tilted = camera;
-        tilted.mount.tilt_rad += 1f64.to_radians();
-        let dtilt = (range(&b, &config, &tilted).unwrap_or_default() - base).abs();
-        assert!((0.08..0.25).contains(&dtilt), "1 deg -> {dtilt} m");
-        // 7 cm of height.
-        let taller = VisionConfig {
-            head_height_m: config.head_height_m + 0.07,
-            ..config.clone()
-        };
-        let dh = (range(&b, &taller, &camera).unwrap_or_default() - base).abs();
-        assert!((0.12..0.25).contains(&dh), "7 cm -> {dh} m");
+        let q = vision_person(&camera, &config, &big).unwrap();
+        assert!(q.bearing_sigma_rad > p.bearing_sigma_rad);
     }
 
     #[test]
     fn implied_height_inverts_the_range_model() {
         let camera = CameraModel::default();
-        let config = VisionConfig { head_height_m: 1.62, ..VisionConfig::default() };
+        let config = VisionConfig {
+            head_height_m: 1.62,
+            ..VisionConfig::default()
+        };
         let head = Point3::<Robot>::new(3.0, 0.4, 1.62);
         let b = box_of(&camera, head).unwrap();
         let cam = camera.robot_from_camera().translation();

@@ -182,7 +182,9 @@ pub fn run(
     passengers: &[PipelineConfig],
     faults: &[Fault],
 ) -> Result<RunLog, RunError> {
-    run_observed(scenario, seed, config, passengers, faults, &mut |_, _| Ok(()))
+    run_observed(scenario, seed, config, passengers, faults, &mut |_, _| {
+        Ok(())
+    })
 }
 
 /// Like [`run`], calling `observe` with every event and the driving pipeline's tick

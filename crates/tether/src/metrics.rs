@@ -32,6 +32,11 @@ pub struct RunMetrics {
     pub rmse_laser_m: Option<f64>,
     /// RMSE of the vision-only passenger's target estimate, m.
     pub rmse_vision_m: Option<f64>,
+    /// RMSE of the fused, laser-only and vision-only estimates over the scans where all
+    /// three had one (the like-for-like comparison), m.
+    pub rmse_common_m: Option<[f64; 3]>,
+    /// Scans in that common set.
+    pub common_scans: usize,
     /// Mean normalised estimation error squared of the fused target estimate (2 for a
     /// consistent 2-D estimate).
     pub nees_mean: Option<f64>,
@@ -69,19 +74,36 @@ pub struct RunMetrics {
 }
 
 /// RMSE and mean NEES of the per-frame fused estimate of the target in the camera ticks
-/// of `ticks` (the fused person nearest the true target, within the match threshold).
+/// of `ticks` (the fused person nearest the true target, within the match threshold and
+/// nearer to the target than to anyone else).
 pub fn per_frame_fused<'a>(
     steps: impl Iterator<Item = (&'a tether_sim::Truth, Option<&'a Tick>)>,
 ) -> (Option<f64>, Option<f64>) {
     let mut errors = Vec::new();
     let mut nees = Vec::new();
     for (truth, tick) in steps {
-        let (Some(target), Some(tick)) = (truth.target(), tick) else { continue };
+        let (Some(target), Some(tick)) = (truth.target(), tick) else {
+            continue;
+        };
+        // The fused estimate of the target: nearest to it, and nearer to it than to
+        // anybody else (two people crossing are two estimates, not one error).
+        let belongs_to_target = |g: &&Gaussian2<World>| {
+            let d = g.mean.distance_m(target.position);
+            d <= MATCH_M
+                && truth
+                    .people
+                    .iter()
+                    .all(|p| p.target || p.position.distance_m(g.mean) > d)
+        };
         let nearest = tick
             .fused_people
             .iter()
-            .min_by(|a, b| a.mean.distance_m(target.position).total_cmp(&b.mean.distance_m(target.position)))
-            .filter(|g| g.mean.distance_m(target.position) <= MATCH_M);
+            .filter(belongs_to_target)
+            .min_by(|a, b| {
+                a.mean
+                    .distance_m(target.position)
+                    .total_cmp(&b.mean.distance_m(target.position))
+            });
         if let Some(g) = nearest {
             let e = g.mean - target.position;
             errors.push(e.norm());
@@ -116,6 +138,7 @@ pub fn measure(log: &RunLog) -> RunMetrics {
     let mut laser_err = Vec::new();
     let mut vision_err = Vec::new();
     let mut mot = ClearMot::new(MATCH_M);
+    let mut common: Vec<[f64; 3]> = Vec::new();
     let mut swaps = 0u32;
     let mut following_target: Option<bool> = None;
 
@@ -165,7 +188,9 @@ pub fn measure(log: &RunLog) -> RunMetrics {
                 // Who is being followed: the person the CLEAR MOT correspondence ties the
                 // locked track to (correspondences persist while they hold, so two
                 // people passing close by do not count as a swap).
-                if let (TargetState::Locked { track }, Some(_)) = (tick.target.state, locked_estimate(tick)) {
+                if let (TargetState::Locked { track }, Some(_)) =
+                    (tick.target.state, locked_estimate(tick))
+                {
                     let followed = mot
                         .current_matches()
                         .iter()
@@ -181,6 +206,21 @@ pub fn measure(log: &RunLog) -> RunMetrics {
             }
         }
         if step.kind == StepKind::Scan {
+            let fused = step.tick.as_ref().and_then(locked_estimate);
+            let laser = step
+                .passengers
+                .first()
+                .and_then(Option::as_ref)
+                .and_then(locked_estimate);
+            let vision = step
+                .passengers
+                .get(1)
+                .and_then(Option::as_ref)
+                .and_then(locked_estimate);
+            if let (Some(f), Some(l), Some(v)) = (fused, laser, vision) {
+                let e = |g: Gaussian2<World>| (g.mean - target.position).norm();
+                common.push([e(f), e(l), e(v)]);
+            }
             for (k, p) in step.passengers.iter().enumerate() {
                 if let Some(est) = p.as_ref().and_then(locked_estimate) {
                     let e = (est.mean - target.position).norm();
@@ -235,6 +275,11 @@ pub fn measure(log: &RunLog) -> RunMetrics {
         rmse_fused_m: rmse(&fused_err),
         rmse_laser_m: rmse(&laser_err),
         rmse_vision_m: rmse(&vision_err),
+        rmse_common_m: (!common.is_empty()).then(|| {
+            [0, 1, 2]
+                .map(|k| rmse(&common.iter().map(|c| c[k]).collect::<Vec<_>>()).unwrap_or(f64::NAN))
+        }),
+        common_scans: common.len(),
         nees_mean: mean(&nees),
         mota: s.mota,
         motp_m: s.motp_m,

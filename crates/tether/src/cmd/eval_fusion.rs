@@ -28,7 +28,8 @@ pub struct Pooled {
     pub scenario: String,
     /// Runs.
     pub runs: u64,
-    /// RMSE of the fused (driving) pipeline's target estimate, m.
+    /// RMSE of the fused (driving) pipeline's target estimate over the scans where all
+    /// three pipelines had an estimate, m.
     pub rmse_fused_m: f64,
     /// RMSE of the laser-only pipeline's, m.
     pub rmse_laser_m: f64,
@@ -67,7 +68,11 @@ fn mean(values: &[f64]) -> f64 {
 }
 
 /// Evaluates one scenario over seeds 0..n.
-pub fn evaluate(scenario: &Scenario, seeds: u64, mut on_run: impl FnMut()) -> anyhow::Result<Pooled> {
+pub fn evaluate(
+    scenario: &Scenario,
+    seeds: u64,
+    mut on_run: impl FnMut(),
+) -> anyhow::Result<Pooled> {
     let (driver, mut passengers) = super::demo::variants(scenario);
     let mut kalman = driver.clone();
     kalman.fusion.rule = FusionRule::Kalman;
@@ -83,9 +88,11 @@ pub fn evaluate(scenario: &Scenario, seeds: u64, mut on_run: impl FnMut()) -> an
         let log = closed_loop::run(scenario, seed, &driver, &passengers, &[])
             .with_context(|| format!("{} seed {seed}", scenario.name))?;
         let m = measure(&log);
-        fused.extend(m.rmse_fused_m);
-        laser.extend(m.rmse_laser_m);
-        vision.extend(m.rmse_vision_m);
+        if let Some([f, l, v]) = m.rmse_common_m {
+            fused.push(f);
+            laser.push(l);
+            vision.push(v);
+        }
         nees_ci.extend(m.nees_per_frame_fused);
         nees_tr.extend(m.nees_mean);
         let (_, kf) = per_frame_fused(
@@ -135,15 +142,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     bar.finish_and_clear();
     println!(
         "{:<10} {:>5} {:>26} {:>22} {:>9} {:>6} {:>7} {:>6} {:>10}",
-        "scenario", "runs", "RMSE fused/laser/vision", "NEES CI/Kalman/tracked", "MOTA", "MOTP", "ID sw.", "swaps", "swap runs"
+        "scenario",
+        "runs",
+        "RMSE fused/laser/vision",
+        "NEES CI/Kalman/tracked",
+        "MOTA",
+        "MOTP",
+        "ID sw.",
+        "swaps",
+        "swap runs"
     );
     for p in &rows {
         println!(
             "{:<10} {:>5} {:>26} {:>22} {:>9.3} {:>6.3} {:>7} {:>6} {:>10}",
             p.scenario,
             p.runs,
-            format!("{:.3}/{:.3}/{:.3}", p.rmse_fused_m, p.rmse_laser_m, p.rmse_vision_m),
-            format!("{:.2}/{:.2}/{:.2}", p.nees_ci, p.nees_kalman, p.nees_tracked),
+            format!(
+                "{:.3}/{:.3}/{:.3}",
+                p.rmse_fused_m, p.rmse_laser_m, p.rmse_vision_m
+            ),
+            format!(
+                "{:.2}/{:.2}/{:.2}",
+                p.nees_ci, p.nees_kalman, p.nees_tracked
+            ),
             p.mota,
             p.motp_m,
             p.id_switches,
@@ -151,6 +172,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             p.runs_with_swaps
         );
     }
-    println!("NEES of a consistent 2-D estimate averages 2 (95 % band over 100 runs: 1.63-2.41); CI is conservative by design.");
+    println!(
+        "NEES of a consistent 2-D estimate averages 2 (95 % band over 100 runs: 1.63-2.41); CI is conservative by design."
+    );
     Ok(())
 }

@@ -71,16 +71,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let context = || format!("simulating `{}` into {}", scenario.name, args.out.display());
     let summary = match args.driver {
-        DriverChoice::Scenario => {
-            run_to_dir(&scenario, &source, args.seed, &args.out, |now, _| show(now.ns())).with_context(context)?
-        }
+        DriverChoice::Scenario => run_to_dir(&scenario, &source, args.seed, &args.out, |now, _| {
+            show(now.ns())
+        })
+        .with_context(context)?,
         DriverChoice::Tether => {
             let (driver, passengers) = super::demo::variants(&scenario);
-            let mut recorder = RunRecorder::create(&args.out, &scenario, args.seed).with_context(context)?;
-            let log = closed_loop::run_observed(&scenario, args.seed, &driver, &passengers, &[], &mut |event, _| {
-                show(event.truth.stamp.ns());
-                recorder.record(event).map_err(RunError::from)
-            })
+            let mut recorder =
+                RunRecorder::create(&args.out, &scenario, args.seed).with_context(context)?;
+            let log = closed_loop::run_observed(
+                &scenario,
+                args.seed,
+                &driver,
+                &passengers,
+                &[],
+                &mut |event, _| {
+                    show(event.truth.stamp.ns());
+                    recorder.record(event).map_err(RunError::from)
+                },
+            )
             .with_context(context)?;
             let world = StaticWorld::from_scenario(&scenario);
             let summary = recorder

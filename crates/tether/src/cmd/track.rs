@@ -50,8 +50,14 @@ pub fn load_config(path: Option<&PathBuf>) -> anyhow::Result<PipelineConfig> {
     let Some(path) = path else {
         return Ok(PipelineConfig::default());
     };
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read config {}", path.display()))?;
-    toml::from_str(&text).with_context(|| format!("config {} is not a valid tether configuration", path.display()))
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read config {}", path.display()))?;
+    toml::from_str(&text).with_context(|| {
+        format!(
+            "config {} is not a valid tether configuration",
+            path.display()
+        )
+    })
 }
 
 /// Runs the pipeline over the bag's scans. The recording is taken as seen from a still
@@ -73,7 +79,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             bag.topics().join(", ")
         );
     }
-    let file = std::fs::File::create(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let file = std::fs::File::create(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut out = std::io::BufWriter::new(file);
     let still: Pose2<World, Robot> = Pose2::IDENTITY;
     let (mut scans, mut with_target) = (0usize, 0usize);
@@ -112,7 +119,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         scans += 1;
     }
     let skipped = messages.bad_count();
-    out.flush().with_context(|| format!("writing {}", args.out.display()))?;
+    out.flush()
+        .with_context(|| format!("writing {}", args.out.display()))?;
     let stats = pipeline.stats();
     if skipped > 0 {
         tracing::warn!("{skipped} messages could not be decoded and were skipped");
