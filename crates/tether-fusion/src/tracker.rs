@@ -1,5 +1,6 @@
 //! Multi-person tracking: one constant-velocity Kalman filter per person in the world
-//! (odometry) frame, global nearest neighbour association with the Hungarian method,
+//! (odometry) frame, global nearest neighbour association with the Hungarian method on
+//! the negative log likelihood of each pairing,
 //! confirmation after a few consistent detections, deletion after missed updates or
 //! when the uncertainty grows too large.
 //!
@@ -15,6 +16,10 @@ use thiserror::Error;
 use crate::assign::assign;
 use crate::gate::Gate;
 use crate::kalman::CvFilter;
+
+/// Lower bound on `ln det S` in the assignment cost: innovations tighter than a few
+/// centimetres all count the same, so sub-centimetre covariances do not dominate.
+const LN_DET_FLOOR: f64 = -12.0;
 
 /// Which sensor an observation comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -102,7 +107,7 @@ impl Default for TrackerConfig {
     fn default() -> Self {
         TrackerConfig {
             gate: Gate::default(),
-            accel_noise: 2.0,
+            accel_noise: 0.5,
             initial_speed_sigma_mps: 1.0,
             confirm_hits: 3,
             tentative_timeout_s: 0.6,
@@ -327,8 +332,12 @@ impl Tracker {
                     .iter()
                     .zip(&usable)
                     .map(|(o, &ok)| {
-                        let d2 = t.filter.mahalanobis_sq(&o.estimate);
-                        (ok && d2 < gate).then_some(d2)
+                        // Gate on the Mahalanobis distance; assign on the negative log
+                        // likelihood d^2 + ln det S, so that an uncertain track does not
+                        // win an observation that a certain track explains better.
+                        let (s, y) = t.filter.innovation(&o.estimate);
+                        let d2 = s.mahalanobis_sq(y[0], y[1]);
+                        (ok && d2 < gate).then(|| d2 + s.det().ln().max(LN_DET_FLOOR))
                     })
                     .collect()
             })
