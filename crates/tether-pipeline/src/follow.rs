@@ -128,6 +128,7 @@ impl Trails {
         target: Point2<World>,
         obstacles: &[Point2<World>],
         clearance_m: f64,
+        always_trail: bool,
     ) -> Aim {
         let here = robot.translation();
         let straight = Aim {
@@ -135,7 +136,8 @@ impl Trails {
             distance_m: attach.distance_m(target),
             via_trail: false,
         };
-        if !Self::blocked(here, target, target, obstacles, clearance_m) || self.target.is_empty() {
+        let blocked = Self::blocked(here, target, target, obstacles, clearance_m);
+        if (!blocked && !always_trail) || self.target.is_empty() {
             return straight;
         }
         // Drop the part of the trail the robot has already passed.
@@ -203,11 +205,11 @@ mod tests {
         let robot = Pose2::<World, Robot>::new(0.5, 0.0, 0.0);
         let attach = robot * Point2::new(0.3, 0.0);
         let target = p(2.0, 2.0);
-        let clear = trails.aim(robot, attach, target, &[], 0.25);
+        let clear = trails.aim(robot, attach, target, &[], 0.25, false);
         assert!(!clear.via_trail && clear.point == target);
         // A chair leg on the diagonal.
         let chair = [p(1.3, 1.0)];
-        let around = trails.aim(robot, attach, target, &chair, 0.25);
+        let around = trails.aim(robot, attach, target, &chair, 0.25, false);
         assert!(around.via_trail);
         assert!(
             around.point.y.abs() < 1e-9 && around.point.x > 1.0,

@@ -121,6 +121,9 @@ pub struct PipelineConfig {
     pub target: TargetConfig,
     /// The virtual spring.
     pub follower: SpringConfig,
+    /// Steer along the target's trail even when the straight line to them is clear
+    /// (otherwise only when the laser sees something in the way).
+    pub follower_always_trail: bool,
     /// Limits of the base.
     pub limits: MotionLimits,
     /// Safety layer.
@@ -761,6 +764,7 @@ impl Pipeline {
                     estimate.mean,
                     &obstacles,
                     safety.robot_radius_m + safety.corridor_margin_m,
+                    self.config.follower_always_trail,
                 );
                 // The spring sees a person in the aim's direction at the (possibly
                 // along-the-trail) distance.
