@@ -169,9 +169,16 @@ mod tests {
         let leg = [Point2::<Robot>::new(0.45, 0.33)];
         assert_eq!(s.obstacle_ahead_m(leg), None);
         assert_eq!(s.obstacle_on_arc_m(&leg, 0.5, 0.0), None);
-        assert!(s.obstacle_on_arc_m(&leg, 0.5, 1.5).is_some(), "turning left into it");
+        assert!(
+            s.obstacle_on_arc_m(&leg, 0.5, 1.5).is_some(),
+            "turning left into it"
+        );
         assert_eq!(s.obstacle_on_arc_m(&leg, 0.5, -1.5), None, "turning away");
-        assert_eq!(s.obstacle_on_arc_m(&leg, 0.0, 1.5), None, "turning on the spot");
+        assert_eq!(
+            s.obstacle_on_arc_m(&leg, 0.0, 1.5),
+            None,
+            "turning on the spot"
+        );
     }
 
     #[test]

@@ -90,7 +90,12 @@ impl Cov2 {
     /// Use it to repair a matrix that rounding made indefinite, never to accept data
     /// from outside.
     pub fn repaired(xx: f64, xy: f64, yy: f64, min_var: f64) -> Option<Cov2> {
-        if !(xx.is_finite() && xy.is_finite() && yy.is_finite() && min_var.is_finite() && min_var > 0.0) {
+        if !(xx.is_finite()
+            && xy.is_finite()
+            && yy.is_finite()
+            && min_var.is_finite()
+            && min_var > 0.0)
+        {
             return None;
         }
         let mean = 0.5 * (xx + yy);

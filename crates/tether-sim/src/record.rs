@@ -26,8 +26,8 @@ use crate::driver::Driver;
 use crate::robot::Command;
 use crate::scenario::Scenario;
 use crate::sim::{Event, SensorData, SimError, Simulation, Truth};
-use crate::world::StaticWorld;
 use crate::svg::{Track, person_color, scene_svg};
+use crate::world::StaticWorld;
 
 /// Why a run could not be recorded.
 #[derive(Debug, thiserror::Error)]

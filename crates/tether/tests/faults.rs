@@ -50,10 +50,19 @@ const STOP_WITHIN_S: f64 = 0.3 + 0.6;
 
 #[test]
 fn laser_outage_stops_the_robot_and_it_resumes() {
-    let log = corridor_run(&[Fault::LaserDropout { from_s: 8.0, duration_s: 1.0 }]);
-    assert!(speeds(&log, 7.0, 8.0).iter().all(|v| *v > 0.5), "following before the fault");
+    let log = corridor_run(&[Fault::LaserDropout {
+        from_s: 8.0,
+        duration_s: 1.0,
+    }]);
+    assert!(
+        speeds(&log, 7.0, 8.0).iter().all(|v| *v > 0.5),
+        "following before the fault"
+    );
     let during = commands(&log, 8.0 + STOP_WITHIN_S, 9.0);
-    assert!(!during.is_empty() && during.iter().all(|v| *v == 0.0), "stopped: {during:?}");
+    assert!(
+        !during.is_empty() && during.iter().all(|v| *v == 0.0),
+        "stopped: {during:?}"
+    );
     // The base itself, braking at its own limit, is still within half a metre per second.
     assert!(speeds(&log, 9.0, 9.05).iter().all(|v| *v < 0.5));
     let after = speeds(&log, 10.5, 12.0);
@@ -63,25 +72,40 @@ fn laser_outage_stops_the_robot_and_it_resumes() {
 
 #[test]
 fn nan_burst_is_treated_as_no_laser() {
-    let log = corridor_run(&[Fault::NanBurst { from_s: 8.0, duration_s: 1.5 }]);
+    let log = corridor_run(&[Fault::NanBurst {
+        from_s: 8.0,
+        duration_s: 1.5,
+    }]);
     let during = commands(&log, 8.0 + STOP_WITHIN_S, 9.5);
-    assert!(!during.is_empty() && during.iter().all(|v| *v == 0.0), "stopped: {during:?}");
+    assert!(
+        !during.is_empty() && during.iter().all(|v| *v == 0.0),
+        "stopped: {during:?}"
+    );
     let after = speeds(&log, 11.0, 13.0);
     assert!(after.iter().any(|v| *v > 0.5), "moving again: {after:?}");
 }
 
 #[test]
 fn camera_outage_leaves_the_laser_to_follow() {
-    let log = corridor_run(&[Fault::CameraDropout { from_s: 6.0, duration_s: 3.0 }]);
+    let log = corridor_run(&[Fault::CameraDropout {
+        from_s: 6.0,
+        duration_s: 3.0,
+    }]);
     // The laser alone keeps the target: the robot follows on without stopping.
     let during = speeds(&log, 6.0, 9.0);
-    assert!(during.iter().all(|v| *v > 0.5), "kept following: {during:?}");
+    assert!(
+        during.iter().all(|v| *v > 0.5),
+        "kept following: {during:?}"
+    );
     assert!(locked_at(&log, 8.5) && locked_at(&log, 10.0));
 }
 
 #[test]
 fn stamp_jump_does_not_break_the_loop() {
-    let log = corridor_run(&[Fault::StampJump { at_s: 8.0, jump_s: 0.5 }]);
+    let log = corridor_run(&[Fault::StampJump {
+        at_s: 8.0,
+        jump_s: 0.5,
+    }]);
     let after = speeds(&log, 10.0, 12.0);
     assert!(after.iter().any(|v| *v > 0.5), "moving again: {after:?}");
     assert!(locked_at(&log, 11.0));
