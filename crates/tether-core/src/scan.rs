@@ -146,7 +146,7 @@ impl LaserScan {
         let span = (angle_max_rad - angle_min_rad) / angle_increment_rad;
         let got = ranges_m.len();
         if !span.is_finite() || span < -0.5 || (span.round() + 1.0) != got as f64 {
-            let expected = if span.is_finite() && span >= -0.5 && span < 1e15 {
+            let expected = if span.is_finite() && (-0.5..1e15).contains(&span) {
                 span.round() as usize + 1
             } else {
                 0
