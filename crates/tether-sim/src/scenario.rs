@@ -837,8 +837,10 @@ impl Scenario {
                 );
             }
         }
-        let mut noise_check = LaserModel::default();
-        noise_check.noise = ls.noise.clone();
+        let noise_check = LaserModel {
+            noise: ls.noise.clone(),
+            ..LaserModel::default()
+        };
         if let Err(e) = noise_check.validate() {
             bad(dotted("laser_sim", laser_error_field(&e)), e.to_string());
         }
