@@ -187,6 +187,9 @@ pub fn run(
     })
 }
 
+/// Called with every event and the driving pipeline's tick.
+pub type Observer<'a> = dyn FnMut(&Event, Option<&Tick>) -> Result<(), RunError> + 'a;
+
 /// Like [`run`], calling `observe` with every event and the driving pipeline's tick
 /// (to record the run, show progress...).
 pub fn run_observed(
@@ -195,7 +198,7 @@ pub fn run_observed(
     config: &PipelineConfig,
     passengers: &[PipelineConfig],
     faults: &[Fault],
-    observe: &mut dyn FnMut(&Event, Option<&Tick>) -> Result<(), RunError>,
+    observe: &mut Observer<'_>,
 ) -> Result<RunLog, RunError> {
     let mut sim = Simulation::new(scenario, seed)?;
     sim.set_control_rate_hz(CONTROL_RATE_HZ);
