@@ -111,6 +111,7 @@ fn tick_10_people_30_leg_candidates(bencher: divan::Bencher) {
                         source: Source::Laser,
                         estimate: *l,
                         may_spawn: true,
+                        bearing: None,
                     }),
             )
             .collect();
