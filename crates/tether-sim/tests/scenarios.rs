@@ -145,27 +145,30 @@ fn stop_and_go_target_stands_still_twice() {
 }
 
 #[test]
-fn turns_take_the_target_out_of_the_camera_view_briefly() {
+fn turns_are_sharp_corners_the_laser_keeps_seeing() {
     for seed in 0..3 {
         let (_, events) = run("turns", seed);
-        let out_of_view: Vec<bool> = events
+        // The target's heading turns by at least 80 degrees within one second, three
+        // times (whether the camera loses them there depends on the follower: tether's
+        // closed-loop tests check that it does and that the target is kept).
+        let headings: Vec<(f64, f64)> = events
             .iter()
-            .filter_map(|(e, _)| e.camera_truth.as_ref())
-            .map(|ct| {
-                let v = &ct.people[0];
-                v.true_box.is_none() || v.in_image_frac < 0.6
-            })
+            .filter(|(e, _)| matches!(e.data, SensorData::Scan(_)))
+            .map(|(e, _)| (e.truth.stamp.secs_f64(), e.truth.target().unwrap().heading_rad))
             .collect();
-        let runs = runs_s(&out_of_view, 1.0 / 15.0);
-        assert!(
-            runs.iter().any(|&r| (0.3..=2.5).contains(&r)),
-            "seed {seed}: {runs:?}"
-        );
-        assert!(runs.iter().all(|&r| r <= 2.5), "seed {seed}: {runs:?}");
-        assert!(
-            target_hidden_from_laser(&events).iter().all(|h| !h),
-            "the laser keeps the target"
-        );
+        let mut corners = 0;
+        let mut k = 0;
+        while k + 10 < headings.len() {
+            let turn = tether_core::wrap_angle_rad(headings[k + 10].1 - headings[k].1).abs();
+            if turn > 80f64.to_radians() {
+                corners += 1;
+                k += 20;
+            } else {
+                k += 1;
+            }
+        }
+        assert_eq!(corners, 3, "seed {seed}");
+        assert!(target_hidden_from_laser(&events).iter().all(|h| !h), "the laser keeps the target");
     }
 }
 
