@@ -3,7 +3,7 @@
 //! ROS 1 serialisation is plain little-endian: numbers at their natural width, a string
 //! or an array as a `u32` length followed by its elements, nested messages inline.
 
-use tether_core::{Frame, LaserScan, Point2, Stamp};
+use tether_core::{Frame, LaserScan, Point2, Pose2, Stamp};
 
 use super::error::DecodeError;
 use super::record::time_from_bytes;
@@ -262,6 +262,27 @@ impl Pose3 {
     pub fn yaw_rad(&self) -> f64 {
         let [x, y, z, w] = self.orientation;
         (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
+    }
+
+    /// A pose on the ground plane: position `(x_m, y_m, 0)`, turned by `yaw_rad` about
+    /// z (quaternion `(0, 0, sin(yaw/2), cos(yaw/2))`).
+    pub fn planar(x_m: f64, y_m: f64, yaw_rad: f64) -> Self {
+        let (s, c) = (0.5 * yaw_rad).sin_cos();
+        Pose3 {
+            position_m: [x_m, y_m, 0.0],
+            orientation: [0.0, 0.0, s, c],
+        }
+    }
+
+    /// The same pose as a tether transform (`x`, `y`, yaw), dropping height, roll and
+    /// pitch; the caller names the frames the message's `frame_id`s stand for.
+    pub fn pose2<To: Frame, From: Frame>(&self) -> Pose2<To, From> {
+        Pose2::new(self.position_m[0], self.position_m[1], self.yaw_rad())
+    }
+
+    /// [`Pose3::planar`] of a tether transform.
+    pub fn from_pose2<To: Frame, From: Frame>(pose: Pose2<To, From>) -> Self {
+        Self::planar(pose.x, pose.y, pose.yaw)
     }
 }
 

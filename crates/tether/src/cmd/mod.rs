@@ -11,3 +11,4 @@ pub mod scenarios;
 pub mod sim;
 pub mod track;
 pub mod train_legs;
+pub mod urg_emulator;

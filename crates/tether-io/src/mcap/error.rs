@@ -1,0 +1,230 @@
+//! What can go wrong when reading or writing MCAP files and ROS 2 messages, and where.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use tether_core::Stamp;
+use thiserror::Error;
+
+/// Where in an MCAP file something was found.
+///
+/// Records inside a chunk live in the chunk's *decompressed* records, so their position
+/// is the chunk's offset in the file plus an offset into those records.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Location {
+    /// This byte offset of the file.
+    File(u64),
+    /// `offset` bytes into the decompressed records of the chunk record that starts at
+    /// byte `chunk` of the file.
+    InChunk {
+        /// Offset of the chunk record in the file.
+        chunk: u64,
+        /// Offset into the chunk's decompressed records.
+        offset: u64,
+    },
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Location::File(offset) => write!(f, "byte {offset}"),
+            Location::InChunk { chunk, offset } => write!(
+                f,
+                "byte {offset} of the decompressed records of the chunk at byte {chunk}"
+            ),
+        }
+    }
+}
+
+/// Why an MCAP file cannot be read (any further) or written. Reading errors name the
+/// place in the file.
+///
+/// A file that is damaged in one message only does not give this error: such messages
+/// are skipped and counted (see [`super::Decoded::bad_messages`]).
+#[derive(Debug, Error)]
+pub enum McapError {
+    /// The file could not be opened, read or created.
+    #[error("cannot access MCAP file {path}: {source}")]
+    Io {
+        /// The path given.
+        path: PathBuf,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// The file does not start with the MCAP magic.
+    #[error(
+        "not an MCAP file: it starts with {found:?}, expected \"\\x89MCAP0\\r\\n\" (a ROS 1 .bag \
+         is read by the rosbag reader; a ROS 2 .db3 bag must be converted to MCAP first)"
+    )]
+    NotMcap {
+        /// The first bytes of the file, lossily as text.
+        found: String,
+    },
+    /// A record runs past the end of the file or of its chunk.
+    #[error(
+        "MCAP file is truncated: the {record} at {at} needs {needed} bytes but only {available} \
+         remain; the recording was cut short (an interrupted copy or recorder)"
+    )]
+    Truncated {
+        /// Kind of record being read.
+        record: &'static str,
+        /// Where the record starts.
+        at: Location,
+        /// Bytes the record needs from its start.
+        needed: u64,
+        /// Bytes left from its start to the end of the file or chunk.
+        available: u64,
+    },
+    /// A record's content contradicts the format.
+    #[error("MCAP file is corrupt: {record} at {at}: {problem}")]
+    Corrupt {
+        /// Kind of record being read.
+        record: &'static str,
+        /// Where the record starts.
+        at: Location,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// A chunk uses a compression this reader does not know.
+    #[error(
+        "chunk at byte {at} uses compression {compression:?}; this reader knows \"\" (none), \
+         \"zstd\" and \"lz4\""
+    )]
+    UnsupportedCompression {
+        /// Offset of the chunk record.
+        at: u64,
+        /// The `compression` field.
+        compression: String,
+    },
+    /// The MCAP writer failed.
+    #[error("cannot write MCAP: {0}")]
+    Write(#[from] mcap::McapError),
+    /// A message could not be serialised.
+    #[error("cannot write a {msg_type} on {topic}: {source}")]
+    Encode {
+        /// Topic being written.
+        topic: String,
+        /// Message type.
+        msg_type: &'static str,
+        /// What was wrong.
+        source: EncodeError,
+    },
+    /// A topic was written with two message types.
+    #[error(
+        "topic {topic} already carries {existing}; it cannot also carry {new} (use another topic)"
+    )]
+    TopicTypeConflict {
+        /// The topic.
+        topic: String,
+        /// Type it was first written with.
+        existing: &'static str,
+        /// Type now written.
+        new: &'static str,
+    },
+    /// A log time before the epoch of the file's clock (MCAP times are unsigned).
+    #[error("log time {stamp} on {topic} is negative; MCAP log times count up from 0")]
+    NegativeLogTime {
+        /// Topic being written.
+        topic: String,
+        /// The stamp.
+        stamp: Stamp,
+    },
+    /// `write_stamped` was given a message type without a header.
+    #[error("{msg_type} has no header stamp; write it with `write` and an explicit log time")]
+    NoHeader {
+        /// Message type.
+        msg_type: &'static str,
+    },
+}
+
+/// Why one message could not be decoded. The file itself may be fine: the caller skips
+/// the message and counts it.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum DecodeError {
+    /// The channel carries another type than the decoder reads.
+    #[error("message is a {found}, not a {expected}")]
+    WrongType {
+        /// Type the decoder reads.
+        expected: &'static str,
+        /// Schema name of the channel.
+        found: String,
+    },
+    /// The channel's message encoding is not CDR.
+    #[error("message encoding is {found:?}; ROS 2 messages are \"cdr\"")]
+    WrongEncoding {
+        /// The channel's `message_encoding`.
+        found: String,
+    },
+    /// The CDR encapsulation is not plain CDR (e.g. a parameter list, XCDR2).
+    #[error(
+        "CDR encapsulation kind {kind:02x?} is not supported; ROS 2 writes 00 01 (little-endian)"
+    )]
+    Encapsulation {
+        /// The first two header bytes.
+        kind: [u8; 2],
+    },
+    /// The payload ends inside a field.
+    #[error(
+        "message ends inside field `{field}`: it needs {needed} bytes at byte {at}, {available} remain"
+    )]
+    Truncated {
+        /// Field being read.
+        field: &'static str,
+        /// Offset in the payload.
+        at: usize,
+        /// Bytes the field needs.
+        needed: u64,
+        /// Bytes left.
+        available: usize,
+    },
+    /// Bytes are left over after the last field.
+    #[error("{extra} bytes left over after the last field: is the message type right?")]
+    TrailingBytes {
+        /// Bytes left over.
+        extra: usize,
+    },
+    /// A string field is not UTF-8.
+    #[error("field `{field}` is not UTF-8 text")]
+    NotUtf8 {
+        /// Field being read.
+        field: &'static str,
+    },
+    /// A field holds a value the message cannot have.
+    #[error("field `{field}` is invalid: {problem}")]
+    BadValue {
+        /// Field being read.
+        field: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The decoded scan header cannot describe a scan.
+    #[error("laser scan is invalid: {0}")]
+    Scan(#[from] tether_core::ScanError),
+}
+
+/// Why a message cannot be serialised.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum EncodeError {
+    /// A stamp outside what `builtin_interfaces/Time` (`int32` seconds) holds.
+    #[error("field `{field}`: stamp {stamp} does not fit ROS 2 time (int32 seconds)")]
+    StampOutOfRange {
+        /// Field being written.
+        field: &'static str,
+        /// The stamp.
+        stamp: Stamp,
+    },
+    /// A sequence or string longer than a `u32` length can state.
+    #[error("field `{field}` has {len} elements, more than CDR's u32 length holds")]
+    TooLong {
+        /// Field being written.
+        field: &'static str,
+        /// Its length.
+        len: usize,
+    },
+    /// A string with a NUL byte inside.
+    #[error("field `{field}` contains a NUL byte, which a CDR string cannot hold")]
+    NulInString {
+        /// Field being written.
+        field: &'static str,
+    },
+}
