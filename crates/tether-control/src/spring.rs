@@ -111,7 +111,7 @@ impl Default for SpringConfig {
         SpringConfig {
             follow_distance_m: 1.0,
             attach_ahead_m: 0.3,
-            distance_omega_radps: 3.0,
+            distance_omega_radps: 4.0,
             bearing_omega_radps: 3.0,
             mass_kg: 1.0,
             inertia_kgm2: 0.2,
