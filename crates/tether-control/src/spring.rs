@@ -8,8 +8,13 @@
 //! F1 = k1 (d - d0)      along u = (cos phi, sin phi)     (stretch, free length d0)
 //! F2 = k2 phi           along n = (-sin phi, cos phi)    (bending)
 //! m dv/dt = F1 cos phi - F2 sin phi - k3 (v - v_ref)
-//! I dw/dt = L (F1 sin phi + F2 cos phi) - k4 w
+//! I dw/dt = L (max(F1, 0) sin phi + F2 cos phi) - k4 w
 //! ```
+//!
+//! (SPEC 6 has `F1` in the torque; a compressed spring, `F1 < 0`, would turn the robot
+//! away from a person who is close and off to the side, which is exactly the corner
+//! case of following. Only a stretched spring turns the robot here; near `phi = 0` the
+//! two forms have the same linearisation.)
 //!
 //! where `v_ref` is 0 (damping to rest) or, with relative damping, the person's tracked
 //! speed along the robot's x axis, which removes the steady lag `k3 V / k1` behind a
@@ -253,7 +258,16 @@ impl VirtualSpring {
                 0.0
             };
         let force = sign * (f1 * c - f2 * s);
-        let torque = sign * l * (f1 * s + f2 * c);
+        // A compressed spring (person closer than d0) pushes the robot back but does not
+        // turn it away from the person: the turning comes from the stretched spring and
+        // the bending spring only. (Without this, at a corner the compression torque
+        // cancels the bending torque and the robot stops turning just when the person
+        // walks off sideways.) The printed variant keeps the paper's form.
+        let f1_turn = match self.config.variant {
+            SpringVariant::Corrected => f1.max(0.0),
+            SpringVariant::PaperAsPrinted => f1,
+        };
+        let torque = sign * l * (f1_turn * s + f2 * c);
         // Spring forces explicit, damping implicit: unconditionally stable in the
         // damping terms, whatever the control period.
         self.v_mps = (self.v_mps + dt_s * (force + g.k3 * v_ref) / g.mass_kg)
