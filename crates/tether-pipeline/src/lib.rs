@@ -809,15 +809,22 @@ impl Pipeline {
             }
         };
         let mut desired = desired;
-        if desired.v_mps > 0.0
-            && (safety
-                .obstacle_ahead_m(self.obstacle_points.iter().copied())
-                .is_some()
-                || safety
-                    .obstacle_on_arc_m(&self.obstacle_points, desired.v_mps, desired.w_radps)
-                    .is_some())
-        {
-            desired.v_mps = 0.0;
+        // Something in the way of where the robot is going, or of where it is still
+        // rolling (a smooth stop takes a moment): brake at once.
+        let current = self.motion.twist;
+        let blocked = |v: f64, w: f64| {
+            v > 0.0
+                && (safety
+                    .obstacle_ahead_m(self.obstacle_points.iter().copied())
+                    .is_some()
+                    || safety
+                        .obstacle_on_arc_m(&self.obstacle_points, v, w)
+                        .is_some())
+        };
+        let obstacle =
+            blocked(desired.v_mps, desired.w_radps) || blocked(current.v_mps, current.w_radps);
+        if obstacle {
+            desired.v_mps = desired.v_mps.min(0.0);
             stop = stop.or(Some(StopReason::Obstacle));
         }
         if desired.v_mps < 0.0
@@ -827,10 +834,11 @@ impl Pipeline {
         {
             desired.v_mps = 0.0;
         }
-        let emergency = matches!(
-            stop,
-            Some(StopReason::Obstacle | StopReason::StaleLaser | StopReason::StaleTarget)
-        );
+        let emergency = obstacle
+            || matches!(
+                stop,
+                Some(StopReason::Obstacle | StopReason::StaleLaser | StopReason::StaleTarget)
+            );
         self.motion = self
             .config
             .limits
