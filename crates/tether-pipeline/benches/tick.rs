@@ -13,7 +13,10 @@ fn main() {
 
 /// Recorded inputs: (scan, pose) and (stamp, boxes, pose) from 12 s of the office.
 struct Inputs {
-    scans: Vec<(tether_core::LaserScan, tether_core::Pose2<tether_core::World, tether_core::Robot>)>,
+    scans: Vec<(
+        tether_core::LaserScan,
+        tether_core::Pose2<tether_core::World, tether_core::Robot>,
+    )>,
     frames: Vec<(
         tether_core::Stamp,
         Vec<tether_core::PixelBox>,
@@ -44,7 +47,11 @@ fn inputs() -> Inputs {
     let mut config = PipelineConfig::default();
     config.laser = scenario.laser.clone();
     config.camera = scenario.camera;
-    Inputs { scans, frames, config }
+    Inputs {
+        scans,
+        frames,
+        config,
+    }
 }
 
 /// Each scan with the first camera frame at or after it: ticks in time order.

@@ -812,12 +812,18 @@ impl Pipeline {
         // Something in the way of where the robot is going, or of where it is still
         // rolling (a smooth stop takes a moment): brake at once.
         let current = self.motion.twist;
+        let decel = self.config.limits.max_decel_mps2;
         let blocked = |v: f64, w: f64| {
+            // The free space needed grows with the braking distance at this speed.
+            let reach = SafetyConfig {
+                stop_distance_m: safety.stop_distance_m + v * v / (2.0 * decel),
+                ..safety.clone()
+            };
             v > 0.0
-                && (safety
+                && (reach
                     .obstacle_ahead_m(self.obstacle_points.iter().copied())
                     .is_some()
-                    || safety
+                    || reach
                         .obstacle_on_arc_m(&self.obstacle_points, v, w)
                         .is_some())
         };

@@ -114,6 +114,15 @@ pub fn config_for(scenario: &Scenario, base: &PipelineConfig) -> PipelineConfig 
     c.follower.follow_distance_m = scenario.robot.follow_distance_m;
     c.limits.track_width_m = scenario.robot.track_width_m;
     c.limits.max_wheel_speed_mps = scenario.robot.max_wheel_speed_mps;
+    // The base cannot change speed faster than its wheels can.
+    c.limits.max_accel_mps2 = c
+        .limits
+        .max_accel_mps2
+        .min(scenario.robot.max_wheel_accel_mps2);
+    c.limits.max_decel_mps2 = c
+        .limits
+        .max_decel_mps2
+        .min(scenario.robot.max_wheel_accel_mps2);
     c.safety.robot_radius_m = scenario.robot.radius_m;
     c
 }
