@@ -275,7 +275,7 @@ impl Default for RobotSpec {
             radius_m: 0.2,
             track_width_m: 0.3,
             max_wheel_speed_mps: 1.6,
-            max_wheel_accel_mps2: 1.5,
+            max_wheel_accel_mps2: 2.5,
             command_timeout_s: 0.5,
             driver: DriverKind::default(),
             follow_distance_m: 1.0,
