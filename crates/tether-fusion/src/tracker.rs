@@ -220,6 +220,8 @@ pub struct TrackerStats {
     pub rejected_observations: u64,
     /// Observations that updated a track.
     pub associated: u64,
+    /// Camera observations left out because several tracks could explain them.
+    pub ambiguous_observations: u64,
     /// Tracks started.
     pub tracks_started: u64,
     /// Tracks dropped.
@@ -342,6 +344,20 @@ impl Tracker {
                     .collect()
             })
             .collect();
+        // A camera observation that more than one track could explain is left out: its
+        // range is poor, so people standing on one viewing ray (one hiding the other, a
+        // crossing) all gate with it, and giving it to the wrong one drags that track
+        // onto someone else.
+        let mut cost = cost;
+        for (oi, o) in observations.iter().enumerate() {
+            if o.source == Source::Vision && cost.iter().filter(|row| row[oi].is_some()).count() > 1
+            {
+                for row in &mut cost {
+                    row[oi] = None;
+                }
+                self.stats.ambiguous_observations += 1;
+            }
+        }
         let assignment = assign(&cost);
         let mut track_of = vec![None; observations.len()];
         for (ti, oi) in assignment.iter().enumerate() {
