@@ -344,14 +344,16 @@ impl Tracker {
                     .collect()
             })
             .collect();
-        // A camera observation that more than one track could explain is left out: its
-        // range is poor, so people standing on one viewing ray (one hiding the other, a
-        // crossing) all gate with it, and giving it to the wrong one drags that track
-        // onto someone else.
+        // A camera observation that two tracks explain about equally well is left out:
+        // its range is poor, so people standing on one viewing ray (one hiding the
+        // other, a crossing) both gate with it, and giving it to the wrong one drags that
+        // track onto someone else. "About equally": costs within 4 (a likelihood ratio
+        // under e^2).
         let mut cost = cost;
         for (oi, o) in observations.iter().enumerate() {
-            if o.source == Source::Vision && cost.iter().filter(|row| row[oi].is_some()).count() > 1
-            {
+            let mut costs: Vec<f64> = cost.iter().filter_map(|row| row[oi]).collect();
+            costs.sort_by(f64::total_cmp);
+            if o.source == Source::Vision && costs.len() > 1 && costs[1] - costs[0] < 4.0 {
                 for row in &mut cost {
                     row[oi] = None;
                 }
