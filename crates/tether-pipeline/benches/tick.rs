@@ -76,7 +76,7 @@ fn scan_and_camera_tick(bencher: divan::Bencher) {
     let mut pipeline = Pipeline::new(data.config.clone(), None).expect("valid config");
     // Warm up: lock on the target over the first seconds.
     let mut k = 0usize;
-    let mut step = |pipeline: &mut Pipeline, k: usize| {
+    let step = |pipeline: &mut Pipeline, k: usize| {
         let (si, fi) = order[k];
         let (scan, pose) = &data.scans[si];
         let a = pipeline.on_scan(scan, *pose);

@@ -753,9 +753,12 @@ impl Pipeline {
                 let robot_from_world = world_from_robot.inverse();
                 let attach =
                     world_from_robot * Point2::new(self.config.follower.attach_ahead_m, 0.0);
+                // Only returns nearer than the target (plus a margin) can stand between.
+                let reach_m = (robot_from_world * estimate.mean).range_m() + 1.0;
                 let obstacles: Vec<Point2<World>> = self
                     .obstacle_points
                     .iter()
+                    .filter(|p| p.range_m() <= reach_m)
                     .map(|p| world_from_robot * *p)
                     .collect();
                 let aim = self.trails.aim(
@@ -813,6 +816,19 @@ impl Pipeline {
         // rolling (a smooth stop takes a moment): brake at once.
         let current = self.motion.twist;
         let decel = self.config.limits.max_decel_mps2;
+        // Returns within reach of the footprint at the highest speed: the rest cannot
+        // be in the way within the stop distance.
+        let top = self.config.limits.max_speed_mps;
+        let near_m = safety.robot_radius_m
+            + safety.corridor_margin_m
+            + safety.stop_distance_m
+            + top * top / (2.0 * decel);
+        let near: Vec<Point2<Robot>> = self
+            .obstacle_points
+            .iter()
+            .copied()
+            .filter(|p| p.range_m() <= near_m)
+            .collect();
         let blocked = |v: f64, w: f64| {
             // The free space needed grows with the braking distance at this speed.
             let reach = SafetyConfig {
@@ -820,12 +836,8 @@ impl Pipeline {
                 ..safety.clone()
             };
             v > 0.0
-                && (reach
-                    .obstacle_ahead_m(self.obstacle_points.iter().copied())
-                    .is_some()
-                    || reach
-                        .obstacle_on_arc_m(&self.obstacle_points, v, w)
-                        .is_some())
+                && (reach.obstacle_ahead_m(near.iter().copied()).is_some()
+                    || reach.obstacle_on_arc_m(&near, v, w).is_some())
         };
         let obstacle =
             blocked(desired.v_mps, desired.w_radps) || blocked(current.v_mps, current.w_radps);
