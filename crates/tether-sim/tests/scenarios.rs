@@ -154,7 +154,12 @@ fn turns_are_sharp_corners_the_laser_keeps_seeing() {
         let headings: Vec<(f64, f64)> = events
             .iter()
             .filter(|(e, _)| matches!(e.data, SensorData::Scan(_)))
-            .map(|(e, _)| (e.truth.stamp.secs_f64(), e.truth.target().unwrap().heading_rad))
+            .map(|(e, _)| {
+                (
+                    e.truth.stamp.secs_f64(),
+                    e.truth.target().unwrap().heading_rad,
+                )
+            })
             .collect();
         let mut corners = 0;
         let mut k = 0;
@@ -168,7 +173,10 @@ fn turns_are_sharp_corners_the_laser_keeps_seeing() {
             }
         }
         assert_eq!(corners, 3, "seed {seed}");
-        assert!(target_hidden_from_laser(&events).iter().all(|h| !h), "the laser keeps the target");
+        assert!(
+            target_hidden_from_laser(&events).iter().all(|h| !h),
+            "the laser keeps the target"
+        );
     }
 }
 

@@ -95,7 +95,11 @@ impl Plot {
             (x0, x1) = (0.0, 1.0);
         }
         if !(y0.is_finite() && y1 > y0) {
-            let base = if y0.is_finite() { y0.clamp(-1.0, 0.0) } else { 0.0 };
+            let base = if y0.is_finite() {
+                y0.clamp(-1.0, 0.0)
+            } else {
+                0.0
+            };
             (y0, y1) = (base, base + 1.0);
         }
         let pad = 0.05 * (y1 - y0);

@@ -8,7 +8,12 @@ use std::process::Command;
 fn chromium() -> Option<&'static str> {
     ["chromium", "chromium-browser", "google-chrome"]
         .into_iter()
-        .find(|c| Command::new(c).arg("--version").output().is_ok_and(|o| o.status.success()))
+        .find(|c| {
+            Command::new(c)
+                .arg("--version")
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
 }
 
 #[test]
@@ -24,15 +29,28 @@ fn report_renders_in_headless_chromium() {
     let dir = std::env::temp_dir().join(format!("tether-report-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let out = Command::new(env!("CARGO_BIN_EXE_tether"))
-        .args(["demo", "--scenario", "corridor", "--out", dir.to_str().unwrap()])
+        .args([
+            "demo",
+            "--scenario",
+            "corridor",
+            "--out",
+            dir.to_str().unwrap(),
+        ])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let html = dir.join("report.html");
     let text = std::fs::read_to_string(&html).unwrap();
     // Self-contained: inline SVG, nothing fetched.
     assert!(text.contains("<svg"));
-    assert!(!text.contains("src=\"http") && !text.contains("href=\"http"), "no network resources");
+    assert!(
+        !text.contains("src=\"http") && !text.contains("href=\"http"),
+        "no network resources"
+    );
     assert!(!text.contains("<script"), "self-contained: no scripts");
     let png = dir.join("shot.png");
     let shot = Command::new(browser)
@@ -53,7 +71,11 @@ fn report_renders_in_headless_chromium() {
         .arg(format!("file://{}", html.display()))
         .output()
         .unwrap();
-    assert!(png.is_file(), "no screenshot: {}", String::from_utf8_lossy(&shot.stderr));
+    assert!(
+        png.is_file(),
+        "no screenshot: {}",
+        String::from_utf8_lossy(&shot.stderr)
+    );
     let img = tether_vision::imread::imread_gray(&png).unwrap();
     let pixels = img.pixels();
     let dark = pixels.iter().filter(|p| **p < 128).count() as f64 / pixels.len() as f64;
@@ -62,7 +84,12 @@ fn report_renders_in_headless_chromium() {
         pixels.iter().for_each(|p| seen[*p as usize] = true);
         seen.iter().filter(|s| **s).count()
     };
-    println!("screenshot {}x{}: {:.1} % dark pixels, {distinct} grey levels", img.width(), img.height(), 100.0 * dark);
+    println!(
+        "screenshot {}x{}: {:.1} % dark pixels, {distinct} grey levels",
+        img.width(),
+        img.height(),
+        100.0 * dark
+    );
     // Text, tables, plots and the map: some ink, many grey levels; not a blank page.
     assert!(dark > 0.005 && dark < 0.5, "{dark}");
     assert!(distinct > 40, "{distinct}");

@@ -38,7 +38,9 @@ fn range_error_grows_with_distance_as_predicted() {
         let scenario = Scenario::from_toml_str(SCENE, "walk_away").unwrap();
         let mut sim = Simulation::new(&scenario, seed).unwrap();
         while let Some(event) = sim.advance() {
-            let SensorData::Camera(frame) = &event.data else { continue };
+            let SensorData::Camera(frame) = &event.data else {
+                continue;
+            };
             let target = event.truth.target().unwrap();
             let robot_from_world = event.truth.world_from_robot.inverse();
             let truth = robot_from_world * target.position;
@@ -63,10 +65,19 @@ fn range_error_grows_with_distance_as_predicted() {
     for (k, (se, var, n)) in bins.iter().enumerate().filter(|(_, b)| b.2 > 30) {
         let rmse = (se / *n as f64).sqrt();
         let predicted = (var / *n as f64).sqrt();
-        println!("{k}-{} m: {n} boxes, range RMSE {rmse:.3} m, predicted sigma {predicted:.3} m", k + 1);
+        println!(
+            "{k}-{} m: {n} boxes, range RMSE {rmse:.3} m, predicted sigma {predicted:.3} m",
+            k + 1
+        );
         assert!(rmse > last, "error grows with distance");
-        assert!(rmse < 2.0 * predicted && rmse > 0.4 * predicted, "covariance predicts the error");
+        assert!(
+            rmse < 2.0 * predicted && rmse > 0.4 * predicted,
+            "covariance predicts the error"
+        );
         last = rmse;
     }
-    assert!(last > 0.2, "at 5-6 m the range error is tens of centimetres");
+    assert!(
+        last > 0.2,
+        "at 5-6 m the range error is tens of centimetres"
+    );
 }
