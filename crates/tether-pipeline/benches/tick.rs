@@ -44,9 +44,11 @@ fn inputs() -> Inputs {
             SensorData::Timer => {}
         }
     }
-    let mut config = PipelineConfig::default();
-    config.laser = scenario.laser.clone();
-    config.camera = scenario.camera;
+    let config = PipelineConfig {
+        laser: scenario.laser.clone(),
+        camera: scenario.camera,
+        ..PipelineConfig::default()
+    };
     Inputs {
         scans,
         frames,
