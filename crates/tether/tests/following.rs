@@ -86,7 +86,7 @@ fn waits_behind_the_pillar_and_reacquires_the_target() {
         // The target disappears behind the pillar, then reappears.
         let gone = scans
             .iter()
-            .position(|s| hidden(s))
+            .position(&hidden)
             .expect("the pillar hides the target");
         let back = gone
             + scans[gone..]
