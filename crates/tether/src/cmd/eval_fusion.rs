@@ -105,6 +105,14 @@ pub fn evaluate(
         mota.push(m.mota);
         motp.push(m.motp_m);
         p.id_switches += m.id_switches;
+        if m.target_swaps > 0 {
+            // Named so that a failing seed can be rerun with `tether sim --seed`.
+            tracing::warn!(
+                "{} seed {seed}: the target was swapped {} time(s)",
+                scenario.name,
+                m.target_swaps
+            );
+        }
         p.target_swaps += u64::from(m.target_swaps);
         p.runs_with_swaps += u64::from(m.target_swaps > 0);
         p.runs += 1;
