@@ -24,3 +24,4 @@
 pub mod mcap;
 pub mod rosbag;
 pub mod scip;
+mod skips;

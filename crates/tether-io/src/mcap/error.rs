@@ -1,40 +1,11 @@
 //! What can go wrong when reading or writing MCAP files and ROS 2 messages, and where.
 
-use std::fmt;
 use std::path::PathBuf;
 
 use tether_core::Stamp;
 use thiserror::Error;
 
-/// Where in an MCAP file something was found.
-///
-/// Records inside a chunk live in the chunk's *decompressed* records, so their position
-/// is the chunk's offset in the file plus an offset into those records.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Location {
-    /// This byte offset of the file.
-    File(u64),
-    /// `offset` bytes into the decompressed records of the chunk record that starts at
-    /// byte `chunk` of the file.
-    InChunk {
-        /// Offset of the chunk record in the file.
-        chunk: u64,
-        /// Offset into the chunk's decompressed records.
-        offset: u64,
-    },
-}
-
-impl fmt::Display for Location {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Location::File(offset) => write!(f, "byte {offset}"),
-            Location::InChunk { chunk, offset } => write!(
-                f,
-                "byte {offset} of the decompressed records of the chunk at byte {chunk}"
-            ),
-        }
-    }
-}
+pub use crate::skips::Location;
 
 /// Why an MCAP file cannot be read (any further) or written. Reading errors name the
 /// place in the file.

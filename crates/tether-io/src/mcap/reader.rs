@@ -19,6 +19,7 @@ use tether_core::Stamp;
 
 use super::error::{DecodeError, Location, McapError};
 use super::msgs::{Ros2Message, from_cdr, type_matches};
+use crate::skips::Skips;
 
 /// The magic at both ends of an MCAP file.
 pub const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
@@ -26,9 +27,6 @@ pub const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
 /// Largest decompressed chunk accepted: a chunk claiming more is taken as corrupt
 /// rather than allocated (writers use chunks of about 1 MiB).
 const MAX_CHUNK_BYTES: u64 = 512 << 20;
-
-/// How many skipped or bad messages are kept with their reasons (all are counted).
-const KEPT_REASONS: usize = 100;
 
 mod op {
     pub const HEADER: u8 = 0x01;
@@ -557,8 +555,7 @@ impl McapFile {
             file: self,
             cursor: Cursor::new(self),
             topics: topics.iter().map(|t| (*t).to_owned()).collect(),
-            bad: Vec::new(),
-            bad_count: 0,
+            bad: Skips::default(),
             marker: PhantomData,
         }
     }
@@ -608,8 +605,7 @@ struct Cursor {
     done: bool,
     schemas: BTreeMap<u16, Arc<Schema>>,
     channels: BTreeMap<u16, Arc<Channel>>,
-    skipped: Vec<SkippedRecord>,
-    skipped_count: usize,
+    skipped: Skips<SkippedRecord>,
 }
 
 impl Cursor {
@@ -623,16 +619,12 @@ impl Cursor {
             done: false,
             schemas: file.schemas.clone(),
             channels: file.channels.clone(),
-            skipped: Vec::new(),
-            skipped_count: 0,
+            skipped: Skips::default(),
         }
     }
 
     fn skip(&mut self, at: Location, reason: String) {
-        self.skipped_count += 1;
-        if self.skipped.len() < KEPT_REASONS {
-            self.skipped.push(SkippedRecord { at, reason });
-        }
+        self.skipped.record(SkippedRecord { at, reason });
     }
 
     /// The next message, or `None` at the end of the data section. After an error the
@@ -901,12 +893,12 @@ pub struct Messages<'a> {
 impl Messages<'_> {
     /// Message records skipped so far (the first 100 with reasons).
     pub fn skipped(&self) -> &[SkippedRecord] {
-        &self.cursor.skipped
+        self.cursor.skipped.kept()
     }
 
     /// Number of message records skipped so far.
     pub fn skipped_count(&self) -> usize {
-        self.cursor.skipped_count
+        self.cursor.skipped.count()
     }
 }
 
@@ -935,25 +927,24 @@ pub struct Decoded<'a, M> {
     file: &'a McapFile,
     cursor: Cursor,
     topics: Vec<String>,
-    bad: Vec<BadMessage>,
-    bad_count: usize,
+    bad: Skips<BadMessage>,
     marker: PhantomData<M>,
 }
 
 impl<M> Decoded<'_, M> {
     /// Messages that did not decode so far (the first 100 with reasons).
     pub fn bad_messages(&self) -> &[BadMessage] {
-        &self.bad
+        self.bad.kept()
     }
 
     /// Number of messages that did not decode so far.
     pub fn bad_count(&self) -> usize {
-        self.bad_count
+        self.bad.count()
     }
 
     /// Message records skipped so far because no channel defines them.
     pub fn skipped(&self) -> &[SkippedRecord] {
-        &self.cursor.skipped
+        self.cursor.skipped.kept()
     }
 }
 
@@ -984,14 +975,11 @@ impl<M: Ros2Message> Iterator for Decoded<'_, M> {
                     }));
                 }
                 Err(error) => {
-                    self.bad_count += 1;
-                    if self.bad.len() < KEPT_REASONS {
-                        self.bad.push(BadMessage {
-                            topic: found.channel.topic.clone(),
-                            at: found.at,
-                            error,
-                        });
-                    }
+                    self.bad.record(BadMessage {
+                        topic: found.channel.topic.clone(),
+                        at: found.at,
+                        error,
+                    });
                 }
             }
         }

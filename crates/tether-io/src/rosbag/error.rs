@@ -1,39 +1,10 @@
 //! What can go wrong when reading a bag, and where.
 
-use std::fmt;
 use std::path::PathBuf;
 
 use thiserror::Error;
 
-/// Where in a bag something was found.
-///
-/// Records inside a chunk live in the chunk's *uncompressed* data, so their position is
-/// the chunk's offset in the file plus an offset into that data.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Location {
-    /// This byte offset of the bag file.
-    File(u64),
-    /// `offset` bytes into the uncompressed data of the chunk record that starts at
-    /// byte `chunk` of the bag file.
-    InChunk {
-        /// Offset of the chunk record in the file.
-        chunk: u64,
-        /// Offset into the chunk's uncompressed data.
-        offset: u64,
-    },
-}
-
-impl fmt::Display for Location {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Location::File(offset) => write!(f, "byte {offset}"),
-            Location::InChunk { chunk, offset } => write!(
-                f,
-                "byte {offset} of the uncompressed data of the chunk at byte {chunk}"
-            ),
-        }
-    }
-}
+pub use crate::skips::Location;
 
 /// Why a bag cannot be read (any further). Every variant names the place in the file.
 ///

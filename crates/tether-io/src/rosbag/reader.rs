@@ -13,9 +13,7 @@ use tether_core::Stamp;
 use super::error::{BagError, DecodeError, Location};
 use super::msg::RosMessage;
 use super::record::{Fields, MAGIC, Op};
-
-/// How many skipped or bad messages are kept with their reasons (all are counted).
-const KEPT_REASONS: usize = 100;
+use crate::skips::Skips;
 
 /// One connection of a bag: a topic with its message type, as the recorder saw it.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -290,8 +288,7 @@ impl<R: Read + Seek> Bag<R> {
             chunk: None,
             topics: None,
             done: false,
-            skipped: Vec::new(),
-            skipped_count: 0,
+            skipped: Skips::default(),
         }
     }
 
@@ -300,8 +297,7 @@ impl<R: Read + Seek> Bag<R> {
     pub fn decoded<M: RosMessage>(&mut self, topics: &[&str]) -> Decoded<'_, R, M> {
         Decoded {
             messages: self.messages().only_topics(topics),
-            bad: Vec::new(),
-            bad_count: 0,
+            bad: Skips::default(),
             _message: PhantomData,
         }
     }
@@ -578,8 +574,7 @@ pub struct Messages<'a, R> {
     chunk: Option<OpenChunk>,
     topics: Option<Vec<String>>,
     done: bool,
-    skipped: Vec<SkippedRecord>,
-    skipped_count: usize,
+    skipped: Skips<SkippedRecord>,
 }
 
 impl<R: Read + Seek> Messages<'_, R> {
@@ -591,12 +586,12 @@ impl<R: Read + Seek> Messages<'_, R> {
 
     /// Message records skipped so far (the first hundred, with reasons).
     pub fn skipped(&self) -> &[SkippedRecord] {
-        &self.skipped
+        self.skipped.kept()
     }
 
     /// Number of message records skipped so far.
     pub fn skipped_count(&self) -> usize {
-        self.skipped_count
+        self.skipped.count()
     }
 
     fn wanted(&self, topic: &str) -> bool {
@@ -606,10 +601,7 @@ impl<R: Read + Seek> Messages<'_, R> {
     }
 
     fn skip(&mut self, at: Location, reason: String) {
-        self.skipped_count += 1;
-        if self.skipped.len() < KEPT_REASONS {
-            self.skipped.push(SkippedRecord { at, reason });
-        }
+        self.skipped.record(SkippedRecord { at, reason });
     }
 
     /// Turns a message record's header and data into a message, or skips it.
@@ -833,21 +825,20 @@ fn check_index_data(fields: &Fields, data_len: u64) -> Result<(), String> {
 /// Messages of chosen topics decoded as `M`; see [`Bag::decoded`].
 pub struct Decoded<'a, R, M> {
     messages: Messages<'a, R>,
-    bad: Vec<BadMessage>,
-    bad_count: usize,
+    bad: Skips<BadMessage>,
     _message: PhantomData<fn() -> M>,
 }
 
 impl<R: Read + Seek, M: RosMessage> Decoded<'_, R, M> {
     /// Messages that did not decode (the first hundred, with reasons).
     pub fn bad_messages(&self) -> &[BadMessage] {
-        &self.bad
+        self.bad.kept()
     }
 
     /// Number of messages that did not decode, plus message records that could not be
     /// attributed to a connection.
     pub fn bad_count(&self) -> usize {
-        self.bad_count + self.messages.skipped_count()
+        self.bad.count() + self.messages.skipped_count()
     }
 
     /// Message records skipped before decoding (no known connection).
@@ -875,14 +866,11 @@ impl<R: Read + Seek, M: RosMessage> Iterator for Decoded<'_, R, M> {
                     }));
                 }
                 Err(error) => {
-                    self.bad_count += 1;
-                    if self.bad.len() < KEPT_REASONS {
-                        self.bad.push(BadMessage {
-                            topic: raw.connection.topic.clone(),
-                            at: raw.at,
-                            error,
-                        });
-                    }
+                    self.bad.record(BadMessage {
+                        topic: raw.connection.topic.clone(),
+                        at: raw.at,
+                        error,
+                    });
                 }
             }
         }
