@@ -256,45 +256,12 @@ mod tests {
     fn refuses_impossible_boxes() {
         let camera = CameraModel::default();
         let config = VisionConfig::default();
+        let refused = |x: f64, y: f64, w: f64, h: f64| {
+            person_from_box(&camera, &config, &PixelBox { x, y, w, h }).is_none()
+        };
         // A box whose top is far below the horizon: the ray never rises to 1.75 m.
-        assert!(
-            person_from_box(
-                &camera,
-                &config,
-                &PixelBox {
-                    x: 300.0,
-                    y: 470.0,
-                    w: 40.0,
-                    h: 60.0
-                }
-            )
-            .is_none()
-        );
-        assert!(
-            person_from_box(
-                &camera,
-                &config,
-                &PixelBox {
-                    x: f64::NAN,
-                    y: 10.0,
-                    w: 40.0,
-                    h: 60.0
-                }
-            )
-            .is_none()
-        );
-        assert!(
-            person_from_box(
-                &camera,
-                &config,
-                &PixelBox {
-                    x: 300.0,
-                    y: 100.0,
-                    w: 4.0,
-                    h: 6.0
-                }
-            )
-            .is_none()
-        );
+        assert!(refused(300.0, 470.0, 40.0, 60.0));
+        assert!(refused(f64::NAN, 10.0, 40.0, 60.0));
+        assert!(refused(300.0, 100.0, 4.0, 6.0));
     }
 }
