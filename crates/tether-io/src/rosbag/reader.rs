@@ -455,22 +455,14 @@ impl<R: Read + Seek> Bag<R> {
         };
         let data = match compression.as_str() {
             "none" => stored,
-            "bz2" => {
-                let mut out = Vec::new();
-                bzip2::read::BzDecoder::new(stored.as_slice())
-                    .take(size + 1)
-                    .read_to_end(&mut out)
-                    .map_err(|e| decompress_error(e.to_string()))?;
-                out
-            }
-            "lz4" => {
-                let mut out = Vec::new();
-                lz4_flex::frame::FrameDecoder::new(stored.as_slice())
-                    .take(size + 1)
-                    .read_to_end(&mut out)
-                    .map_err(|e| decompress_error(e.to_string()))?;
-                out
-            }
+            // One byte past the declared size is read so that a longer chunk is caught.
+            "bz2" => read_at_most(bzip2::read::BzDecoder::new(stored.as_slice()), size + 1)
+                .map_err(|e| decompress_error(e.to_string()))?,
+            "lz4" => read_at_most(
+                lz4_flex::frame::FrameDecoder::new(stored.as_slice()),
+                size + 1,
+            )
+            .map_err(|e| decompress_error(e.to_string()))?,
             _ => {
                 return Err(BagError::UnsupportedCompression {
                     at: rec.at,
@@ -875,6 +867,13 @@ impl<R: Read + Seek, M: RosMessage> Iterator for Decoded<'_, R, M> {
             }
         }
     }
+}
+
+/// Everything `reader` gives, but no more than `limit` bytes.
+fn read_at_most(reader: impl Read, limit: u64) -> std::io::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    reader.take(limit).read_to_end(&mut out)?;
+    Ok(out)
 }
 
 #[cfg(test)]
