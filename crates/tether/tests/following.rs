@@ -94,30 +94,33 @@ fn waits_behind_the_pillar_and_reacquires_the_target() {
                 .position(|s| !hidden(s))
                 .expect("the target comes back");
         let back_s = scans[back].truth.stamp.secs_f64();
-        // Once it has lost the target the robot brakes to a stop within a second and
-        // does not drive off after anyone (it may turn on the spot to look).
-        let lost_at = scans[gone..]
-            .iter()
-            .find(|s| {
-                s.tick
-                    .as_ref()
-                    .is_some_and(|t| !matches!(t.target.state, TargetState::Locked { .. }))
-            })
-            .map(|s| s.truth.stamp.secs_f64());
-        if let Some(lost_at) = lost_at {
-            for s in scans
-                .iter()
-                .filter(|s| s.truth.stamp.secs_f64() >= lost_at + 1.0)
-            {
-                let locked = s
-                    .tick
-                    .as_ref()
-                    .is_some_and(|t| matches!(t.target.state, TargetState::Locked { .. }));
-                if locked {
+        // Whenever it has lost the target the robot brakes to a stop within a second of
+        // that loss and does not drive off after anyone (it may turn on the spot to
+        // look). Checked from the disappearance until the robot is locked again after the
+        // target came back.
+        let is_locked = |s: &&tether::closed_loop::StepRecord| {
+            s.tick
+                .as_ref()
+                .is_some_and(|t| matches!(t.target.state, TargetState::Locked { .. }))
+        };
+        let mut lost_at: Option<f64> = None;
+        for (k, s) in scans.iter().enumerate().skip(gone) {
+            let t = s.truth.stamp.secs_f64();
+            if is_locked(s) {
+                if k >= back {
                     break;
                 }
+                lost_at = None;
+                continue;
+            }
+            let since = *lost_at.get_or_insert(t);
+            if t >= since + 1.0 {
                 let v = s.truth.robot_velocity.v_mps.abs();
-                assert!(v < 0.05, "seed {seed}: driving at {v} m/s without a target");
+                assert!(
+                    v < 0.05,
+                    "seed {seed}: driving at {v} m/s {:.1} s after losing the target",
+                    t - since
+                );
             }
         }
         // Re-acquired within 2 s of reappearing: locked, on the target.
