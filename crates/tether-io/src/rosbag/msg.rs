@@ -7,6 +7,7 @@ use tether_core::{Frame, LaserScan, Point2, Pose2, Stamp};
 
 use super::error::DecodeError;
 use super::record::time_from_bytes;
+use crate::mcap::{CompressedImageMsg, Header as McapHeader, ImageMsg};
 
 /// A ROS 1 message type this crate can decode.
 pub trait RosMessage: Sized {
@@ -337,6 +338,57 @@ impl RosMessage for PoseArrayMsg {
     }
 }
 
+/// `sensor_msgs/Image` of a ROS 1 bag, decoded into the same [`ImageMsg`] the MCAP
+/// reader gives (the ROS 1 header's `seq` is dropped). Convert it with
+/// [`ImageMsg::to_gray`].
+impl RosMessage for ImageMsg {
+    const TYPE: &'static str = "sensor_msgs/Image";
+    const MD5SUM: &'static str = "060021388200f6f0f447d0fcd9c64743";
+
+    fn decode(data: &[u8]) -> Result<Self, DecodeError> {
+        let mut w = Wire::new(data);
+        let header = Header::read(&mut w)?;
+        let height = w.u32("height")?;
+        let width = w.u32("width")?;
+        let encoding = w.string("encoding")?;
+        let is_bigendian = w.array::<1>("is_bigendian")?[0];
+        let step = w.u32("step")?;
+        let len = w.u32("data")?;
+        let pixels = w.take("data", u64::from(len))?.to_vec();
+        w.finish()?;
+        Ok(ImageMsg {
+            header: McapHeader::new(header.stamp, header.frame_id),
+            height,
+            width,
+            encoding,
+            is_bigendian,
+            step,
+            data: pixels,
+        })
+    }
+}
+
+/// `sensor_msgs/CompressedImage` of a ROS 1 bag (a JPEG or PNG file), decoded into the
+/// same [`CompressedImageMsg`] the MCAP reader gives.
+impl RosMessage for CompressedImageMsg {
+    const TYPE: &'static str = "sensor_msgs/CompressedImage";
+    const MD5SUM: &'static str = "8f7a12909da2c9d3332d540a0977563f";
+
+    fn decode(data: &[u8]) -> Result<Self, DecodeError> {
+        let mut w = Wire::new(data);
+        let header = Header::read(&mut w)?;
+        let format = w.string("format")?;
+        let len = w.u32("data")?;
+        let bytes = w.take("data", u64::from(len))?.to_vec();
+        w.finish()?;
+        Ok(CompressedImageMsg {
+            header: McapHeader::new(header.stamp, header.frame_id),
+            format,
+            data: bytes,
+        })
+    }
+}
+
 /// Serialises messages the way ROS 1 does; used to build test bags.
 #[cfg(test)]
 pub(crate) mod encode {
@@ -367,6 +419,39 @@ pub(crate) mod encode {
             out.extend(r.to_le_bytes());
         }
         out.extend(0u32.to_le_bytes());
+        out
+    }
+
+    /// An Image message.
+    pub(crate) fn image(
+        stamp_ns: i64,
+        encoding: &str,
+        width: u32,
+        height: u32,
+        step: u32,
+        pixels: &[u8],
+    ) -> Vec<u8> {
+        let mut out = Vec::new();
+        header(&mut out, 3, stamp_ns, "camera");
+        out.extend(height.to_le_bytes());
+        out.extend(width.to_le_bytes());
+        out.extend((encoding.len() as u32).to_le_bytes());
+        out.extend(encoding.as_bytes());
+        out.push(0);
+        out.extend(step.to_le_bytes());
+        out.extend((pixels.len() as u32).to_le_bytes());
+        out.extend(pixels);
+        out
+    }
+
+    /// A CompressedImage message.
+    pub(crate) fn compressed_image(stamp_ns: i64, format: &str, bytes: &[u8]) -> Vec<u8> {
+        let mut out = Vec::new();
+        header(&mut out, 4, stamp_ns, "camera");
+        out.extend((format.len() as u32).to_le_bytes());
+        out.extend(format.as_bytes());
+        out.extend((bytes.len() as u32).to_le_bytes());
+        out.extend(bytes);
         out
     }
 
@@ -408,6 +493,40 @@ mod tests {
         assert_eq!(m.scan.malformed_beams(), 1, "NaN is counted");
         assert!((m.angle_max_rad - 0.5).abs() < 1e-6);
         assert!((m.scan_time_s - 0.1).abs() < 1e-6);
+    }
+
+    #[test]
+    fn decodes_images_raw_and_compressed() {
+        // 3x2 bgr8 with a padded row (step 10).
+        let mut pixels = vec![0u8; 20];
+        pixels[0..3].copy_from_slice(&[0, 0, 255]); // red
+        pixels[10..13].copy_from_slice(&[255, 255, 255]);
+        let data = encode::image(2_000_000_001, "bgr8", 3, 2, 10, &pixels);
+        let m = ImageMsg::decode(&data).unwrap();
+        assert_eq!((m.width, m.height, m.step), (3, 2, 10));
+        assert_eq!(m.header.stamp, Stamp::from_ns(2_000_000_001));
+        assert_eq!(m.header.frame_id, "camera");
+        let grey = m.to_gray().unwrap();
+        assert_eq!(grey.pixels(), &[76, 0, 0, 255, 0, 0]);
+        // Cut anywhere: an error naming the field, never a panic.
+        for cut in 0..data.len() {
+            assert!(ImageMsg::decode(&data[..cut]).is_err());
+        }
+        let png = b"\x89PNG\r\n\x1a\nrest".to_vec();
+        let data = encode::compressed_image(5, "png", &png);
+        let c = CompressedImageMsg::decode(&data).unwrap();
+        assert_eq!(c.format, "png");
+        assert_eq!(c.data, png);
+        assert_eq!(
+            c.detected_format(),
+            Some(crate::mcap::CompressedFormat::Png)
+        );
+        let mut long = data.clone();
+        long.push(0);
+        assert!(matches!(
+            CompressedImageMsg::decode(&long),
+            Err(DecodeError::TrailingBytes { extra: 1 })
+        ));
     }
 
     #[test]

@@ -6,9 +6,11 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use serde::Serialize;
-use tether_core::{Pose2, Robot, World};
-use tether_io::rosbag::{Bag, LaserScanMsg};
+use tether_core::{CameraIntrinsics, GrayImage, PixelBox, Pose2, Robot, Stamp, World};
+use tether_io::rosbag::{Bag, CompressedImageMsg, ImageMsg, LaserScanMsg, RawMessage, RosMessage};
 use tether_pipeline::{Pipeline, PipelineConfig};
+use tether_vision::imread::decode_gray;
+use tether_vision::{Cascade, DetectParams, Detector};
 
 /// Options of `tether track`.
 #[derive(Debug, clap::Args)]
@@ -18,6 +20,26 @@ pub struct Args {
     /// The `sensor_msgs/LaserScan` topic, e.g. `/scan`.
     #[arg(long)]
     pub scan_topic: String,
+    /// A camera topic (`sensor_msgs/Image` in mono8, rgb8 or bgr8, or
+    /// `sensor_msgs/CompressedImage` in JPEG or PNG): its frames go through the cascade
+    /// detector and the monocular model (`[camera]` of `--config`: intrinsics, and the
+    /// mount taken relative to the laser) and are fused with the scans. Without it the
+    /// run is laser only.
+    #[arg(long, value_name = "TOPIC")]
+    pub image_topic: Option<String>,
+    /// Cascade XML for the camera frames (default: Debian's
+    /// /usr/share/opencv4/haarcascades/haarcascade_upperbody.xml).
+    #[arg(long, value_name = "FILE")]
+    pub cascade: Option<PathBuf>,
+    /// Pyramid scale factor of the cascade detector.
+    #[arg(long, default_value_t = 1.1, value_name = "F")]
+    pub scale_factor: f64,
+    /// Neighbours a detection needs.
+    #[arg(long, default_value_t = 3, value_name = "N")]
+    pub min_neighbors: u32,
+    /// Detection threads (0: one per core).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub threads: usize,
     /// A pipeline configuration (TOML; every table optional: `[legs]`, `[tracker]`,
     /// `[target]`, `[laser.noise]`...).
     #[arg(long, value_name = "FILE")]
@@ -60,35 +82,135 @@ pub fn load_config(path: Option<&PathBuf>) -> anyhow::Result<PipelineConfig> {
     })
 }
 
-/// Runs the pipeline over the bag's scans. The recording is taken as seen from a still
-/// sensor: the scan's frame is the robot's and the world's, so positions and velocities
-/// come out in the scan's frame.
+/// The camera side of a run: the detector and what it saw.
+struct Camera {
+    topic: String,
+    detector: Detector,
+    params: DetectParams,
+    frames: usize,
+    boxes: usize,
+    size_warned: bool,
+}
+
+impl Camera {
+    fn new(topic: String, args: &Args) -> anyhow::Result<Self> {
+        let cascade_path = super::detect::resolve_cascade(args.cascade.as_deref())?;
+        let cascade = Cascade::load(&cascade_path)?;
+        let params = super::detect::params(args.scale_factor, args.min_neighbors, None, None)?;
+        Ok(Camera {
+            topic,
+            detector: Detector::new(cascade).with_threads(args.threads)?,
+            params,
+            frames: 0,
+            boxes: 0,
+            size_warned: false,
+        })
+    }
+
+    /// The grey image of a camera message, whichever of the two types it is.
+    fn grey(raw: &RawMessage) -> anyhow::Result<(Stamp, GrayImage)> {
+        if raw.connection.msg_type == CompressedImageMsg::TYPE {
+            let m = raw.decode::<CompressedImageMsg>()?;
+            Ok((m.header.stamp, decode_gray(&m.data)?))
+        } else {
+            let m = raw.decode::<ImageMsg>()?;
+            Ok((m.header.stamp, m.to_gray()?))
+        }
+    }
+
+    /// Detects people in one frame and hands their boxes to the pipeline.
+    fn frame(
+        &mut self,
+        raw: &RawMessage,
+        pipeline: &mut Pipeline,
+        intrinsics: &CameraIntrinsics,
+    ) -> anyhow::Result<()> {
+        let (stamp, image) = Self::grey(raw)?;
+        if !self.size_warned
+            && (image.width() as u32, image.height() as u32)
+                != (intrinsics.width_px, intrinsics.height_px)
+        {
+            self.size_warned = true;
+            tracing::warn!(
+                "{} frames are {}x{} but the camera model is {}x{}: set [camera] in --config \
+                 to this camera's intrinsics, or the vision ranges are wrong",
+                self.topic,
+                image.width(),
+                image.height(),
+                intrinsics.width_px,
+                intrinsics.height_px
+            );
+        }
+        let boxes: Vec<PixelBox> = self
+            .detector
+            .detect(&image, &self.params)?
+            .into_iter()
+            .map(PixelBox::from)
+            .collect();
+        self.frames += 1;
+        self.boxes += boxes.len();
+        pipeline.on_camera_boxes(stamp, &boxes, Pose2::IDENTITY);
+        Ok(())
+    }
+}
+
+/// Runs the pipeline over the bag's scans (and camera frames, with `--image-topic`), in
+/// bag order. The recording is taken as seen from a still sensor: the scan's frame is
+/// the robot's and the world's, so positions and velocities come out in the scan's
+/// frame.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = load_config(args.config.as_ref())?;
     config.laser.mount.x_m = 0.0;
     config.laser.mount.y_m = 0.0;
     config.laser.mount.yaw_rad = 0.0;
-    config.fusion.use_vision = false;
+    let mut camera = match &args.image_topic {
+        Some(topic) => Some(Camera::new(topic.clone(), &args)?),
+        None => None,
+    };
+    config.fusion.use_vision = camera.is_some();
+    let intrinsics = config.camera.intrinsics;
     let mut pipeline = Pipeline::new(config, None)?;
     let mut bag = Bag::open(&args.bag)?;
-    if !bag.topics().contains(&args.scan_topic.as_str()) {
-        anyhow::bail!(
-            "bag {} has no topic {:?}; its topics are: {}",
-            args.bag.display(),
-            args.scan_topic,
-            bag.topics().join(", ")
-        );
+    let mut topics = vec![args.scan_topic.as_str()];
+    topics.extend(args.image_topic.as_deref());
+    for topic in &topics {
+        if !bag.topics().contains(topic) {
+            anyhow::bail!(
+                "bag {} has no topic {:?}; its topics are: {}",
+                args.bag.display(),
+                topic,
+                bag.topics().join(", ")
+            );
+        }
     }
     let file = std::fs::File::create(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut out = std::io::BufWriter::new(file);
     let still: Pose2<World, Robot> = Pose2::IDENTITY;
     let (mut scans, mut with_target) = (0usize, 0usize);
+    let mut bad = 0usize;
     let mut ids = std::collections::BTreeSet::new();
-    let mut messages = bag.decoded::<LaserScanMsg>(&[args.scan_topic.as_str()]);
-    for message in &mut messages {
-        let message = message?;
-        let scan = &message.message.scan;
+    let mut messages = bag.messages().only_topics(&topics);
+    for raw in &mut messages {
+        let raw = raw?;
+        if raw.connection.topic != args.scan_topic {
+            if let Some(camera) = camera.as_mut()
+                && let Err(e) = camera.frame(&raw, &mut pipeline, &intrinsics)
+            {
+                bad += 1;
+                tracing::warn!("skipping the camera message at {}: {e:#}", raw.at);
+            }
+            continue;
+        }
+        let message = match raw.decode::<LaserScanMsg>() {
+            Ok(m) => m,
+            Err(e) => {
+                bad += 1;
+                tracing::warn!("skipping the scan message at {}: {e}", raw.at);
+                continue;
+            }
+        };
+        let scan = &message.scan;
         let tick = pipeline.on_scan(scan, still);
         let people: Vec<PersonLine> = tick
             .tracks
@@ -118,7 +240,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         out.write_all(b"\n")?;
         scans += 1;
     }
-    let skipped = messages.bad_count();
+    let skipped = bad + messages.skipped_count();
     out.flush()
         .with_context(|| format!("writing {}", args.out.display()))?;
     let stats = pipeline.stats();
@@ -132,8 +254,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             stats.malformed_beams
         );
     }
+    let frames = camera.as_ref().map_or(String::new(), |c| {
+        format!(", {} camera frames with {} detections", c.frames, c.boxes)
+    });
     println!(
-        "{scans} scans, {} people tracked, a target in {with_target} scans -> {}",
+        "{scans} scans{frames}, {} people tracked, a target in {with_target} scans -> {}",
         ids.len(),
         args.out.display()
     );

@@ -1,0 +1,151 @@
+//! `tether track --image-topic` over a ROS 1 bag that `rosbags` writes: real scans of
+//! leg_tracker's recording with camera frames made of real images, raw and JPEG.
+//!
+//! Needs `../shared`, Debian's upper-body cascade and python3 with `rosbags`, `numpy` and
+//! OpenCV; without them it prints why and skips, unless `TETHER_REQUIRE_SHARED=1` (set in
+//! CI) makes that a failure.
+
+#![allow(clippy::unwrap_used, reason = "a test should fail loudly on bad data")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const SHARED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared");
+const CASCADE: &str = "/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml";
+const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/camera_bag.py");
+
+fn skip_unless(ok: bool, reason: &str) -> bool {
+    if !ok {
+        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
+            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
+        }
+        eprintln!("SKIPPED: {reason}");
+    }
+    ok
+}
+
+fn tether(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tether"))
+        .args(args)
+        .output()
+        .expect("the tether binary runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Boxes `tether detect` finds in one image.
+fn boxes_in(image: &str) -> usize {
+    let out = tether(&["detect", image]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    report["images"][0]["boxes"].as_array().unwrap().len()
+}
+
+#[test]
+fn tracks_a_bag_with_camera_frames_raw_and_compressed() {
+    let shared = Path::new(SHARED);
+    let source = shared.join("data/laser/leg_tracker/demo_stationary_simple_environment.bag");
+    let pngs = [
+        shared.join("data/images/people/basketball1.png"),
+        shared.join("data/images/people/basketball2.png"),
+    ];
+    if !skip_unless(
+        source.is_file() && pngs.iter().all(|p| p.is_file()),
+        &format!("{} is missing its recordings or images", shared.display()),
+    ) || !skip_unless(
+        Path::new(CASCADE).is_file(),
+        "Debian's opencv-data cascades are not installed (apt-get install opencv-data)",
+    ) {
+        return;
+    }
+    let python_ok = Command::new("python3")
+        .args(["-c", "import rosbags, numpy, cv2"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !skip_unless(
+        python_ok,
+        "python3 with rosbags, numpy and OpenCV is not available \
+         (python3 -m pip install rosbags numpy opencv-python-headless)",
+    ) {
+        return;
+    }
+    let dir: PathBuf =
+        std::env::temp_dir().join(format!("tether-track-camera-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let n_scans = 12;
+    let made = Command::new("python3")
+        .arg(SCRIPT)
+        .arg(&dir)
+        .arg(&source)
+        .args(["/scan", &n_scans.to_string()])
+        .args(&pngs)
+        .output()
+        .unwrap();
+    assert!(made.status.success(), "{}", text(&made.stderr));
+    let made: serde_json::Value = serde_json::from_slice(&made.stdout).unwrap();
+    let stamps: Vec<i64> = made["scan_stamps_ns"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s.as_i64().unwrap())
+        .collect();
+    assert_eq!(stamps.len(), n_scans);
+    let frames = made["frames"].as_array().unwrap();
+    let bag = dir.join("camera.bag");
+    let bag = bag.to_str().unwrap();
+
+    for (topic, file_key) in [
+        ("/camera/image", "png"),
+        ("/camera/image/compressed", "jpg"),
+    ] {
+        // What the detector finds in the frames' images, one file at a time.
+        let expected: usize = frames
+            .iter()
+            .map(|f| boxes_in(f[file_key].as_str().unwrap()))
+            .sum();
+        assert!(expected > 0, "the people images should give detections");
+        let out_path = dir.join("track.jsonl");
+        let out = tether(&[
+            "track",
+            bag,
+            "--scan-topic",
+            "/scan",
+            "--image-topic",
+            topic,
+            "--out",
+            out_path.to_str().unwrap(),
+        ]);
+        let stdout = text(&out.stdout);
+        let stderr = text(&out.stderr);
+        assert!(out.status.success(), "{stdout}{stderr}");
+        assert!(
+            stdout.contains(&format!(
+                "{n_scans} scans, {} camera frames with {expected} detections",
+                frames.len()
+            )),
+            "{topic}: {stdout}"
+        );
+        // One line per scan, in bag order, with the scans' own stamps.
+        let lines: Vec<serde_json::Value> = std::fs::read_to_string(&out_path)
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        let got: Vec<i64> = lines
+            .iter()
+            .map(|l| l["stamp_ns"].as_i64().unwrap())
+            .collect();
+        assert_eq!(got, stamps, "{topic}");
+        // The broken raw frame is skipped with a warning, not fatal.
+        if topic == "/camera/image" {
+            assert!(
+                stderr.contains("skipping the camera message") && stderr.contains("yuv422"),
+                "{stderr}"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
