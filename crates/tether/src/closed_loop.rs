@@ -103,6 +103,9 @@ pub enum RunError {
     /// Recording the run failed.
     #[error(transparent)]
     Record(#[from] tether_sim::record::RecordError),
+    /// Writing the run's MCAP recording failed.
+    #[error("writing the MCAP recording: {0}")]
+    Mcap(#[from] tether_io::mcap::McapError),
 }
 
 /// The pipeline configuration that matches a scenario's robot: its laser and camera

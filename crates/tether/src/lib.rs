@@ -4,4 +4,6 @@
 pub mod closed_loop;
 pub mod metrics;
 pub mod plot;
+pub mod recording;
 pub mod report;
+pub mod results;

@@ -34,6 +34,8 @@ enum Command {
     EvalLegs(cmd::eval_legs::Args),
     /// Detect, fuse and track people over a recording (one JSON line per scan).
     Track(cmd::track::Args),
+    /// Run the pipeline over a recording (MCAP or ROS 1 bag); write results and a report.
+    Replay(cmd::replay::Args),
     /// Measure fusion and tracking over many simulated seeds (RMSE, NEES, CLEAR MOT).
     EvalFusion(cmd::eval_fusion::Args),
     /// Detect objects with an OpenCV Haar cascade (prints opencv_reference.py's JSON).
@@ -64,6 +66,7 @@ fn main() -> std::process::ExitCode {
         Command::TrainLegs(args) => cmd::train_legs::run(args),
         Command::EvalLegs(args) => cmd::eval_legs::run(args),
         Command::Track(args) => cmd::track::run(args),
+        Command::Replay(args) => cmd::replay::run(args),
         Command::EvalFusion(args) => cmd::eval_fusion::run(args),
         Command::Detect(args) => cmd::detect::run(args),
         Command::UrgEmulator(args) => cmd::urg_emulator::run(args),

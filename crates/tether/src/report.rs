@@ -297,18 +297,7 @@ pub fn html(
     runs: &[ScenarioRun<'_>],
     extra: &[(String, String)],
 ) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title>\n<style>\n\
-         body {{ font-family: sans-serif; margin: 24px auto; max-width: 1100px; color: #222; }}\n\
-         table {{ border-collapse: collapse; margin: 12px 0; font-size: 13px; }}\n\
-         th, td {{ border: 1px solid #ccc; padding: 3px 7px; text-align: right; }}\n\
-         th {{ background: #f3f3f3; }} td:first-child {{ text-align: left; }}\n\
-         .figure {{ margin: 10px 0; overflow-x: auto; }} nav a {{ margin-right: 12px; }}\n\
-         section {{ border-top: 1px solid #ddd; margin-top: 28px; }}\n</style></head><body>",
-        xml_escape(title)
-    );
+    let mut s = page_head(title);
     let _ = writeln!(s, "<h1>{}</h1>{intro_html}", xml_escape(title));
     s.push_str("<nav>");
     for r in runs {
@@ -325,5 +314,33 @@ pub fn html(
         let _ = writeln!(s, "<section><h2>{}</h2>{body}</section>", xml_escape(t));
     }
     s.push_str("</body></html>\n");
+    s
+}
+
+/// A page of plain sections (title, HTML), in the report's style.
+pub fn simple_page(title: &str, intro_html: &str, sections: &[(String, String)]) -> String {
+    let mut s = page_head(title);
+    let _ = writeln!(s, "<h1>{}</h1>{intro_html}", xml_escape(title));
+    for (t, body) in sections {
+        let _ = writeln!(s, "<section><h2>{}</h2>{body}</section>", xml_escape(t));
+    }
+    s.push_str("</body></html>\n");
+    s
+}
+
+/// The document head with the report's style, and the opening `body` tag.
+fn page_head(title: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title>\n<style>\n\
+         body {{ font-family: sans-serif; margin: 24px auto; max-width: 1100px; color: #222; }}\n\
+         table {{ border-collapse: collapse; margin: 12px 0; font-size: 13px; }}\n\
+         th, td {{ border: 1px solid #ccc; padding: 3px 7px; text-align: right; }}\n\
+         th {{ background: #f3f3f3; }} td:first-child {{ text-align: left; }}\n\
+         .figure {{ margin: 10px 0; overflow-x: auto; }} nav a {{ margin-right: 12px; }}\n\
+         section {{ border-top: 1px solid #ddd; margin-top: 28px; }}\n</style></head><body>",
+        xml_escape(title)
+    );
     s
 }

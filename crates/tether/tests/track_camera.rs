@@ -7,8 +7,12 @@
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly on bad data")]
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+use common::{scratch, tether, text};
 
 const SHARED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared");
 const CASCADE: &str = "/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml";
@@ -22,17 +26,6 @@ fn skip_unless(ok: bool, reason: &str) -> bool {
         eprintln!("SKIPPED: {reason}");
     }
     ok
-}
-
-fn tether(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tether"))
-        .args(args)
-        .output()
-        .expect("the tether binary runs")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
 }
 
 /// Boxes `tether detect` finds in one image.
@@ -71,10 +64,7 @@ fn tracks_a_bag_with_camera_frames_raw_and_compressed() {
     ) {
         return;
     }
-    let dir: PathBuf =
-        std::env::temp_dir().join(format!("tether-track-camera-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("track-camera");
     let n_scans = 12;
     let made = Command::new("python3")
         .arg(SCRIPT)
@@ -142,7 +132,7 @@ fn tracks_a_bag_with_camera_frames_raw_and_compressed() {
         // The broken raw frame is skipped with a warning, not fatal.
         if topic == "/camera/image" {
             assert!(
-                stderr.contains("skipping the camera message") && stderr.contains("yuv422"),
+                stderr.contains("skipping the /camera/image message") && stderr.contains("yuv422"),
                 "{stderr}"
             );
         }

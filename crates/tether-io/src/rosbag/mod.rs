@@ -24,7 +24,7 @@ mod record;
 #[cfg(test)]
 pub(crate) mod testbag;
 
-pub use crate::mcap::{CompressedImageMsg, ImageMsg};
+pub use crate::mcap::{CompressedImageMsg, ImageMsg, OdometryMsg};
 pub use dataset::{LabelledScan, LabelledScans, ScanSet, read_labelled_scans, read_scans};
 pub use error::{BagError, DecodeError, Location};
 pub use msg::{Header, LaserScanMsg, Pose3, PoseArrayMsg, RawLaserScan, RosMessage};

@@ -7,7 +7,7 @@ use tether_core::{Frame, LaserScan, Point2, Pose2, Stamp};
 
 use super::error::DecodeError;
 use super::record::time_from_bytes;
-use crate::mcap::{CompressedImageMsg, Header as McapHeader, ImageMsg};
+use crate::mcap::{CompressedImageMsg, Header as McapHeader, ImageMsg, OdometryMsg, TwistMsg};
 
 /// A ROS 1 message type this crate can decode.
 pub trait RosMessage: Sized {
@@ -389,6 +389,52 @@ impl RosMessage for CompressedImageMsg {
     }
 }
 
+/// `nav_msgs/Odometry` of a ROS 1 bag, decoded into the same [`OdometryMsg`] the MCAP
+/// reader gives.
+impl RosMessage for OdometryMsg {
+    const TYPE: &'static str = "nav_msgs/Odometry";
+    const MD5SUM: &'static str = "cd5e73d190d741a2f92e81eda573aca7";
+
+    fn decode(data: &[u8]) -> Result<Self, DecodeError> {
+        let mut w = Wire::new(data);
+        let header = Header::read(&mut w)?;
+        let child_frame_id = w.string("child_frame_id")?;
+        let mut f = |field: &'static str, out: &mut [f64]| -> Result<(), DecodeError> {
+            for v in out.iter_mut() {
+                *v = w.f64(field)?;
+            }
+            Ok(())
+        };
+        let mut position_m = [0.0; 3];
+        let mut orientation = [0.0; 4];
+        let mut pose_covariance = [0.0; 36];
+        let mut linear_mps = [0.0; 3];
+        let mut angular_radps = [0.0; 3];
+        let mut twist_covariance = [0.0; 36];
+        f("pose.pose.position", &mut position_m)?;
+        f("pose.pose.orientation", &mut orientation)?;
+        f("pose.covariance", &mut pose_covariance)?;
+        f("twist.twist.linear", &mut linear_mps)?;
+        f("twist.twist.angular", &mut angular_radps)?;
+        f("twist.covariance", &mut twist_covariance)?;
+        w.finish()?;
+        Ok(OdometryMsg {
+            header: McapHeader::new(header.stamp, header.frame_id),
+            child_frame_id,
+            pose: Pose3 {
+                position_m,
+                orientation,
+            },
+            pose_covariance,
+            twist: TwistMsg {
+                linear_mps,
+                angular_radps,
+            },
+            twist_covariance,
+        })
+    }
+}
+
 /// Serialises messages the way ROS 1 does; used to build test bags.
 #[cfg(test)]
 pub(crate) mod encode {
@@ -452,6 +498,24 @@ pub(crate) mod encode {
         out.extend(format.as_bytes());
         out.extend((bytes.len() as u32).to_le_bytes());
         out.extend(bytes);
+        out
+    }
+
+    /// An Odometry message at `(x, y, yaw)` moving at `(v, w)`.
+    pub(crate) fn odometry(stamp_ns: i64, x: f64, y: f64, yaw: f64, v: f64, w: f64) -> Vec<u8> {
+        let mut out = Vec::new();
+        header(&mut out, 9, stamp_ns, "odom");
+        out.extend(9u32.to_le_bytes());
+        out.extend(b"base_link");
+        let (s, c) = (0.5 * yaw).sin_cos();
+        for v in [x, y, 0.0, 0.0, 0.0, s, c] {
+            out.extend(v.to_le_bytes());
+        }
+        out.extend([0u8; 36 * 8]);
+        for v in [v, 0.0, 0.0, 0.0, 0.0, w] {
+            out.extend(v.to_le_bytes());
+        }
+        out.extend([0u8; 36 * 8]);
         out
     }
 
@@ -527,6 +591,21 @@ mod tests {
             CompressedImageMsg::decode(&long),
             Err(DecodeError::TrailingBytes { extra: 1 })
         ));
+    }
+
+    #[test]
+    fn decodes_odometry() {
+        let data = encode::odometry(3_000_000_000, 1.0, -2.0, 0.5, 0.4, -0.1);
+        let m = OdometryMsg::decode(&data).unwrap();
+        assert_eq!(m.header.frame_id, "odom");
+        assert_eq!(m.child_frame_id, "base_link");
+        let pose: Pose2<tether_core::World, tether_core::Robot> = m.pose.pose2();
+        assert!((pose.x - 1.0).abs() < 1e-12 && (pose.y + 2.0).abs() < 1e-12);
+        assert!((pose.yaw - 0.5).abs() < 1e-12);
+        assert_eq!((m.twist.v_mps(), m.twist.w_radps()), (0.4, -0.1));
+        for cut in [0, 20, data.len() - 1] {
+            assert!(OdometryMsg::decode(&data[..cut]).is_err());
+        }
     }
 
     #[test]

@@ -7,8 +7,11 @@ use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use tether::closed_loop::{self, RunError};
 use tether::metrics::measure;
+use tether::results::ResultWriter;
+use tether_io::mcap::{Header, LaserScanMsg, McapError, OdometryMsg};
+use tether_pipeline::Tick;
 use tether_sim::record::RunRecorder;
-use tether_sim::{Scenario, StaticWorld, run_to_dir};
+use tether_sim::{Event, Scenario, SensorData, StaticWorld, run_to_dir};
 
 /// Who drives the simulated robot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -39,6 +42,47 @@ pub struct Args {
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+    /// Also record the run (tether driving) as ROS 2 messages in an MCAP file, for
+    /// `tether replay` and Foxglove: `/scan` (LaserScan), `/odom` (Odometry, perfect),
+    /// `/truth/people` (PoseArray), the pipeline's `/tether/...` topics (tracks,
+    /// observations, target, commands; see `tether::results`).
+    #[arg(long, value_name = "FILE.mcap")]
+    pub record: Option<PathBuf>,
+}
+
+/// Writes a simulated event (odometry and ground truth first, then the sensor data, so
+/// that a replay knows the robot's pose at each scan) and the driving pipeline's tick.
+fn record_event(
+    out: &mut ResultWriter<std::io::BufWriter<std::fs::File>>,
+    event: &Event,
+    tick: Option<&Tick>,
+) -> Result<(), McapError> {
+    let truth = &event.truth;
+    let stamp = truth.stamp;
+    if !matches!(event.data, SensorData::Timer) {
+        let odom = OdometryMsg::planar(
+            Header::new(stamp, out.frame()),
+            "base_link",
+            truth.world_from_robot,
+            truth.robot_velocity.v_mps,
+            truth.robot_velocity.w_radps,
+        );
+        out.mcap().write("/odom", stamp, &odom)?;
+        let people = out.poses(
+            stamp,
+            truth.people.iter().map(|p| (p.position.x, p.position.y)),
+        );
+        out.mcap().write("/truth/people", stamp, &people)?;
+    }
+    if let SensorData::Scan(scan) = &event.data {
+        // URG-04LX timing: 100 ms a turn of 1,024 steps.
+        let msg = LaserScanMsg::new(scan.clone(), 0.1 / 1024.0, 0.1);
+        out.mcap().write("/scan", stamp, &msg)?;
+    }
+    if let Some(tick) = tick {
+        out.write_tick(tick)?;
+    }
+    Ok(())
 }
 
 fn progress_bar(name: &str) -> ProgressBar {
@@ -79,18 +123,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let (driver, passengers) = super::demo::variants(&scenario);
             let mut recorder =
                 RunRecorder::create(&args.out, &scenario, args.seed).with_context(context)?;
+            let mut mcap = match &args.record {
+                Some(path) => Some(
+                    ResultWriter::create(path, "odom")
+                        .with_context(|| format!("cannot create {}", path.display()))?,
+                ),
+                None => None,
+            };
             let log = closed_loop::run_observed(
                 &scenario,
                 args.seed,
                 &driver,
                 &passengers,
                 &[],
-                &mut |event, _| {
+                &mut |event, tick| {
                     show(event.truth.stamp.ns());
+                    if let Some(out) = mcap.as_mut() {
+                        record_event(out, event, tick)?;
+                    }
                     recorder.record(event).map_err(RunError::from)
                 },
             )
             .with_context(context)?;
+            if let (Some(out), Some(path)) = (mcap, &args.record) {
+                out.finish()
+                    .with_context(|| format!("writing {}", path.display()))?;
+            }
             let world = StaticWorld::from_scenario(&scenario);
             let summary = recorder
                 .finish(&scenario, &world, log.collisions, &source)

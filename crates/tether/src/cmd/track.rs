@@ -6,16 +6,16 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use serde::Serialize;
-use tether_core::{CameraIntrinsics, GrayImage, PixelBox, Pose2, Robot, Stamp, World};
-use tether_io::rosbag::{Bag, CompressedImageMsg, ImageMsg, LaserScanMsg, RawMessage, RosMessage};
+use tether::recording::{self, Sample, Topics};
+use tether_core::{CameraIntrinsics, GrayImage, PixelBox, Pose2, Robot, World};
 use tether_pipeline::{Pipeline, PipelineConfig};
-use tether_vision::imread::decode_gray;
 use tether_vision::{Cascade, DetectParams, Detector};
 
 /// Options of `tether track`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The ROS 1 bag to read (chunks uncompressed, bz2 or lz4).
+    /// The recording: a ROS 1 bag (chunks uncompressed, bz2 or lz4) or an MCAP file
+    /// (ROS 2).
     pub bag: PathBuf,
     /// The `sensor_msgs/LaserScan` topic, e.g. `/scan`.
     #[arg(long)]
@@ -27,6 +27,22 @@ pub struct Args {
     /// run is laser only.
     #[arg(long, value_name = "TOPIC")]
     pub image_topic: Option<String>,
+    /// The camera frames' detector.
+    #[command(flatten)]
+    pub detector: CameraArgs,
+    /// A pipeline configuration (TOML; every table optional: `[legs]`, `[tracker]`,
+    /// `[target]`, `[laser.noise]`...).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Where to write one JSON line per scan message.
+    #[arg(long, value_name = "FILE.jsonl")]
+    pub out: PathBuf,
+}
+
+/// How camera frames of a recording are searched for people (shared by `track` and
+/// `replay`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct CameraArgs {
     /// Cascade XML for the camera frames (default: Debian's
     /// /usr/share/opencv4/haarcascades/haarcascade_upperbody.xml).
     #[arg(long, value_name = "FILE")]
@@ -37,16 +53,9 @@ pub struct Args {
     /// Neighbours a detection needs.
     #[arg(long, default_value_t = 3, value_name = "N")]
     pub min_neighbors: u32,
-    /// Detection threads (0: one per core).
+    /// Detection threads (0: one per core); results do not depend on it.
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub threads: usize,
-    /// A pipeline configuration (TOML; every table optional: `[legs]`, `[tracker]`,
-    /// `[target]`, `[laser.noise]`...).
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// Where to write one JSON line per scan message.
-    #[arg(long, value_name = "FILE.jsonl")]
-    pub out: PathBuf,
 }
 
 #[derive(Serialize)]
@@ -83,22 +92,23 @@ pub fn load_config(path: Option<&PathBuf>) -> anyhow::Result<PipelineConfig> {
 }
 
 /// The camera side of a run: the detector and what it saw.
-struct Camera {
-    topic: String,
+pub struct Camera {
     detector: Detector,
     params: DetectParams,
-    frames: usize,
-    boxes: usize,
+    /// Frames searched.
+    pub frames: usize,
+    /// People boxes found.
+    pub boxes: usize,
     size_warned: bool,
 }
 
 impl Camera {
-    fn new(topic: String, args: &Args) -> anyhow::Result<Self> {
+    /// The detector the options ask for.
+    pub fn new(args: &CameraArgs) -> anyhow::Result<Self> {
         let cascade_path = super::detect::resolve_cascade(args.cascade.as_deref())?;
         let cascade = Cascade::load(&cascade_path)?;
         let params = super::detect::params(args.scale_factor, args.min_neighbors, None, None)?;
         Ok(Camera {
-            topic,
             detector: Detector::new(cascade).with_threads(args.threads)?,
             params,
             frames: 0,
@@ -107,34 +117,21 @@ impl Camera {
         })
     }
 
-    /// The grey image of a camera message, whichever of the two types it is.
-    fn grey(raw: &RawMessage) -> anyhow::Result<(Stamp, GrayImage)> {
-        if raw.connection.msg_type == CompressedImageMsg::TYPE {
-            let m = raw.decode::<CompressedImageMsg>()?;
-            Ok((m.header.stamp, decode_gray(&m.data)?))
-        } else {
-            let m = raw.decode::<ImageMsg>()?;
-            Ok((m.header.stamp, m.to_gray()?))
-        }
-    }
-
-    /// Detects people in one frame and hands their boxes to the pipeline.
-    fn frame(
+    /// The people boxes of one frame; warns once when the frame's size is not the
+    /// camera model's.
+    pub fn boxes(
         &mut self,
-        raw: &RawMessage,
-        pipeline: &mut Pipeline,
+        image: &GrayImage,
         intrinsics: &CameraIntrinsics,
-    ) -> anyhow::Result<()> {
-        let (stamp, image) = Self::grey(raw)?;
+    ) -> anyhow::Result<Vec<PixelBox>> {
         if !self.size_warned
             && (image.width() as u32, image.height() as u32)
                 != (intrinsics.width_px, intrinsics.height_px)
         {
             self.size_warned = true;
             tracing::warn!(
-                "{} frames are {}x{} but the camera model is {}x{}: set [camera] in --config \
-                 to this camera's intrinsics, or the vision ranges are wrong",
-                self.topic,
+                "camera frames are {}x{} but the camera model is {}x{}: set [camera] in \
+                 --config to this camera's intrinsics, or the vision ranges are wrong",
                 image.width(),
                 image.height(),
                 intrinsics.width_px,
@@ -143,74 +140,56 @@ impl Camera {
         }
         let boxes: Vec<PixelBox> = self
             .detector
-            .detect(&image, &self.params)?
+            .detect(image, &self.params)?
             .into_iter()
             .map(PixelBox::from)
             .collect();
         self.frames += 1;
         self.boxes += boxes.len();
-        pipeline.on_camera_boxes(stamp, &boxes, Pose2::IDENTITY);
-        Ok(())
+        Ok(boxes)
     }
 }
 
-/// Runs the pipeline over the bag's scans (and camera frames, with `--image-topic`), in
-/// bag order. The recording is taken as seen from a still sensor: the scan's frame is
-/// the robot's and the world's, so positions and velocities come out in the scan's
-/// frame.
+/// Runs the pipeline over the recording's scans (and camera frames, with
+/// `--image-topic`), in log order. The recording is taken as seen from a still sensor:
+/// the scan's frame is the robot's and the world's, so positions and velocities come
+/// out in the scan's frame.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = load_config(args.config.as_ref())?;
     config.laser.mount.x_m = 0.0;
     config.laser.mount.y_m = 0.0;
     config.laser.mount.yaw_rad = 0.0;
     let mut camera = match &args.image_topic {
-        Some(topic) => Some(Camera::new(topic.clone(), &args)?),
+        Some(_) => Some(Camera::new(&args.detector)?),
         None => None,
     };
     config.fusion.use_vision = camera.is_some();
     let intrinsics = config.camera.intrinsics;
     let mut pipeline = Pipeline::new(config, None)?;
-    let mut bag = Bag::open(&args.bag)?;
-    let mut topics = vec![args.scan_topic.as_str()];
-    topics.extend(args.image_topic.as_deref());
-    for topic in &topics {
-        if !bag.topics().contains(topic) {
-            anyhow::bail!(
-                "bag {} has no topic {:?}; its topics are: {}",
-                args.bag.display(),
-                topic,
-                bag.topics().join(", ")
-            );
-        }
-    }
+    let topics = Topics {
+        scan: args.scan_topic.clone(),
+        image: args.image_topic.clone(),
+        odom: None,
+    };
     let file = std::fs::File::create(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut out = std::io::BufWriter::new(file);
     let still: Pose2<World, Robot> = Pose2::IDENTITY;
     let (mut scans, mut with_target) = (0usize, 0usize);
-    let mut bad = 0usize;
     let mut ids = std::collections::BTreeSet::new();
-    let mut messages = bag.messages().only_topics(&topics);
-    for raw in &mut messages {
-        let raw = raw?;
-        if raw.connection.topic != args.scan_topic {
-            if let Some(camera) = camera.as_mut()
-                && let Err(e) = camera.frame(&raw, &mut pipeline, &intrinsics)
-            {
-                bad += 1;
-                tracing::warn!("skipping the camera message at {}: {e:#}", raw.at);
+    let stats = recording::read(&args.bag, &topics, &mut |sample| {
+        let scan = match sample {
+            Sample::Scan(scan) => scan,
+            Sample::Camera { stamp, image } => {
+                if let Some(camera) = camera.as_mut() {
+                    let boxes = camera.boxes(&image, &intrinsics)?;
+                    pipeline.on_camera_boxes(stamp, &boxes, still);
+                }
+                return Ok(());
             }
-            continue;
-        }
-        let message = match raw.decode::<LaserScanMsg>() {
-            Ok(m) => m,
-            Err(e) => {
-                bad += 1;
-                tracing::warn!("skipping the scan message at {}: {e}", raw.at);
-                continue;
-            }
+            Sample::Odom { .. } => return Ok(()),
         };
-        let scan = &message.scan;
+        let scan = &scan;
         let tick = pipeline.on_scan(scan, still);
         let people: Vec<PersonLine> = tick
             .tracks
@@ -239,8 +218,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         serde_json::to_writer(&mut out, &line)?;
         out.write_all(b"\n")?;
         scans += 1;
-    }
-    let skipped = bad + messages.skipped_count();
+        Ok(())
+    })?;
+    let skipped = stats.bad_messages + stats.unattributed;
     out.flush()
         .with_context(|| format!("writing {}", args.out.display()))?;
     let stats = pipeline.stats();

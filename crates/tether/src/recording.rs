@@ -1,0 +1,265 @@
+//! Reading a robot's recording, ROS 1 bag or MCAP (ROS 2), as one stream of samples in
+//! log order: laser scans, camera frames (grey) and odometry. `tether track` and
+//! `tether replay` are built on it.
+//!
+//! A message that does not decode (damaged payload, an image encoding tether does not
+//! read, a scan whose header contradicts its ranges) is skipped and counted, with the
+//! first few reasons logged; damage to the file's structure ends the reading with an
+//! error naming the place, after the samples before it have been delivered.
+
+use std::path::Path;
+
+use anyhow::Context;
+use tether_core::{GrayImage, LaserScan, Pose2, Robot, Stamp, World};
+use tether_io::mcap::{self, CompressedImageMsg, ImageMsg, McapFile, OdometryMsg, Ros2Message};
+use tether_io::rosbag::{self, Bag, RosMessage};
+use tether_vision::imread::decode_gray;
+
+/// The topics to read; `None` leaves a stream out.
+#[derive(Debug, Clone, Default)]
+pub struct Topics {
+    /// `sensor_msgs/LaserScan`.
+    pub scan: String,
+    /// `sensor_msgs/Image` (mono8, rgb8, bgr8) or `sensor_msgs/CompressedImage` (JPEG,
+    /// PNG).
+    pub image: Option<String>,
+    /// `nav_msgs/Odometry`: the robot's pose in its odometry frame.
+    pub odom: Option<String>,
+}
+
+impl Topics {
+    fn all(&self) -> Vec<&str> {
+        let mut out = vec![self.scan.as_str()];
+        out.extend(self.image.as_deref());
+        out.extend(self.odom.as_deref());
+        out
+    }
+}
+
+/// One sample of a recording.
+#[derive(Debug, Clone)]
+pub enum Sample {
+    /// A laser scan (stamp and frame from its header).
+    Scan(LaserScan),
+    /// A camera frame in 8-bit grey, stamped by its header.
+    Camera {
+        /// Header stamp.
+        stamp: Stamp,
+        /// The frame.
+        image: GrayImage,
+    },
+    /// The robot's pose in the odometry frame (tether's world frame).
+    Odom {
+        /// Header stamp.
+        stamp: Stamp,
+        /// Pose of the robot (`child_frame_id`) in the odometry frame.
+        world_from_robot: Pose2<World, Robot>,
+    },
+}
+
+/// What a reading skipped.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ReadStats {
+    /// Messages that did not decode or convert and were skipped.
+    pub bad_messages: usize,
+    /// Message records that could not be attributed to a topic.
+    pub unattributed: usize,
+}
+
+/// Logs the first few skipped messages, counts all.
+fn skip(
+    stats: &mut ReadStats,
+    topic: &str,
+    at: &dyn std::fmt::Display,
+    why: &dyn std::fmt::Display,
+) {
+    stats.bad_messages += 1;
+    if stats.bad_messages <= 10 {
+        tracing::warn!("skipping the {topic} message at {at}: {why}");
+    } else if stats.bad_messages == 11 {
+        tracing::warn!("more messages skipped; the count is reported at the end");
+    }
+}
+
+/// The same message types come out of both readers.
+fn odom_sample(m: OdometryMsg) -> Sample {
+    Sample::Odom {
+        stamp: m.header.stamp,
+        world_from_robot: m.pose.pose2(),
+    }
+}
+
+fn compressed_sample(m: CompressedImageMsg) -> anyhow::Result<Sample> {
+    Ok(Sample::Camera {
+        stamp: m.header.stamp,
+        image: decode_gray(&m.data)?,
+    })
+}
+
+fn raw_sample(m: ImageMsg) -> anyhow::Result<Sample> {
+    Ok(Sample::Camera {
+        stamp: m.header.stamp,
+        image: m.to_gray()?,
+    })
+}
+
+/// Whether `path` is an MCAP file (by its magic bytes), else a ROS 1 bag.
+fn is_mcap(path: &Path) -> anyhow::Result<bool> {
+    use std::io::Read;
+    let mut magic = [0u8; 8];
+    let mut file =
+        std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let n = file.read(&mut magic)?;
+    Ok(n == 8 && &magic == mcap::MAGIC)
+}
+
+/// Checks that every topic asked for is in the recording.
+fn check_topics(path: &Path, wanted: &[&str], present: &[&str]) -> anyhow::Result<()> {
+    for topic in wanted {
+        if !present.contains(topic) {
+            anyhow::bail!(
+                "{} has no topic {topic:?}; its topics are: {}",
+                path.display(),
+                present.join(", ")
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Reads the recording at `path` (MCAP or ROS 1 bag, told apart by their first bytes)
+/// and calls `on_sample` with every sample of `topics`, in log order. `on_sample` may
+/// stop the reading by returning an error.
+pub fn read(
+    path: &Path,
+    topics: &Topics,
+    on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
+) -> anyhow::Result<ReadStats> {
+    if is_mcap(path)? {
+        read_mcap(path, topics, on_sample)
+    } else {
+        read_bag(path, topics, on_sample)
+    }
+}
+
+/// A stored message of either format, decoded into the sample it stands for.
+trait Stored {
+    fn topic(&self) -> &str;
+    /// Whether the message is a `CompressedImage` (else a camera topic holds `Image`s).
+    fn is_compressed(&self) -> bool;
+    fn scan(&self) -> anyhow::Result<LaserScan>;
+    fn odometry(&self) -> anyhow::Result<OdometryMsg>;
+    fn compressed(&self) -> anyhow::Result<CompressedImageMsg>;
+    fn image(&self) -> anyhow::Result<ImageMsg>;
+
+    fn sample(&self, topics: &Topics) -> anyhow::Result<Sample> {
+        let topic = self.topic();
+        if topic == topics.scan {
+            self.scan().map(Sample::Scan)
+        } else if Some(topic) == topics.odom.as_deref() {
+            self.odometry().map(odom_sample)
+        } else if self.is_compressed() {
+            self.compressed().and_then(compressed_sample)
+        } else {
+            self.image().and_then(raw_sample)
+        }
+    }
+}
+
+impl Stored for mcap::RawMessage {
+    fn topic(&self) -> &str {
+        self.topic()
+    }
+    fn is_compressed(&self) -> bool {
+        let name = self.channel.type_name();
+        name == <CompressedImageMsg as Ros2Message>::TYPE || name == "sensor_msgs/CompressedImage"
+    }
+    fn scan(&self) -> anyhow::Result<LaserScan> {
+        Ok(self.decode::<mcap::LaserScanMsg>()?.scan)
+    }
+    fn odometry(&self) -> anyhow::Result<OdometryMsg> {
+        Ok(self.decode()?)
+    }
+    fn compressed(&self) -> anyhow::Result<CompressedImageMsg> {
+        Ok(self.decode()?)
+    }
+    fn image(&self) -> anyhow::Result<ImageMsg> {
+        Ok(self.decode()?)
+    }
+}
+
+impl Stored for rosbag::RawMessage {
+    fn topic(&self) -> &str {
+        &self.connection.topic
+    }
+    fn is_compressed(&self) -> bool {
+        self.connection.msg_type == <CompressedImageMsg as RosMessage>::TYPE
+    }
+    fn scan(&self) -> anyhow::Result<LaserScan> {
+        Ok(self.decode::<rosbag::LaserScanMsg>()?.scan)
+    }
+    fn odometry(&self) -> anyhow::Result<OdometryMsg> {
+        Ok(self.decode()?)
+    }
+    fn compressed(&self) -> anyhow::Result<CompressedImageMsg> {
+        Ok(self.decode()?)
+    }
+    fn image(&self) -> anyhow::Result<ImageMsg> {
+        Ok(self.decode()?)
+    }
+}
+
+/// Hands `raw`'s sample to `on_sample`, or skips and counts it.
+fn deliver(
+    raw: &impl Stored,
+    at: &dyn std::fmt::Display,
+    topics: &Topics,
+    stats: &mut ReadStats,
+    on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    match raw.sample(topics) {
+        Ok(s) => on_sample(s),
+        Err(e) => {
+            skip(stats, raw.topic(), at, &format_args!("{e:#}"));
+            Ok(())
+        }
+    }
+}
+
+fn read_mcap(
+    path: &Path,
+    topics: &Topics,
+    on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
+) -> anyhow::Result<ReadStats> {
+    let file = McapFile::open(path)?;
+    let wanted = topics.all();
+    check_topics(path, &wanted, &file.topics())?;
+    let mut stats = ReadStats::default();
+    let mut messages = file.messages();
+    for raw in &mut messages {
+        let raw = raw?;
+        if wanted.contains(&raw.topic()) {
+            deliver(&raw, &raw.at, topics, &mut stats, on_sample)?;
+        }
+    }
+    stats.unattributed = messages.skipped_count();
+    Ok(stats)
+}
+
+fn read_bag(
+    path: &Path,
+    topics: &Topics,
+    on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
+) -> anyhow::Result<ReadStats> {
+    let mut bag = Bag::open(path)?;
+    let wanted = topics.all();
+    check_topics(path, &wanted, &bag.topics())?;
+    let mut stats = ReadStats::default();
+    let mut messages = bag.messages().only_topics(&wanted);
+    for raw in &mut messages {
+        let raw = raw?;
+        deliver(&raw, &raw.at, topics, &mut stats, on_sample)?;
+    }
+    stats.unattributed = messages.skipped_count();
+    Ok(stats)
+}
