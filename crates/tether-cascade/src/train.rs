@@ -16,7 +16,8 @@
 //!    `min_hit_rate` of the positives ([`crate::boost`]).
 //! 4. The state (configuration and stages so far) is saved after every stage; a run that
 //!    finds a matching state resumes after its last stage, and gives the same cascade as an
-//!    uninterrupted run (every random choice is seeded by the stage).
+//!    uninterrupted run (every random choice is seeded by the stage). Only `stages` may
+//!    differ between the two runs, so a trained cascade can also be extended.
 
 use std::path::{Path, PathBuf};
 
@@ -533,6 +534,8 @@ pub struct StageReport {
     pub positives_dropped: usize,
     /// Features valued for this stage.
     pub features: usize,
+    /// Time the stage took, s (from the observer's clock; `None` without one).
+    pub seconds: Option<f64>,
 }
 
 /// What the inputs of a training were, to tell whether a saved state belongs to it.
@@ -681,6 +684,12 @@ pub enum Event<'a> {
 pub trait Observer: Sync {
     /// Called for every event.
     fn event(&self, event: &Event<'_>);
+
+    /// Seconds on the caller's clock, for the stages' times; the trainer reads no clock
+    /// itself. Default: none.
+    fn now_secs(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// An observer that ignores everything.
@@ -716,7 +725,12 @@ pub fn train(
             let s = TrainState::load(path)?;
             let what = if s.inputs != inputs {
                 Some("annotations or background images".to_string())
-            } else if s.config != *config {
+            } else if (TrainConfig {
+                stages: config.stages,
+                ..s.config.clone()
+            }) != *config
+            {
+                // Only the number of stages may change: a longer run continues a shorter one.
                 Some("options".to_string())
             } else if [s.cascade.width, s.cascade.height] != window {
                 Some("window size".to_string())
@@ -802,6 +816,7 @@ pub fn train(
     while state.cascade.stages.len() < config.stages {
         let stage_no = state.cascade.stages.len() + 1;
         observer.event(&Event::StageStarted { stage: stage_no });
+        let started = observer.now_secs();
         let stage_seed = crate::rng::unit_hash(config.seed, stage_no as u64);
         let compiled = state.cascade.compile(positives.stride());
         let mut set = SampleSet::new(window[0], window[1]);
@@ -877,6 +892,7 @@ pub fn train(
             negatives: mined.patches.len(),
             positives_dropped: dropped,
             features: total,
+            seconds: started.zip(observer.now_secs()).map(|(a, b)| b - a),
         };
         acceptance = (report.acceptance_ratio * report.false_alarm).max(1e-12);
         state.cascade.stages.push(outcome.stage);
