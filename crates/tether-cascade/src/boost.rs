@@ -144,8 +144,7 @@ struct Split {
 impl Split {
     /// Higher score wins; equal scores go to the lower feature index (deterministic).
     fn better(self, other: Split) -> Split {
-        if other.score > self.score || (other.score == self.score && other.feature < self.feature)
-        {
+        if other.score > self.score || (other.score == self.score && other.feature < self.feature) {
             other
         } else {
             self
@@ -190,7 +189,11 @@ fn leaves(boost: BoostType, wl: f64, yl: f64, wt: f64, yt: f64, n: usize) -> (f6
             let b = (wl + yl) * 0.5 + (wr - yr) * 0.5;
             let err = (a.min(b) / wt).clamp(1e-10, 1.0 - 1e-10);
             let alpha = 0.5 * ((1.0 - err) / err).ln();
-            if a <= b { (alpha, -alpha) } else { (-alpha, alpha) }
+            if a <= b {
+                (alpha, -alpha)
+            } else {
+                (-alpha, alpha)
+            }
         }
         BoostType::Real => {
             // Smoothed as Schapire and Singer suggest, eps = 1 / (2 n) of the total.
@@ -205,7 +208,12 @@ fn leaves(boost: BoostType, wl: f64, yl: f64, wt: f64, yt: f64, n: usize) -> (f6
 }
 
 /// The best split of every feature for the current weights, best overall.
-fn best_split(sorted: &SortedValues, weights: &[Wy], boost: BoostType, nfeat: usize) -> Option<Split> {
+fn best_split(
+    sorted: &SortedValues,
+    weights: &[Wy],
+    boost: BoostType,
+    nfeat: usize,
+) -> Option<Split> {
     let (wt, yt) = weights
         .iter()
         .fold((0.0, 0.0), |(w, y), s| (w + s.w, y + s.wy));
@@ -397,7 +405,9 @@ mod tests {
         let mut set = SampleSet::new(6, 6);
         let mut state = 12345u64;
         let mut rnd = move || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (state >> 33) as u32
         };
         let mut added = 0;

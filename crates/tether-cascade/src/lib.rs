@@ -30,4 +30,6 @@ pub mod xml;
 pub use boost::{BoostType, StageParams};
 pub use features::FeatureMode;
 pub use model::CascadeModel;
-pub use train::{Event, Observer, StageReport, TrainConfig, TrainError, TrainState, TrainingData, train};
+pub use train::{
+    Event, Observer, StageReport, TrainConfig, TrainError, TrainState, TrainingData, train,
+};

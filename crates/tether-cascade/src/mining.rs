@@ -238,7 +238,13 @@ impl Miner {
                 continue;
             }
             let (w, h) = (level.width, level.height);
-            let scaled = resize_linear(src.image.pixels(), src.image.width(), src.image.height(), w, h);
+            let scaled = resize_linear(
+                src.image.pixels(),
+                src.image.width(),
+                src.image.height(),
+                w,
+                h,
+            );
             let stride = w + 1;
             let mut sum = vec![0i32; stride * (h + 1)];
             let mut sq = vec![0i32; stride * (h + 1)];
@@ -357,20 +363,34 @@ mod tests {
         let mut got = miner.accepted_windows(&model, 0);
         // The detector skips the window after one rejected by stage 0; the miner looks at
         // every window. Compare on the windows the detector looked at.
-        assert!(got.len() >= want.len() && !want.is_empty(), "{} {}", got.len(), want.len());
+        assert!(
+            got.len() >= want.len() && !want.is_empty(),
+            "{} {}",
+            got.len(),
+            want.len()
+        );
         want.sort();
         got.sort();
         for b in &want {
             assert!(got.binary_search(b).is_ok(), "detector hit {b:?} not mined");
         }
         // And the extra ones are all right after a stage-0 rejection: few.
-        assert!(got.len() - want.len() <= want.len(), "{} vs {}", got.len(), want.len());
+        assert!(
+            got.len() - want.len() <= want.len(),
+            "{} vs {}",
+            got.len(),
+            want.len()
+        );
     }
 
     fn noise_image(w: usize, h: usize, seed: u64) -> GrayImage {
         let mut r = SplitMix::new(seed);
-        GrayImage::from_raw(w, h, (0..w * h).map(|_| (r.next_u64() % 256) as u8).collect())
-            .unwrap()
+        GrayImage::from_raw(
+            w,
+            h,
+            (0..w * h).map(|_| (r.next_u64() % 256) as u8).collect(),
+        )
+        .unwrap()
     }
 
     #[test]
@@ -399,7 +419,9 @@ mod tests {
         unique.dedup();
         assert_eq!(unique.len(), 50, "a window was taken twice");
         // Far more than the images hold: every window is considered once, then an error.
-        let e = miner.mine(&cascade, 100_000, 7, 1.0, &|_, _| {}).unwrap_err();
+        let e = miner
+            .mine(&cascade, 100_000, 7, 1.0, &|_, _| {})
+            .unwrap_err();
         assert!(e.found > 0 && e.found < 100_000);
         assert!(e.considered as usize >= e.found);
         // Large windows of the second image overlap its box by IoU >= 0.2: not considered.
@@ -407,7 +429,9 @@ mod tests {
         // With max_overlap 0 no window touching a box counts: the second image is one
         // box, so only the first image's windows are considered.
         let strict = Miner::new(sources, 8, 8, 1.1, 0.0).unwrap();
-        let e = strict.mine(&cascade, 100_000, 7, 1.0, &|_, _| {}).unwrap_err();
+        let e = strict
+            .mine(&cascade, 100_000, 7, 1.0, &|_, _| {})
+            .unwrap_err();
         assert_eq!(e.considered, strict.total_windows() / 2);
     }
 }

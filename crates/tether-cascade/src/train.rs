@@ -466,7 +466,12 @@ fn fit_box(
 
 /// The region `r` of an image resized to the window (OpenCV's bilinear rule).
 fn cut(image: &GrayImage, r: &Rect, window: [u32; 2]) -> Vec<u8> {
-    let (x, y, w, h) = (r.x as usize, r.y as usize, r.width as usize, r.height as usize);
+    let (x, y, w, h) = (
+        r.x as usize,
+        r.y as usize,
+        r.width as usize,
+        r.height as usize,
+    );
     let mut region = Vec::with_capacity(w * h);
     for row in y..y + h {
         region.extend_from_slice(&image.row(row)[x..x + w]);
@@ -591,9 +596,13 @@ impl TrainState {
             path: path.to_path_buf(),
             why,
         };
-        let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read it ({e})")))?;
-        let state: TrainState = serde_json::from_str(&text)
-            .map_err(|e| err(format!("not a training state ({e}); delete it to start over")))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| err(format!("cannot read it ({e})")))?;
+        let state: TrainState = serde_json::from_str(&text).map_err(|e| {
+            err(format!(
+                "not a training state ({e}); delete it to start over"
+            ))
+        })?;
         if state.version != STATE_VERSION {
             return Err(err(format!(
                 "saved by layout version {}, this trainer writes {STATE_VERSION}; delete it to start over",
@@ -810,9 +819,10 @@ pub fn train(
         mining_windows: miner.total_windows(),
     });
 
-    let mut acceptance = state.reports.last().map_or(1.0, |r| {
-        (r.acceptance_ratio * r.false_alarm).max(1e-12)
-    });
+    let mut acceptance = state
+        .reports
+        .last()
+        .map_or(1.0, |r| (r.acceptance_ratio * r.false_alarm).max(1e-12));
     while state.cascade.stages.len() < config.stages {
         let stage_no = state.cascade.stages.len() + 1;
         observer.event(&Event::StageStarted { stage: stage_no });

@@ -194,7 +194,10 @@ mod tests {
                 let f = &c.features()[node.feature as usize];
                 assert_eq!(f.tilted, s.feature.tilted);
                 for (a, b) in f.rects.iter().zip(&s.feature.rects) {
-                    assert_eq!((a.x, a.y, a.w, a.h, a.weight), (b.x, b.y, b.w, b.h, b.weight));
+                    assert_eq!(
+                        (a.x, a.y, a.w, a.h, a.weight),
+                        (b.x, b.y, b.w, b.h, b.weight)
+                    );
                 }
                 tree += 1;
             }

@@ -26,7 +26,12 @@ fn write_png(path: &Path, width: usize, height: usize, pixels: &[u8]) {
 }
 
 /// Textured noise with dark "people" (a head over a body) at the given boxes.
-fn scene(width: usize, height: usize, seed: u64, people: &[(usize, usize, usize, usize)]) -> Vec<u8> {
+fn scene(
+    width: usize,
+    height: usize,
+    seed: u64,
+    people: &[(usize, usize, usize, usize)],
+) -> Vec<u8> {
     let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
     let mut rnd = move || {
         state ^= state << 13;
@@ -60,9 +65,17 @@ fn scene(width: usize, height: usize, seed: u64, people: &[(usize, usize, usize,
 fn dataset(dir: &Path, n: usize) -> PathBuf {
     let mut info = String::new();
     for i in 0..n {
-        let people = [(10 + 7 * (i % 9), 20, 24, 48), (100, 30 + 3 * (i % 7), 20, 40)];
+        let people = [
+            (10 + 7 * (i % 9), 20, 24, 48),
+            (100, 30 + 3 * (i % 7), 20, 40),
+        ];
         let name = format!("f{i:03}.png");
-        write_png(&dir.join(&name), 160, 120, &scene(160, 120, i as u64 + 1, &people));
+        write_png(
+            &dir.join(&name),
+            160,
+            120,
+            &scene(160, 120, i as u64 + 1, &people),
+        );
         info.push_str(&format!("{name} {}", people.len()));
         for (x, y, w, h) in people {
             info.push_str(&format!(" {x} {y} {w} {h}"));
@@ -133,7 +146,10 @@ fn bad_inputs_give_clear_errors() {
         &Silent,
     )
     .unwrap_err();
-    assert!(matches!(e, TrainError::TooFewPositives { available: 24, .. }), "{e}");
+    assert!(
+        matches!(e, TrainError::TooFewPositives { available: 24, .. }),
+        "{e}"
+    );
     assert!(e.to_string().contains("--num-pos"), "{e}");
 
     // A window no feature fits.
@@ -155,7 +171,12 @@ fn bad_inputs_give_clear_errors() {
     let mut tiny_info = String::new();
     for i in 0..2 {
         let name = format!("t{i}.png");
-        write_png(&tiny_dir.join(&name), 40, 44, &scene(40, 44, i + 7, &[(8, 2, 20, 40)]));
+        write_png(
+            &tiny_dir.join(&name),
+            40,
+            44,
+            &scene(40, 44, i + 7, &[(8, 2, 20, 40)]),
+        );
         tiny_info.push_str(&format!("{name} 1 8 2 20 40\n"));
     }
     std::fs::write(tiny_dir.join("info.dat"), tiny_info).unwrap();
@@ -171,7 +192,10 @@ fn bad_inputs_give_clear_errors() {
         &Silent,
     )
     .unwrap_err();
-    assert!(matches!(e, TrainError::NegativesExhausted { stage: 1, .. }), "{e}");
+    assert!(
+        matches!(e, TrainError::NegativesExhausted { stage: 1, .. }),
+        "{e}"
+    );
     assert!(e.to_string().contains("--bg"), "{e}");
 
     // Options out of range.

@@ -96,7 +96,12 @@ fn opencv_loads_the_trained_cascade_and_finds_the_same_boxes() {
     eprintln!(
         "trained {} stages ({} weak classifiers) in {:.1} s",
         state.cascade.stages.len(),
-        state.cascade.stages.iter().map(|s| s.stumps.len()).sum::<usize>(),
+        state
+            .cascade
+            .stages
+            .iter()
+            .map(|s| s.stumps.len())
+            .sum::<usize>(),
         started.elapsed().as_secs_f64()
     );
     for r in &state.reports {
@@ -110,7 +115,12 @@ fn opencv_loads_the_trained_cascade_and_finds_the_same_boxes() {
     std::fs::write(&xml, to_xml(&state.cascade, &config.stage_params())).expect("write XML");
 
     // Frames of the test split, decoded by OpenCV into PNG.
-    let frames = ["vtest_500.jpg", "vtest_560.jpg", "vtest_620.jpg", "vtest_680.jpg"];
+    let frames = [
+        "vtest_500.jpg",
+        "vtest_560.jpg",
+        "vtest_620.jpg",
+        "vtest_680.jpg",
+    ];
     let mut pngs = Vec::new();
     for f in frames {
         let png = dir.join(f.replace(".jpg", ".png"));

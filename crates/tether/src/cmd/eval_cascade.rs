@@ -68,7 +68,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .par_iter()
             .map(|a| {
                 imread_gray(&a.image).with_context(|| {
-                    format!("{} (line {} of {})", a.image.display(), a.line, args.info.display())
+                    format!(
+                        "{} (line {} of {})",
+                        a.image.display(),
+                        a.line,
+                        args.info.display()
+                    )
                 })
             })
             .collect::<anyhow::Result<Vec<_>>>()?;
@@ -81,7 +86,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     .collect::<Vec<_>>()
             })
             .collect();
-        Ok(evaluate(&Detector::new(cascade), &images, &labels, &params)?)
+        Ok(evaluate(
+            &Detector::new(cascade),
+            &images,
+            &labels,
+            &params,
+        )?)
     })?;
     if args.json {
         let report = json!({

@@ -165,8 +165,9 @@ impl Observer for Cli {
                 ));
                 self.say(header());
             }
-            Event::Resumed { stages } => self
-                .say(format!("resuming after {stages} stages from the saved state")),
+            Event::Resumed { stages } => self.say(format!(
+                "resuming after {stages} stages from the saved state"
+            )),
             Event::StageStarted { stage } => {
                 if let Ok(mut s) = self.stage.lock() {
                     *s = *stage;
@@ -301,7 +302,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .report
         .clone()
         .unwrap_or_else(|| beside(&args.out, ".report.md"));
-    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let command = std::iter::once("tether".to_string())
+        .chain(std::env::args().skip(1))
+        .collect::<Vec<_>>()
+        .join(" ");
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
         .build()
