@@ -78,6 +78,16 @@ fn ordered(v: f32) -> u32 {
     }
 }
 
+/// The value of an [`ordered`] key.
+#[inline]
+fn unordered(k: u32) -> f32 {
+    f32::from_bits(if k & 0x8000_0000 != 0 {
+        k & 0x7FFF_FFFF
+    } else {
+        !k
+    })
+}
+
 impl SortedValues {
     /// Computes and sorts the values of `features` on all samples, in parallel over
     /// features. `progress` is called with the number of features done so far (from the
@@ -110,9 +120,8 @@ impl SortedValues {
                     );
                     keys.sort_unstable();
                     for (j, key) in keys.iter().enumerate() {
-                        let i = (key & 0xFFFF_FFFF) as usize;
-                        ix[j] = i as u16;
-                        v[j] = set.value(&f, i);
+                        ix[j] = (key & 0xFFFF_FFFF) as u16;
+                        v[j] = unordered((key >> 32) as u32);
                     }
                 });
             progress((first + CHUNK).min(features.len()));
@@ -468,6 +477,19 @@ mod tests {
                 assert_eq!(vals[k], set.value(&c, usize::from(i)));
             }
         }
+    }
+
+    #[test]
+    fn ordered_keys_sort_floats_and_decode() {
+        let vals = [-3.5f32, -0.0, 0.0, 1e-30, -1e-30, 7.25, f32::MAX, f32::MIN];
+        for v in vals {
+            assert_eq!(unordered(ordered(v)).to_bits(), v.to_bits());
+        }
+        let mut sorted = vals;
+        sorted.sort_by(f32::total_cmp);
+        let mut by_key = vals;
+        by_key.sort_by_key(|v| ordered(*v));
+        assert_eq!(sorted.map(f32::to_bits), by_key.map(f32::to_bits));
     }
 
     #[test]
