@@ -10,7 +10,7 @@
 //!   computed once per stage and kept sorted, and the stage threshold that keeps the hit
 //!   rate.
 //! - [`mining`]: negatives mined with the cascade so far from the detector's own windows.
-//! - [`train`]: the stage loop, positives, resumable state, progress events.
+//! - [`mod@train`]: the stage loop, positives, resumable state, progress events.
 //! - [`xml`]: the OpenCV XML writer. [`eval`]: precision, recall and F1 against labels.
 //!
 //! The crate reads the images it is given and the state file it is pointed at; it prints
