@@ -40,6 +40,10 @@ enum Command {
     EvalFusion(cmd::eval_fusion::Args),
     /// Detect objects with an OpenCV Haar cascade (prints opencv_reference.py's JSON).
     Detect(cmd::detect::Args),
+    /// Train a boosted Haar cascade from an info.dat annotation file; write OpenCV XML.
+    TrainCascade(cmd::train_cascade::Args),
+    /// Precision, recall and F1 of a Haar cascade against an info.dat annotation file.
+    EvalCascade(cmd::eval_cascade::Args),
     /// Emulate a Hokuyo URG-04LX (SCIP 2.0) on a pseudo-terminal or TCP, serving simulated scans.
     UrgEmulator(cmd::urg_emulator::Args),
     /// Calibrate a sensor from measurements.
@@ -69,6 +73,8 @@ fn main() -> std::process::ExitCode {
         Command::Replay(args) => cmd::replay::run(args),
         Command::EvalFusion(args) => cmd::eval_fusion::run(args),
         Command::Detect(args) => cmd::detect::run(args),
+        Command::TrainCascade(args) => cmd::train_cascade::run(args),
+        Command::EvalCascade(args) => cmd::eval_cascade::run(args),
         Command::UrgEmulator(args) => cmd::urg_emulator::run(args),
         Command::Calibrate(Calibrate::Camera(args)) => cmd::calibrate_camera::run(args),
         Command::Calibrate(Calibrate::Laser(args)) => cmd::calibrate_laser::run(args),

@@ -181,3 +181,78 @@ fn bad_scenario_files_are_refused_with_file_line_and_field() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn train_and_eval_cascade_explain_bad_input() {
+    let dir = scratch("cascade");
+    let out_xml = dir.join("c.xml");
+    let out_xml = out_xml.to_str().unwrap();
+    let missing = tether(&[
+        "train-cascade",
+        "--info",
+        "/nonexistent/info.dat",
+        "--out",
+        out_xml,
+    ]);
+    assert!(!missing.status.success());
+    let err = text(&missing.stderr);
+    assert!(
+        err.contains("cannot read annotation file /nonexistent/info.dat"),
+        "{err}"
+    );
+
+    let info = dir.join("info.dat");
+    std::fs::write(&info, "a.jpg 1 0 0 10 20\nb.jpg 2 0 0 10 20\n").unwrap();
+    let bad = tether(&[
+        "train-cascade",
+        "--info",
+        info.to_str().unwrap(),
+        "--out",
+        out_xml,
+    ]);
+    assert!(!bad.status.success());
+    let err = text(&bad.stderr);
+    assert!(
+        err.contains("info.dat:2") && err.contains("need 8 numbers"),
+        "{err}"
+    );
+
+    std::fs::write(&info, "missing.jpg 1 0 0 10 20\n").unwrap();
+    let no_image = tether(&[
+        "train-cascade",
+        "--info",
+        info.to_str().unwrap(),
+        "--out",
+        out_xml,
+    ]);
+    let err = text(&no_image.stderr);
+    assert!(
+        err.contains("missing.jpg") && err.contains("info.dat:1"),
+        "{err}"
+    );
+
+    let window = tether(&[
+        "train-cascade",
+        "--info",
+        info.to_str().unwrap(),
+        "--window",
+        "16",
+        "--out",
+        out_xml,
+    ]);
+    assert!(!window.status.success());
+    assert!(text(&window.stderr).contains("WxH"));
+
+    let upper = tether(&[
+        "eval-cascade",
+        "--cascade",
+        "/nonexistent.xml",
+        "--info",
+        info.to_str().unwrap(),
+        "--upper",
+        "1.5",
+    ]);
+    assert!(!upper.status.success());
+    assert!(text(&upper.stderr).contains("--upper must be in (0, 1]"));
+    assert!(!Path::new(out_xml).exists());
+}
