@@ -104,6 +104,9 @@ pub(crate) struct HuffTable {
     /// Symbol index of a code of each length, minus that length's first code.
     valoffset: [i32; 18],
     symbols: [u8; 256],
+    /// AC tables: per `LOOKUP_BITS`-bit prefix holding a whole nonzero coefficient (code
+    /// and value bits), `(value << 16) | (run << 8) | bits`; 0 otherwise.
+    fast_ac: Box<[u32; 1 << LOOKUP_BITS]>,
 }
 
 impl HuffTable {
@@ -164,16 +167,31 @@ impl HuffTable {
         if is_dc && spec.symbols[..n].iter().any(|&s| s > 15) {
             return Err("a DC table symbol is larger than 15");
         }
+        let mut fast_ac = Box::new([0u32; 1 << LOOKUP_BITS]);
+        if !is_dc {
+            for (prefix, slot) in fast_ac.iter_mut().enumerate() {
+                let entry = lookup[prefix];
+                let (len, rs) = (u32::from(entry >> 8), entry as u8);
+                let (run, size) = (u32::from(rs >> 4), u32::from(rs & 15));
+                if entry != 0 && size != 0 && len + size <= LOOKUP_BITS {
+                    let bits = (prefix as u32 >> (LOOKUP_BITS - len - size)) & ((1 << size) - 1);
+                    let value = extend(bits as i32, size);
+                    *slot = (u32::from(value as i16 as u16) << 16) | (run << 8) | (len + size);
+                }
+            }
+        }
         Ok(HuffTable {
             lookup,
             maxcode,
             valoffset,
             symbols: spec.symbols,
+            fast_ac,
         })
     }
 }
 
 /// The bit stream of one scan.
+#[derive(Clone, Copy)]
 pub(crate) struct BitReader {
     /// Bits, most significant first; the low bits beyond `nbits` are zero.
     buf: u64,
@@ -271,12 +289,24 @@ impl BitReader {
     /// Takes `s` bits and sign-extends them as a JPEG magnitude category value.
     #[inline]
     pub fn receive_extend(&mut self, s: u32, src: &mut Source<'_>) -> i32 {
-        let x = self.bits(s, src) as i32;
-        if x < (1 << (s - 1)) {
-            x + (-1 << s) + 1
-        } else {
-            x
+        extend(self.bits(s, src) as i32, s)
+    }
+
+    /// A whole AC coefficient (code and value bits) when the next bits hold a short one:
+    /// `(run, value)`.
+    #[inline]
+    pub fn fast_ac(&mut self, table: &HuffTable, src: &mut Source<'_>) -> Option<(usize, i16)> {
+        if self.nbits < 16 {
+            self.refill(src);
         }
+        let f = table.fast_ac[(self.buf >> (64 - LOOKUP_BITS)) as usize];
+        if f == 0 {
+            return None;
+        }
+        let len = f & 0xff;
+        self.buf <<= len;
+        self.nbits -= len;
+        Some((((f >> 8) & 0xff) as usize, (f >> 16) as u16 as i16))
     }
 
     /// Decodes one Huffman symbol.
@@ -334,6 +364,16 @@ impl BitReader {
     /// Reports a bad code, once.
     pub fn take_warning(&mut self, offset: usize) -> Option<Warning> {
         std::mem::take(&mut self.bad_code).then_some(Warning::BadHuffmanCode { offset })
+    }
+}
+
+/// Sign-extends the `s` bits `x` of a JPEG magnitude category (`HUFF_EXTEND`).
+#[inline]
+fn extend(x: i32, s: u32) -> i32 {
+    if x < (1 << (s - 1)) {
+        x + (-1 << s) + 1
+    } else {
+        x
     }
 }
 

@@ -47,8 +47,20 @@ impl Decoder<'_> {
 }
 
 /// The grey image from the component planes.
-pub(crate) fn to_gray(frame: &Frame, model: ColorModel) -> Vec<u8> {
+pub(crate) fn to_gray(frame: &mut Frame, model: ColorModel) -> Vec<u8> {
     let (w, h) = (frame.width, frame.height);
+    if model == ColorModel::Luma
+        && let Some(c) = frame.comps.first_mut()
+        && c.h == frame.hmax
+        && c.v == frame.vmax
+        && c.plane_stride() == w
+    {
+        // The plane is the image, with whole blocks of rows: drop the extra rows.
+        let mut plane = std::mem::take(&mut c.plane);
+        plane.truncate(w * h);
+        return plane;
+    }
+    let frame = &*frame;
     let full = |c: &Component| upsample(c, frame.hmax, frame.vmax, w, h);
     match model {
         ColorModel::Luma => frame.comps.first().map(full).unwrap_or_default(),

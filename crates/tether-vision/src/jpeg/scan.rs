@@ -384,13 +384,15 @@ impl Decoder<'_> {
         }
         if !st.bits.insufficient {
             let src = &mut self.src;
+            // A local copy of the bit buffer stays in registers.
+            let mut bits = st.bits;
             for (block, &i) in blocks.iter_mut().zip(&st.membership) {
                 let (Some(dc), Some(ac)) = (&st.dc[i], &st.ac[i]) else {
                     continue;
                 };
-                let s = u32::from(st.bits.decode(dc, src));
+                let s = u32::from(bits.decode(dc, src));
                 let diff = if s != 0 {
-                    st.bits.receive_extend(s, src)
+                    bits.receive_extend(s, src)
                 } else {
                     0
                 };
@@ -399,12 +401,18 @@ impl Decoder<'_> {
                     block[0] = st.last_dc[i] as i16;
                     let mut k = 1;
                     while k < 64 {
-                        let rs = st.bits.decode(ac, src);
+                        if let Some((run, v)) = bits.fast_ac(ac, src) {
+                            k += run;
+                            block[NATURAL_ORDER[k]] = v;
+                            k += 1;
+                            continue;
+                        }
+                        let rs = bits.decode(ac, src);
                         let r = usize::from(rs >> 4);
                         let s = u32::from(rs & 15);
                         if s != 0 {
                             k += r;
-                            let v = st.bits.receive_extend(s, src);
+                            let v = bits.receive_extend(s, src);
                             block[NATURAL_ORDER[k]] = v as i16;
                         } else if r == 15 {
                             k += 15;
@@ -416,12 +424,16 @@ impl Decoder<'_> {
                 } else {
                     let mut k = 1;
                     while k < 64 {
-                        let rs = st.bits.decode(ac, src);
+                        if let Some((run, _)) = bits.fast_ac(ac, src) {
+                            k += run + 1;
+                            continue;
+                        }
+                        let rs = bits.decode(ac, src);
                         let r = usize::from(rs >> 4);
                         let s = u32::from(rs & 15);
                         if s != 0 {
                             k += r;
-                            st.bits.bits(s, src);
+                            bits.bits(s, src);
                         } else if r == 15 {
                             k += 15;
                         } else {
@@ -431,7 +443,8 @@ impl Decoder<'_> {
                     }
                 }
             }
-            st.bits.end_mcu();
+            bits.end_mcu();
+            st.bits = bits;
         }
         if self.restart_interval != 0 {
             st.restarts_to_go = st.restarts_to_go.wrapping_sub(1);
