@@ -116,15 +116,17 @@ for src in sys.argv[2:]:
         assert cv2.imwrite(f'{dir}/{stem}_{name}.jpg', im, params)
 "#;
 
-/// OpenCV's decode of each file: `FILE.cv` (raw grey, EXIF orientation applied, with
-/// `FILE.cvsize` holding "width height"), or nothing when imread returns None.
+/// OpenCV's decode of the k-th file into the output folder (the first argument):
+/// `k.cv` (raw grey, EXIF orientation applied) and `k.cvsize` ("width height"), or
+/// nothing when imread returns None. Nothing is written beside the inputs.
 const DECODE: &str = r#"
 import sys, cv2
-for p in sys.argv[1:]:
+out = sys.argv[1]
+for k, p in enumerate(sys.argv[2:]):
     g = cv2.imread(p, cv2.IMREAD_GRAYSCALE)
     if g is not None:
-        open(p + '.cv', 'wb').write(g.tobytes())
-        open(p + '.cvsize', 'w').write(f'{g.shape[1]} {g.shape[0]}')
+        open(f'{out}/{k}.cv', 'wb').write(g.tobytes())
+        open(f'{out}/{k}.cvsize', 'w').write(f'{g.shape[1]} {g.shape[0]}')
 "#;
 
 /// A seeded xorshift generator.
@@ -244,18 +246,25 @@ fn jpeg_gray_equals_opencv() {
         ("written by OpenCV now", variants),
         ("damaged copies", damaged),
     ];
-    let all: Vec<&Path> = groups
-        .iter()
-        .flat_map(|(_, files)| files.iter().map(PathBuf::as_path))
-        .collect();
-    python(DECODE, &all);
+    let decoded = tmp.join("opencv");
+    std::fs::create_dir_all(&decoded).expect("temporary folder");
+    let mut args = vec![decoded.as_path()];
+    args.extend(
+        groups
+            .iter()
+            .flat_map(|(_, files)| files.iter().map(PathBuf::as_path)),
+    );
+    python(DECODE, &args);
 
     let mut failures = Vec::new();
+    let mut index = 0usize;
     for (group, files) in &groups {
         let (mut pixels, mut differing, mut refused) = (0usize, 0usize, 0usize);
         for file in files {
             let name = file.display().to_string();
-            let cv = std::fs::read(format!("{name}.cv")).ok();
+            let k = index;
+            index += 1;
+            let cv = std::fs::read(decoded.join(format!("{k}.cv"))).ok();
             let ours = imread_gray(file);
             match (cv, ours) {
                 (None, Err(_)) => refused += 1,
@@ -266,8 +275,8 @@ fn jpeg_gray_equals_opencv() {
                     failures.push(format!("{name}: OpenCV decodes, tether fails: {e}"))
                 }
                 (Some(theirs), Ok(ours)) => {
-                    let size =
-                        std::fs::read_to_string(format!("{name}.cvsize")).unwrap_or_default();
+                    let size = std::fs::read_to_string(decoded.join(format!("{k}.cvsize")))
+                        .unwrap_or_default();
                     let ours_size = format!("{} {}", ours.width(), ours.height());
                     if size != ours_size {
                         failures.push(format!("{name}: OpenCV {size}, tether {ours_size}"));
