@@ -4,9 +4,10 @@
 //! `cargo bench -p tether-vision --bench detect` first prints a comparison measured in
 //! this run: tether on 1 and 2 threads and OpenCV 4.x single-threaded (through
 //! `../shared/tools/opencv_reference.py --time-runs`), best of several runs each, and the
-//! ratio; then divan's own statistics for tether. Set `TETHER_BENCH_NO_OPENCV=1` to skip
-//! OpenCV. Needs `../shared/data/images` and Debian's `opencv-data`; without them it says
-//! so and measures nothing.
+//! ratio; then divan's own statistics for tether, including reading the two JPEG files
+//! (`imread_jpeg_640x480`: tether's own decoder, `tether_vision::jpeg`). Set
+//! `TETHER_BENCH_NO_OPENCV=1` to skip OpenCV. Needs `../shared/data/images` and Debian's
+//! `opencv-data`; without them it says so and measures nothing.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -193,6 +194,15 @@ fn detect_640x480<const THREADS: usize>(bencher: divan::Bencher, name: &str) {
         .1;
     let p = params();
     bencher.bench(|| detector.detect(image, &p).expect("detect"));
+}
+
+/// Reading a 640x480 JPEG file's bytes to grey (`imread` without the file system).
+#[divan::bench(args = ["no_people/aero3.jpg", "no_people/board.jpg"], sample_count = 50)]
+fn imread_jpeg_640x480(bencher: divan::Bencher, name: &str) {
+    let Ok(bytes) = std::fs::read(shared().join("data/images").join(name)) else {
+        return;
+    };
+    bencher.bench(|| tether_vision::imread::decode_gray(&bytes).expect("decode"));
 }
 
 /// The image pyramid alone: every level's resize of a 640x480 image.

@@ -5,7 +5,8 @@
 //!   pyramid ([`resize`]), integral images ([`integral`]), variance normalisation, the
 //!   stages, and grouping ([`group`]).
 //! - [`imread`]: PNG and JPEG files to 8-bit grey as `cv2.imread(path,
-//!   cv2.IMREAD_GRAYSCALE)` gives them.
+//!   cv2.IMREAD_GRAYSCALE)` gives them; [`jpeg`]: tether's JPEG decoder, which
+//!   reproduces libjpeg-turbo's grey output bit for bit.
 //! - [`monocular`]: a person's position and covariance in the robot frame from an
 //!   upper-body box (the paper's eq. 1-3, SPEC 3.2), and [`calibrate`]: the camera
 //!   tilt and box margin from boxes of a person at known distances.
@@ -19,6 +20,7 @@ pub mod detect;
 pub mod group;
 pub mod imread;
 pub mod integral;
+pub mod jpeg;
 pub mod monocular;
 pub mod resize;
 
