@@ -40,6 +40,8 @@ enum Command {
     EvalFusion(cmd::eval_fusion::Args),
     /// Detect objects with an OpenCV Haar cascade (prints opencv_reference.py's JSON).
     Detect(cmd::detect::Args),
+    /// Run the live robot: laser, optional camera, pipeline, base (see configs/robot.example.toml).
+    Run(cmd::run::Args),
     /// Emulate a Hokuyo URG-04LX (SCIP 2.0) on a pseudo-terminal or TCP, serving simulated scans.
     UrgEmulator(cmd::urg_emulator::Args),
     /// Calibrate a sensor from measurements.
@@ -69,6 +71,7 @@ fn main() -> std::process::ExitCode {
         Command::Replay(args) => cmd::replay::run(args),
         Command::EvalFusion(args) => cmd::eval_fusion::run(args),
         Command::Detect(args) => cmd::detect::run(args),
+        Command::Run(args) => cmd::run::run(args),
         Command::UrgEmulator(args) => cmd::urg_emulator::run(args),
         Command::Calibrate(Calibrate::Camera(args)) => cmd::calibrate_camera::run(args),
         Command::Calibrate(Calibrate::Laser(args)) => cmd::calibrate_laser::run(args),

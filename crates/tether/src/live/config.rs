@@ -831,6 +831,26 @@ stdout = true
     }
 
     #[test]
+    fn the_example_config_parses() {
+        let c = parse(include_str!("../../../../configs/robot.example.toml")).unwrap();
+        assert_eq!(c.base.kind, BaseKind::Create);
+        assert_eq!(c.base.baud, Some(115_200));
+        assert_eq!(
+            c.laser_link(),
+            LaserLink::Serial {
+                path: "/dev/ttyACM0".into(),
+                baud: 115_200
+            }
+        );
+        assert!(matches!(c.frame_input(), Some(FrameInput::V4l2 { .. })));
+        let p = c.pipeline_config().unwrap();
+        assert_eq!(p.limits.track_width_m, 0.235);
+        assert_eq!(p.limits.max_reverse_mps, 0.0);
+        assert_eq!(p.camera.mount.height_m, 0.65);
+        assert!(p.fusion.use_vision);
+    }
+
+    #[test]
     fn camera_sources() {
         let camera = r#"
 [camera]
