@@ -334,7 +334,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     match &summary.ending {
         Ending::Duration | Ending::Interrupted => {}
-        Ending::LaserFailed(e) => problems.insert(0, format!("the laser failed: {e}")),
+        Ending::LaserFailed(e) => problems.insert(
+            0,
+            format!("the laser failed (unplugged, powered off, or taken by another program?): {e}"),
+        ),
         Ending::OutputFailed { output, error } => {
             problems.insert(
                 0,
