@@ -123,6 +123,11 @@ fn emulator(dir: &Path) -> (Proc, String) {
 
 /// A config for the corridor's robot (the simulator's defaults) on `pty`.
 fn config(dir: &Path, pty: &str) -> PathBuf {
+    config_with(dir, pty, "")
+}
+
+/// [`config`] with `extra` tables.
+fn config_with(dir: &Path, pty: &str, extra: &str) -> PathBuf {
     let path = dir.join("robot.toml");
     let text = format!(
         r#"[robot]
@@ -155,7 +160,7 @@ record = "{record}"
 [pipeline.safety]
 laser_timeout_s = 0.5
 target_timeout_s = 0.8
-"#,
+{extra}"#,
         wheels = dir.join("wheels.txt").display(),
         record = dir.join("run.mcap").display(),
     );
@@ -411,4 +416,76 @@ fn run_names_the_wrong_key_of_its_config() {
         assert!(stderr.contains(expected), "{to}: {stderr}");
         assert!(out.stdout.is_empty(), "no command for a refused config");
     }
+}
+
+/// Skips (printing why) unless `TETHER_REQUIRE_SHARED=1` demands the test.
+fn skip_unless(ok: bool, reason: &str) -> bool {
+    if !ok {
+        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
+            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
+        }
+        eprintln!("skipped: {reason}");
+    }
+    ok
+}
+
+#[test]
+fn camera_frames_from_a_folder_reach_the_pipeline() {
+    let cascade = Path::new("/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml");
+    if !skip_unless(
+        cascade.is_file(),
+        "Debian's opencv-data cascades are not installed",
+    ) {
+        return;
+    }
+    let dir = scratch("live-camera");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for k in 0..5u8 {
+        let file = std::fs::File::create(frames.join(format!("frame{k}.png"))).unwrap();
+        let mut encoder = png::Encoder::new(file, 640, 480);
+        encoder.set_color(png::ColorType::Grayscale);
+        encoder.set_depth(png::BitDepth::Eight);
+        let pixels: Vec<u8> = (0..640 * 480)
+            .map(|i| ((i % 640) / 3) as u8 + 10 * k)
+            .collect();
+        encoder
+            .write_header()
+            .unwrap()
+            .write_image_data(&pixels)
+            .unwrap();
+    }
+    let (mut emu, pty) = emulator(&dir);
+    let feed = emu.child.stdin.take().unwrap();
+    let camera = format!(
+        r#"
+[camera]
+folder = "{}"
+fps = 10.0
+intrinsics = {{ fx_px = 460.0, fy_px = 460.0, cx_px = 319.5, cy_px = 239.5, width_px = 640, height_px = 480 }}
+mount = {{ x_m = 0.05, y_m = 0.0, yaw_rad = 0.0, height_m = 0.65, tilt_rad = 0.49 }}
+cascade = "{}"
+"#,
+        frames.display(),
+        cascade.display()
+    );
+    let config = config_with(&dir, &pty, &camera);
+    let (mut run, lines) = run(&dir, &config, &["--duration", "3"], feed);
+    let status = run.wait_for(Duration::from_secs(60)).unwrap_or_else(|| {
+        panic!(
+            "tether run did not end within 60 s; stderr:\n{}",
+            run.stderr()
+        )
+    });
+    let stderr = run.stderr();
+    assert!(status.success(), "{stderr}");
+    assert!(stderr.contains("5 camera frames"), "{stderr}");
+    assert!(stderr.contains("frames ended"), "{stderr}");
+    let camera_ticks = lines
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|l| json(l)["input"] == "camera")
+        .count();
+    assert_eq!(camera_ticks, 5);
 }

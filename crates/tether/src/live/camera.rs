@@ -285,6 +285,16 @@ mod tests {
         assert!(grey_from_raw(*b"MJPG", 2, 2, 0, b"not a jpeg").is_err());
     }
 
+    #[cfg(feature = "v4l2")]
+    #[test]
+    fn a_missing_v4l2_device_is_a_clear_error() {
+        let e = V4l2Frames::open("/dev/video-tether-missing", 640, 480)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("/dev/video-tether-missing"), "{e}");
+    }
+
     #[test]
     fn folder_frames_in_name_order_then_end() {
         let dir = std::env::temp_dir().join(format!("tether-frames-{}", std::process::id()));
