@@ -15,7 +15,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use tether::live::base::{CommandSink, CreateBase, JsonLines, WheelLines};
+use tether::live::base::{CommandLine, CommandSink, CreateBase, JsonLines, WheelLines};
 use tether::live::camera::{FolderFrames, FrameSource};
 use tether::live::config::{BaseKind, FrameInput, LaserLink, RobotConfig};
 use tether::live::run_loop::{self, Ending, Input, LoopConfig, Recorder};
@@ -210,6 +210,79 @@ fn join_within(thread: JoinHandle<()>, limit: Duration, name: &str) {
     }
 }
 
+/// The sensors' threads, their channel and the pipeline, ready to run.
+struct Started {
+    rx: mpsc::Receiver<Input>,
+    threads: Vec<(&'static str, JoinHandle<()>)>,
+    scan_period_s: f64,
+    pipeline: Pipeline,
+}
+
+/// The camera's detector, the laser's handshake and stream, the camera thread and the
+/// pipeline (whose laser model takes the sensor's own geometry). On an error the
+/// threads already started end by themselves (their channel is gone).
+fn start(
+    config: &RobotConfig,
+    mut pipeline_config: PipelineConfig,
+    stop: &Arc<AtomicBool>,
+) -> anyhow::Result<Started> {
+    // The camera side first: a wrong cascade path is found before the laser spins.
+    let camera = match (config.frame_input(), &config.camera) {
+        (Some(input), Some(section)) => {
+            let intrinsics = pipeline_config.camera.intrinsics;
+            let source = frame_source(&input, &intrinsics)?;
+            let detector = Camera::new(&CameraArgs {
+                cascade: section.cascade.clone(),
+                scale_factor: section.scale_factor.unwrap_or(1.1),
+                min_neighbors: section.min_neighbors.unwrap_or(3),
+                threads: 1,
+            })?;
+            tracing::info!("camera: {}", source.describe());
+            Some((source, detector, intrinsics))
+        }
+        _ => None,
+    };
+    let (tx, rx) = mpsc::sync_channel(CHANNEL_DEPTH);
+    let (laser, scan_period_s) = match config.laser_link() {
+        LaserLink::Serial { path, baud } => {
+            let port = open_serial(&path, baud)?;
+            start_laser(
+                port,
+                &path,
+                &mut pipeline_config,
+                tx.clone(),
+                Arc::clone(stop),
+            )?
+        }
+        LaserLink::Tcp { address } => {
+            let stream = connect_tcp(&address, Duration::from_secs(3))?;
+            start_laser(
+                stream,
+                &address,
+                &mut pipeline_config,
+                tx.clone(),
+                Arc::clone(stop),
+            )?
+        }
+    };
+    let mut threads = vec![("laser", laser)];
+    if let Some((source, detector, intrinsics)) = camera {
+        let thread_stop = Arc::clone(stop);
+        let thread = std::thread::Builder::new()
+            .name("camera".into())
+            .spawn(move || camera_thread(source, detector, intrinsics, tx, thread_stop))
+            .context("starting the camera thread")?;
+        threads.push(("camera", thread));
+    }
+    let pipeline = Pipeline::new(pipeline_config, None)?;
+    Ok(Started {
+        rx,
+        threads,
+        scan_period_s,
+        pipeline,
+    })
+}
+
 /// Runs the robot.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = RobotConfig::load(&args.config)?;
@@ -218,7 +291,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(s) => anyhow::bail!("--duration must be a positive number of seconds, got {s}"),
         None => None,
     };
-    let mut pipeline_config = config
+    let pipeline_config = config
         .pipeline_config()
         .map_err(|e| anyhow::anyhow!("config {}: {e}", args.config.display()))?;
     let stop = Arc::new(AtomicBool::new(false));
@@ -242,52 +315,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => None,
     };
 
-    let (tx, rx) = mpsc::sync_channel(CHANNEL_DEPTH);
-    let (laser, scan_period_s) = match config.laser_link() {
-        LaserLink::Serial { path, baud } => {
-            let port = open_serial(&path, baud)?;
-            start_laser(
-                port,
-                &path,
-                &mut pipeline_config,
-                tx.clone(),
-                Arc::clone(&stop),
-            )?
-        }
-        LaserLink::Tcp { address } => {
-            let stream = connect_tcp(&address, Duration::from_secs(3))?;
-            start_laser(
-                stream,
-                &address,
-                &mut pipeline_config,
-                tx.clone(),
-                Arc::clone(&stop),
-            )?
+    let Started {
+        rx,
+        threads,
+        scan_period_s,
+        mut pipeline,
+    } = match start(&config, pipeline_config, &stop) {
+        Ok(started) => started,
+        Err(e) => {
+            // The base may already be in Safe mode: leave it stopped and passive.
+            let line = CommandLine::final_stop(SystemClock.now_ns(), "startup_failed");
+            for sink in &mut sinks {
+                if let Err(f) = sink.finish(&line) {
+                    tracing::error!("the final stop to {} failed: {f}", sink.name());
+                }
+            }
+            stop.store(true, Ordering::Relaxed);
+            return Err(e);
         }
     };
-    let mut threads = vec![("laser", laser)];
-    if let (Some(input), Some(section)) = (config.frame_input(), &config.camera) {
-        let intrinsics = pipeline_config.camera.intrinsics;
-        let source = frame_source(&input, &intrinsics)?;
-        let camera = Camera::new(&CameraArgs {
-            cascade: section.cascade.clone(),
-            scale_factor: section.scale_factor.unwrap_or(1.1),
-            min_neighbors: section.min_neighbors.unwrap_or(3),
-            threads: 1,
-        })?;
-        tracing::info!("camera: {}", source.describe());
-        let thread_tx = tx.clone();
-        let thread_stop = Arc::clone(&stop);
-        let thread = std::thread::Builder::new()
-            .name("camera".into())
-            .spawn(move || camera_thread(source, camera, intrinsics, thread_tx, thread_stop))
-            .context("starting the camera thread")?;
-        threads.push(("camera", thread));
-    }
-    drop(tx);
-
-    let track_width_m = pipeline_config.limits.track_width_m;
-    let mut pipeline = Pipeline::new(pipeline_config, None)?;
+    let track_width_m = pipeline.config().limits.track_width_m;
     let loop_config = LoopConfig {
         control_period: Duration::from_millis(50),
         duration,

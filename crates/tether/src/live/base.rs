@@ -17,7 +17,8 @@
 //!
 //! `input` is `scan`, `camera`, `timer` or, on the last line, `final` (a stop sent
 //! because the run ends; `stop` then says why: `duration`, `interrupted`, `laser_failed`,
-//! `output_failed`). `stop` names why the robot is held (`no_target`, `target_lost`,
+//! `output_failed`, `inputs_closed`, or `startup_failed` when a sensor could not be
+//! started after the outputs were opened). `stop` names why the robot is held (`no_target`, `target_lost`,
 //! `stale_laser`, `stale_target`, `obstacle`) or is `null`. `target` is the locked
 //! target, in the dead-reckoned odometry frame (`x_m`, `y_m`) and from the robot
 //! (`range_m`, `bearing_rad`), or `null`.

@@ -422,3 +422,178 @@ pub fn run<W: std::io::Write + std::io::Seek>(
     summary.ending = ending;
     summary
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
+
+    use std::io::Cursor;
+    use std::sync::mpsc;
+    use std::sync::{Arc, Mutex};
+
+    use tether_io::scip::SystemClock;
+    use tether_pipeline::PipelineConfig;
+
+    use super::*;
+
+    /// Keeps what it is sent; fails after `fail_after` commands if set.
+    struct Keep {
+        lines: Arc<Mutex<Vec<CommandLine>>>,
+        fail_after: Option<usize>,
+    }
+
+    impl CommandSink for Keep {
+        fn name(&self) -> &str {
+            "keep"
+        }
+
+        fn send(&mut self, command: &CommandLine) -> std::io::Result<()> {
+            let mut lines = self.lines.lock().unwrap();
+            if self.fail_after.is_some_and(|n| lines.len() >= n) && command.input != "final" {
+                return Err(std::io::Error::other("unplugged"));
+            }
+            lines.push(command.clone());
+            Ok(())
+        }
+    }
+
+    fn keep(fail_after: Option<usize>) -> (Box<dyn CommandSink>, Arc<Mutex<Vec<CommandLine>>>) {
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let sink = Keep {
+            lines: Arc::clone(&lines),
+            fail_after,
+        };
+        (Box::new(sink), lines)
+    }
+
+    fn config(duration_ms: Option<u64>) -> LoopConfig {
+        LoopConfig {
+            control_period: Duration::from_millis(50),
+            duration: duration_ms.map(Duration::from_millis),
+            track_width_m: 0.3,
+        }
+    }
+
+    fn go(
+        inputs: &Receiver<Input>,
+        sinks: &mut [Box<dyn CommandSink>],
+        recorder: Option<&mut Recorder<Cursor<Vec<u8>>>>,
+        loop_config: &LoopConfig,
+    ) -> (RunSummary, Pipeline) {
+        let mut pipeline = Pipeline::new(PipelineConfig::default(), None).unwrap();
+        let stop = AtomicBool::new(false);
+        let summary = run(
+            &mut pipeline,
+            &SystemClock,
+            inputs,
+            sinks,
+            recorder,
+            &stop,
+            loop_config,
+            0.1,
+        );
+        (summary, pipeline)
+    }
+
+    /// An empty room 3 m around, stamped `stamp`.
+    fn scan(stamp: Stamp) -> LaserScan {
+        let beams = 682;
+        LaserScan::new(
+            stamp,
+            "laser",
+            -2.086,
+            0.006_135_92,
+            0.02,
+            5.6,
+            vec![3.0; beams],
+        )
+        .unwrap()
+    }
+
+    fn now() -> Stamp {
+        Stamp::from_ns(SystemClock.now_ns())
+    }
+
+    #[test]
+    fn silent_sensors_get_timer_ticks_and_zero_commands() {
+        let (_tx, rx) = mpsc::sync_channel::<Input>(4);
+        let (sink, lines) = keep(None);
+        let mut sinks = vec![sink];
+        let (summary, _) = go(&rx, &mut sinks, None, &config(Some(400)));
+        assert_eq!(summary.ending, Ending::Duration);
+        let lines = lines.lock().unwrap();
+        // 400 ms at 20 Hz: about 8 ticks (a loaded machine may run fewer).
+        assert!((3..=9).contains(&summary.ticks), "{} ticks", summary.ticks);
+        assert_eq!(lines.len() as u64, summary.ticks + 1);
+        for l in &lines[..lines.len() - 1] {
+            assert_eq!((l.input, l.v_mps, l.w_radps), ("timer", 0.0, 0.0));
+            assert_eq!(l.stop, Some("no_target"));
+        }
+        let last = lines.last().unwrap();
+        assert_eq!(
+            (last.input, last.stop, last.v_mps),
+            ("final", Some("duration"), 0.0)
+        );
+        assert!(lines.windows(2).all(|w| w[0].stamp_ns <= w[1].stamp_ns));
+    }
+
+    #[test]
+    fn late_scans_are_clamped_not_refused_and_recorded() {
+        let (tx, rx) = mpsc::sync_channel::<Input>(16);
+        let feeder = std::thread::spawn(move || {
+            for _ in 0..5 {
+                std::thread::sleep(Duration::from_millis(60));
+                // Taken 80 ms ago: usually before the last timer tick.
+                let stamp = now().saturating_add_ns(-80_000_000);
+                tx.send(Input::Scan(scan(stamp))).unwrap();
+            }
+            tx.send(Input::LaserFailed("unplugged".into())).unwrap();
+        });
+        let (sink, lines) = keep(None);
+        let mut sinks = vec![sink];
+        let writer = ResultWriter::new(Cursor::new(Vec::new()), "odom").unwrap();
+        let mut recorder = Recorder::new(writer);
+        let (summary, pipeline) = go(&rx, &mut sinks, Some(&mut recorder), &config(None));
+        feeder.join().unwrap();
+        assert_eq!(summary.ending, Ending::LaserFailed("unplugged".into()));
+        assert_eq!(summary.scans, 5);
+        assert!(summary.clamped_stamps >= 1, "{summary:?}");
+        assert_eq!(pipeline.stats().out_of_order_ticks, 0);
+        let lines = lines.lock().unwrap();
+        assert_eq!(lines.iter().filter(|l| l.input == "scan").count(), 5);
+        assert_eq!(lines.last().unwrap().stop, Some("laser_failed"));
+        let bytes = recorder.finish().unwrap().into_inner();
+        assert!(bytes.len() > 5 * 682, "the scans are in the recording");
+    }
+
+    #[test]
+    fn a_failing_output_ends_the_run_and_the_others_still_stop() {
+        let (_tx, rx) = mpsc::sync_channel::<Input>(4);
+        let (good, good_lines) = keep(None);
+        let (bad, _) = keep(Some(3));
+        let mut sinks = vec![good, bad];
+        let (summary, _) = go(&rx, &mut sinks, None, &config(Some(5_000)));
+        assert_eq!(
+            summary.ending,
+            Ending::OutputFailed {
+                output: "keep".into(),
+                error: "unplugged".into()
+            }
+        );
+        let good_lines = good_lines.lock().unwrap();
+        assert_eq!(good_lines.len(), 5, "4 commands, then the final stop");
+        assert_eq!(good_lines.last().unwrap().stop, Some("output_failed"));
+    }
+
+    #[test]
+    fn closed_inputs_end_the_run() {
+        let (tx, rx) = mpsc::sync_channel::<Input>(4);
+        drop(tx);
+        let (sink, lines) = keep(None);
+        let mut sinks = vec![sink];
+        let (summary, _) = go(&rx, &mut sinks, None, &config(Some(5_000)));
+        assert_eq!(summary.ending, Ending::InputsClosed);
+        assert!(!summary.ending.is_clean());
+        assert_eq!(lines.lock().unwrap().last().unwrap().input, "final");
+    }
+}
