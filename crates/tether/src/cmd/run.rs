@@ -17,11 +17,12 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use tether::live::base::{CommandLine, CommandSink, CreateBase, JsonLines, WheelLines};
 use tether::live::camera::{FolderFrames, FrameSource};
+use tether::live::clock::MonotonicClock;
 use tether::live::config::{BaseKind, FrameInput, LaserLink, RobotConfig};
 use tether::live::run_loop::{self, Ending, Input, LoopConfig, Recorder};
 use tether_core::{CameraIntrinsics, Stamp};
 use tether_io::scip::{
-    Clock, DriverConfig, DriverEvent, Link, SystemClock, UrgDriver, connect_tcp, open_serial,
+    Clock, DriverConfig, DriverEvent, Link, UrgDriver, connect_tcp, open_serial,
 };
 use tether_pipeline::{Pipeline, PipelineConfig};
 
@@ -71,12 +72,13 @@ fn laser_thread<L: Link, C: Clock>(
 /// stream started on its own thread. Returns the thread and the scan period.
 fn start_laser<L: Link + Send + 'static>(
     link: L,
+    clock: MonotonicClock,
     name: &str,
     pipeline: &mut PipelineConfig,
     tx: SyncSender<Input>,
     stop: Arc<AtomicBool>,
 ) -> anyhow::Result<(JoinHandle<()>, f64)> {
-    let mut urg = UrgDriver::connect(link, SystemClock, DriverConfig::default())
+    let mut urg = UrgDriver::connect(link, clock, DriverConfig::default())
         .with_context(|| format!("laser {name}: handshake failed"))?;
     let info = urg.info().clone();
     let model = info.parameters.get("MODL").cloned().unwrap_or_default();
@@ -109,10 +111,10 @@ fn camera_thread(
     mut source: Box<dyn FrameSource>,
     mut camera: Camera,
     intrinsics: CameraIntrinsics,
+    clock: MonotonicClock,
     tx: SyncSender<Input>,
     stop: Arc<AtomicBool>,
 ) {
-    let clock = SystemClock;
     while !stop.load(Ordering::Relaxed) {
         let input = match source.next_frame() {
             Ok(Some(image)) => {
@@ -223,6 +225,7 @@ struct Started {
 /// threads already started end by themselves (their channel is gone).
 fn start(
     config: &RobotConfig,
+    clock: MonotonicClock,
     mut pipeline_config: PipelineConfig,
     stop: &Arc<AtomicBool>,
 ) -> anyhow::Result<Started> {
@@ -248,6 +251,7 @@ fn start(
             let port = open_serial(&path, baud)?;
             start_laser(
                 port,
+                clock,
                 &path,
                 &mut pipeline_config,
                 tx.clone(),
@@ -258,6 +262,7 @@ fn start(
             let stream = connect_tcp(&address, Duration::from_secs(3))?;
             start_laser(
                 stream,
+                clock,
                 &address,
                 &mut pipeline_config,
                 tx.clone(),
@@ -270,7 +275,7 @@ fn start(
         let thread_stop = Arc::clone(stop);
         let thread = std::thread::Builder::new()
             .name("camera".into())
-            .spawn(move || camera_thread(source, detector, intrinsics, tx, thread_stop))
+            .spawn(move || camera_thread(source, detector, intrinsics, clock, tx, thread_stop))
             .context("starting the camera thread")?;
         threads.push(("camera", thread));
     }
@@ -294,6 +299,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let pipeline_config = config
         .pipeline_config()
         .map_err(|e| anyhow::anyhow!("config {}: {e}", args.config.display()))?;
+    // One clock for the laser's stamps, the camera's and the control loop's.
+    let clock = MonotonicClock::new();
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
@@ -320,11 +327,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         threads,
         scan_period_s,
         mut pipeline,
-    } = match start(&config, pipeline_config, &stop) {
+    } = match start(&config, clock, pipeline_config, &stop) {
         Ok(started) => started,
         Err(e) => {
             // The base may already be in Safe mode: leave it stopped and passive.
-            let line = CommandLine::final_stop(SystemClock.now_ns(), "startup_failed");
+            let line = CommandLine::final_stop(clock.now_ns(), "startup_failed");
             for sink in &mut sinks {
                 if let Err(f) = sink.finish(&line) {
                     tracing::error!("the final stop to {} failed: {f}", sink.name());
@@ -342,7 +349,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let summary = run_loop::run(
         &mut pipeline,
-        &SystemClock,
+        &clock,
         &rx,
         &mut sinks,
         recorder.as_mut(),

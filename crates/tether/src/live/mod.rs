@@ -3,6 +3,7 @@
 
 pub mod base;
 pub mod camera;
+pub mod clock;
 pub mod config;
 pub mod odometry;
 pub mod run_loop;
