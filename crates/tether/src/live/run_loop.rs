@@ -522,8 +522,8 @@ mod tests {
         let (summary, _) = go(&rx, &mut sinks, None, &config(Some(400)));
         assert_eq!(summary.ending, Ending::Duration);
         let lines = lines.lock().unwrap();
-        // 400 ms at 20 Hz: about 8 ticks (a loaded machine may run fewer).
-        assert!((3..=9).contains(&summary.ticks), "{} ticks", summary.ticks);
+        // 400 ms at 20 Hz: about 8 ticks (a stalled machine runs fewer, never a burst).
+        assert!((2..=9).contains(&summary.ticks), "{} ticks", summary.ticks);
         assert_eq!(lines.len() as u64, summary.ticks + 1);
         for l in &lines[..lines.len() - 1] {
             assert_eq!((l.input, l.v_mps, l.w_radps), ("timer", 0.0, 0.0));
