@@ -44,6 +44,8 @@ enum Command {
     TrainCascade(cmd::train_cascade::Args),
     /// Precision, recall and F1 of a Haar cascade against an info.dat annotation file.
     EvalCascade(cmd::eval_cascade::Args),
+    /// Run the live robot: laser, optional camera, pipeline, base (see configs/robot.example.toml).
+    Run(cmd::run::Args),
     /// Emulate a Hokuyo URG-04LX (SCIP 2.0) on a pseudo-terminal or TCP, serving simulated scans.
     UrgEmulator(cmd::urg_emulator::Args),
     /// Calibrate a sensor from measurements.
@@ -75,6 +77,7 @@ fn main() -> std::process::ExitCode {
         Command::Detect(args) => cmd::detect::run(args),
         Command::TrainCascade(args) => cmd::train_cascade::run(args),
         Command::EvalCascade(args) => cmd::eval_cascade::run(args),
+        Command::Run(args) => cmd::run::run(args),
         Command::UrgEmulator(args) => cmd::urg_emulator::run(args),
         Command::Calibrate(Calibrate::Camera(args)) => cmd::calibrate_camera::run(args),
         Command::Calibrate(Calibrate::Laser(args)) => cmd::calibrate_laser::run(args),

@@ -36,6 +36,14 @@ impl ResultWriter<std::io::BufWriter<std::fs::File>> {
 }
 
 impl<W: std::io::Write + std::io::Seek> ResultWriter<W> {
+    /// Results into `w` (a file, a `Cursor`...); positions are labelled with `frame`.
+    pub fn new(w: W, frame: &str) -> Result<Self, McapError> {
+        Ok(ResultWriter {
+            writer: McapWriter::new(w)?,
+            frame: frame.to_owned(),
+        })
+    }
+
     /// The underlying writer, to add other topics (sensor data, ground truth).
     pub fn mcap(&mut self) -> &mut McapWriter<W> {
         &mut self.writer

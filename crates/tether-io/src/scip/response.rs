@@ -672,4 +672,97 @@ mod tests {
             Some(ParseEvent::Reply(Reply::Status { .. }))
         ));
     }
+
+    /// The parser's events for `bytes` fed in the pieces that `cuts` (sorted positions)
+    /// make.
+    fn parse_in_pieces(bytes: &[u8], cuts: &[usize]) -> Vec<ParseEvent> {
+        let mut p = ReplyParser::new();
+        let mut events = Vec::new();
+        let mut from = 0;
+        for &cut in cuts.iter().chain(std::iter::once(&bytes.len())) {
+            let cut = cut.clamp(from, bytes.len());
+            p.push(&bytes[from..cut]);
+            events.extend(std::iter::from_fn(|| p.next_event()));
+            from = cut;
+        }
+        events
+    }
+
+    /// Bytes that look like SCIP: its characters, line feeds, echoes, the
+    /// encodings' alphabet.
+    fn scip_like() -> impl Strategy<Value = Vec<u8>> {
+        let pieces = prop_oneof![
+            Just(b"\n".to_vec()),
+            Just(b"\n\n".to_vec()),
+            Just(b"MD0044072501000\n".to_vec()),
+            Just(b"GS0044072501\n".to_vec()),
+            Just(b"PP\n00P\n".to_vec()),
+            Just(b"TM1\n00P\n".to_vec()),
+            Just(b"99b\n".to_vec()),
+            proptest::collection::vec(0x30u8..0x70, 1..80),
+            proptest::collection::vec(any::<u8>(), 1..8),
+        ];
+        proptest::collection::vec(pieces, 0..60).prop_map(|v| v.concat())
+    }
+
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(400))]
+
+        /// Random bytes never panic the parser, and how they are split into reads
+        /// changes nothing.
+        #[test]
+        fn random_bytes_never_panic_and_splits_do_not_matter(
+            bytes in proptest::collection::vec(any::<u8>(), 0..3000),
+            mut cuts in proptest::collection::vec(0usize..3000, 0..6),
+        ) {
+            cuts.sort_unstable();
+            let whole = parse_all(&bytes);
+            prop_assert_eq!(parse_in_pieces(&bytes, &cuts), whole);
+        }
+
+        #[test]
+        fn scip_like_bytes_never_panic_and_splits_do_not_matter(
+            bytes in scip_like(),
+            mut cuts in proptest::collection::vec(0usize..5000, 0..6),
+        ) {
+            cuts.sort_unstable();
+            let whole = parse_all(&bytes);
+            prop_assert_eq!(parse_in_pieces(&bytes, &cuts), whole);
+        }
+
+        /// A damaged scan is dropped or decoded, never a panic; the good scan after it
+        /// always comes through (the parser re-synchronises at LF LF).
+        #[test]
+        fn a_good_scan_survives_a_damaged_one(
+            edits in proptest::collection::vec((any::<prop::sample::Index>(), any::<u8>(), 0u8..3), 1..8),
+        ) {
+            let values: Vec<u32> = (0..682).map(|i| (i * 13 % 4000) as u32 + 20).collect();
+            let good = md_reply(&values, 77);
+            let mut bad = good.clone();
+            for (at, byte, op) in edits {
+                if bad.is_empty() {
+                    break;
+                }
+                let i = at.index(bad.len());
+                match op {
+                    0 => bad[i] = byte,
+                    1 => bad.insert(i, byte),
+                    _ => {
+                        bad.remove(i);
+                    }
+                }
+            }
+            // However the damage ends, a reply boundary follows before the good scan.
+            bad.extend_from_slice(b"\n\n");
+            bad.extend_from_slice(&good);
+            let events = parse_all(&bad);
+            let last = events.last();
+            prop_assert!(
+                matches!(last, Some(ParseEvent::Reply(Reply::Scan(scan))) if scan.values_mm == values),
+                "{:?}", last
+            );
+        }
+    }
 }

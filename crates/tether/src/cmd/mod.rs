@@ -9,6 +9,7 @@ pub mod eval_fusion;
 pub mod eval_legs;
 pub mod legs;
 pub mod replay;
+pub mod run;
 pub mod scenarios;
 pub mod sim;
 pub mod track;

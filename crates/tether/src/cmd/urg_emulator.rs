@@ -3,15 +3,24 @@
 //! driver (tether's own, `urg_node`, ...) can be run without the hardware.
 //!
 //! The scans come from a [`ScanSource`]. [`simulated_scans`] makes one from a
-//! scenario of `tether_sim` with the robot standing still; a caller that wants other
-//! scans (a moving robot driven by the commands tether sends back, a recording) passes
-//! its own source to [`serve`].
+//! scenario of `tether_sim`. Its robot stands still, or, with `--commands-stdin`,
+//! drives the velocity commands read from stdin as JSON lines (`{"v_mps":..,
+//! "w_radps":..}`, other keys ignored: the lines `tether run` prints), so that `tether
+//! run | tether urg-emulator --commands-stdin` closes the loop without hardware. The
+//! simulated base keeps a command until the next one, stops when none came for its
+//! `command_timeout_s`, and stops when stdin ends. `--truth FILE` writes the ground
+//! truth of every scan as a JSON line.
+
+use std::io::{BufRead, Write};
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
 
 use anyhow::Context;
+use serde::{Deserialize, Serialize};
 use tether_io::scip::emulator::{
     Emulator, EmulatorConfig, EmulatorServer, Faults, ScanSource, Stall,
 };
-use tether_sim::{Scenario, SensorData, Simulation};
+use tether_sim::{Command, Scenario, SensorData, Simulation, Truth};
 
 /// Options of `tether urg-emulator`.
 #[derive(Debug, clap::Args)]
@@ -23,8 +32,8 @@ pub struct Args {
     #[arg(long, value_name = "ADDR")]
     pub tcp: Option<String>,
     /// Scenario whose laser scans are served: a built-in name (see `tether scenarios`)
-    /// or a scenario .toml file. The robot stands still; the people walk; the scenario
-    /// starts over at its end.
+    /// or a scenario .toml file. The robot stands still (unless `--commands-stdin`); the
+    /// people walk; the scenario starts over at its end.
     #[arg(long, default_value = "office", value_name = "NAME")]
     pub scenario: String,
     /// Seed of the simulation's random draws.
@@ -51,14 +60,141 @@ pub struct Args {
     /// How long the stall lasts, ms.
     #[arg(long, default_value_t = 2000, value_name = "MS")]
     pub stall_ms: u64,
+    /// Drive the simulated robot by the velocity commands read from stdin, one JSON
+    /// object a line with `v_mps` and `w_radps` (what `tether run` prints); the robot
+    /// stops when stdin ends.
+    #[arg(long)]
+    pub commands_stdin: bool,
+    /// Write the ground truth of every served scan to FILE, one JSON line each:
+    /// `t_s` (simulated time, from 0 at each start of the scenario), `robot` (`x`, `y`,
+    /// `yaw`), `v_mps`, `w_radps`, `collisions`, `people` (`id`, `name`, `target`, `x`,
+    /// `y`).
+    #[arg(long, value_name = "FILE")]
+    pub truth: Option<PathBuf>,
 }
 
-/// Laser scans of a scenario with a still robot, in millimetres for the emulator.
+/// The newest command received and how many came so far.
+pub type CommandInbox = Arc<Mutex<(u64, Command)>>;
+
+#[derive(Deserialize)]
+struct CommandIn {
+    v_mps: f64,
+    w_radps: f64,
+}
+
+/// Reads JSON command lines from `input` into `inbox` until it ends, then posts a
+/// stop. Lines that are not commands are skipped (the first is reported).
+pub fn read_commands(input: impl BufRead, inbox: &CommandInbox) {
+    let post = |command: Command| {
+        if let Ok(mut slot) = inbox.lock() {
+            slot.0 += 1;
+            slot.1 = command;
+        }
+    };
+    let mut warned = false;
+    for line in input.lines() {
+        let Ok(line) = line else { break };
+        let line = line.trim();
+        if line.is_empty() {
+            continue;
+        }
+        match serde_json::from_str::<CommandIn>(line) {
+            Ok(c) if c.v_mps.is_finite() && c.w_radps.is_finite() => post(Command {
+                v_mps: c.v_mps,
+                w_radps: c.w_radps,
+            }),
+            _ if !warned => {
+                warned = true;
+                tracing::warn!("ignoring input lines that are not commands, like: {line}");
+            }
+            _ => {}
+        }
+    }
+    post(Command {
+        v_mps: 0.0,
+        w_radps: 0.0,
+    });
+}
+
+#[derive(Serialize)]
+struct PoseOut {
+    x: f64,
+    y: f64,
+    yaw: f64,
+}
+
+#[derive(Serialize)]
+struct PersonOut<'a> {
+    id: u32,
+    name: &'a str,
+    target: bool,
+    x: f64,
+    y: f64,
+}
+
+#[derive(Serialize)]
+struct TruthOut<'a> {
+    t_s: f64,
+    robot: PoseOut,
+    v_mps: f64,
+    w_radps: f64,
+    collisions: u32,
+    people: Vec<PersonOut<'a>>,
+}
+
+fn write_truth(out: &mut dyn Write, truth: &Truth) -> std::io::Result<()> {
+    let p = truth.world_from_robot;
+    let line = TruthOut {
+        t_s: truth.stamp.secs_f64(),
+        robot: PoseOut {
+            x: p.x,
+            y: p.y,
+            yaw: p.yaw,
+        },
+        v_mps: truth.robot_velocity.v_mps,
+        w_radps: truth.robot_velocity.w_radps,
+        collisions: truth.collisions,
+        people: truth
+            .people
+            .iter()
+            .map(|q| PersonOut {
+                id: q.id,
+                name: &q.name,
+                target: q.target,
+                x: q.position.x,
+                y: q.position.y,
+            })
+            .collect(),
+    };
+    serde_json::to_writer(&mut *out, &line)?;
+    out.write_all(b"\n")?;
+    out.flush()
+}
+
+/// Laser scans of a scenario, in millimetres for the emulator; the robot stands still
+/// or drives the commands of a [`CommandInbox`].
 pub struct SimulatedScans {
     scenario: Scenario,
     seed: u64,
     sim: Simulation,
     beams: usize,
+    commands: Option<(CommandInbox, u64)>,
+    truth: Option<Box<dyn Write + Send>>,
+}
+
+impl SimulatedScans {
+    /// The robot drives the newest command of `inbox` (each new one is given to the
+    /// simulated base before the next scan).
+    pub fn with_commands(mut self, inbox: CommandInbox) -> Self {
+        self.commands = Some((inbox, 0));
+        self
+    }
+
+    /// Writes the ground truth of every scan to `out` (a JSON line each, flushed).
+    pub fn with_truth(mut self, out: Box<dyn Write + Send>) -> Self {
+        self.truth = Some(out);
+        self
+    }
 }
 
 /// What the emulator sends for a beam without return: an error code (below `DMIN`).
@@ -66,10 +202,23 @@ const NO_ECHO_CODE_MM: u32 = 1;
 
 impl ScanSource for SimulatedScans {
     fn scan(&mut self, _scan_index: u64, ranges_mm: &mut Vec<u32>) {
+        if let Some((inbox, seen)) = &mut self.commands
+            && let Ok(slot) = inbox.lock()
+            && slot.0 != *seen
+        {
+            *seen = slot.0;
+            self.sim.set_command(slot.1);
+        }
         // At most two passes: the scenario may end and start over once.
         for _ in 0..2 {
             while let Some(event) = self.sim.advance() {
                 if let SensorData::Scan(scan) = event.data {
+                    if let Some(out) = self.truth.as_mut()
+                        && let Err(e) = write_truth(out.as_mut(), &event.truth)
+                    {
+                        tracing::error!("writing the ground truth failed ({e}); no more of it");
+                        self.truth = None;
+                    }
                     ranges_mm.extend(scan.ranges_m().iter().map(|&r| {
                         if r.is_finite() {
                             (f64::from(r) * 1000.0).round().max(0.0) as u32
@@ -118,6 +267,8 @@ pub fn simulated_scans(
         seed,
         sim,
         beams: laser.geometry.beam_count(),
+        commands: None,
+        truth: None,
     };
     Ok((scans, config))
 }
@@ -144,7 +295,27 @@ pub fn serve<S: ScanSource + 'static>(
 /// Runs the emulator.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let (scenario, _) = Scenario::resolve(&args.scenario)?;
-    let (scans, mut config) = simulated_scans(&scenario, args.seed)?;
+    let (mut scans, mut config) = simulated_scans(&scenario, args.seed)?;
+    if let Some(path) = &args.truth {
+        let file = std::fs::File::create(path)
+            .with_context(|| format!("cannot create the truth file {}", path.display()))?;
+        scans = scans.with_truth(Box::new(std::io::BufWriter::new(file)));
+    }
+    if args.commands_stdin {
+        let inbox: CommandInbox = Arc::new(Mutex::new((
+            0,
+            Command {
+                v_mps: 0.0,
+                w_radps: 0.0,
+            },
+        )));
+        let reader = Arc::clone(&inbox);
+        std::thread::Builder::new()
+            .name("commands".into())
+            .spawn(move || read_commands(std::io::stdin().lock(), &reader))
+            .context("starting the command reader")?;
+        scans = scans.with_commands(inbox);
+    }
     config.boot_in_scip1 = args.scip1;
     config.faults = Faults {
         bad_checksum_every: args.bad_checksum_every,

@@ -1,0 +1,893 @@
+//! The configuration of a live robot: `tether run --config robot.toml`.
+//!
+//! Strict: unknown keys are refused, and everything that differs from robot to robot
+//! (the base's geometry and limits, where the sensors sit, how the robot follows, where
+//! the devices are) has no default, so that a forgotten line is named in the error
+//! rather than silently replaced by another robot's value. The algorithms' tuning
+//! (leg detector, tracker, target selection, safety timeouts...) lives in the optional
+//! `[pipeline]` table, the [`PipelineConfig`] that `tether sim`, `track` and `replay`
+//! read too; the few values the tables above own may not be set there again.
+//!
+//! ```toml
+//! [robot]              # the base
+//! radius_m = 0.17
+//! track_width_m = 0.235
+//! max_speed_mps = 0.5
+//! max_wheel_speed_mps = 0.5
+//! max_accel_mps2 = 0.5
+//!
+//! [laser]              # serial = "/dev/ttyACM0" (+ baud) or tcp = "192.168.0.10:10940"
+//! serial = "/dev/ttyACM0"
+//! mount = { x_m = 0.10, y_m = 0.0, yaw_rad = 0.0, height_m = 0.30 }
+//!
+//! [follow]             # the virtual spring
+//! follow_distance_m = 1.0
+//! attach_ahead_m = 0.3
+//! distance_omega_radps = 2.0
+//! bearing_omega_radps = 2.0
+//!
+//! [base]               # kind = "none" | "create" | "wheels"
+//! kind = "none"
+//!
+//! [output]
+//! stdout = true
+//! ```
+//!
+//! `configs/robot.example.toml` in the repository documents every key.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use tether_control::SpringGains;
+use tether_core::{CameraIntrinsics, CameraModel, CameraMount, LaserMount};
+use tether_pipeline::PipelineConfig;
+
+/// Why a configuration is refused.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file cannot be read.
+    #[error("cannot read the config {path}: {error}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// What the system said.
+        error: std::io::Error,
+    },
+    /// Not TOML, an unknown or missing key, a value of the wrong type.
+    #[error("config {path}: {message}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message (names the key, with line and column).
+        message: String,
+    },
+    /// A value that parses but cannot be right.
+    #[error("config {path}: `{field}` {message}")]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// The key, dotted (`robot.track_width_m`).
+        field: String,
+        /// What is wrong and what is expected.
+        message: String,
+    },
+}
+
+impl ConfigError {
+    /// The dotted key a validation error names (`None` for read and parse errors).
+    pub fn field(&self) -> Option<&str> {
+        match self {
+            ConfigError::Invalid { field, .. } => Some(field),
+            _ => None,
+        }
+    }
+}
+
+/// The whole file.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotConfig {
+    /// The base: footprint, wheel geometry and limits.
+    pub robot: RobotSection,
+    /// The laser scanner: where it is plugged in and where it sits.
+    pub laser: LaserSection,
+    /// The camera, if the robot has one.
+    pub camera: Option<CameraSection>,
+    /// How the robot follows.
+    pub follow: FollowSection,
+    /// Where the commands go besides stdout.
+    pub base: BaseSection,
+    /// Outputs: JSON lines on stdout, an MCAP recording.
+    pub output: OutputSection,
+    /// Tuning of the algorithms (every key optional; see `PipelineConfig`).
+    #[serde(default)]
+    pub pipeline: PipelineConfig,
+}
+
+/// `[robot]`: the base.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotSection {
+    /// Radius of a circle around the footprint, m (the obstacle stop keeps it clear).
+    pub radius_m: f64,
+    /// Distance between the drive wheels, m.
+    pub track_width_m: f64,
+    /// Top forward speed tether may command, m/s.
+    pub max_speed_mps: f64,
+    /// Top speed of either wheel, m/s.
+    pub max_wheel_speed_mps: f64,
+    /// Largest increase of speed, m/s^2 (braking may be harder: `[pipeline.limits]`).
+    pub max_accel_mps2: f64,
+}
+
+/// `[laser]`: a SCIP 2.0 Hokuyo on a serial / USB-ACM port or on TCP.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LaserSection {
+    /// Serial or USB-ACM device, e.g. `/dev/ttyACM0`.
+    pub serial: Option<String>,
+    /// Baud rate of `serial` (default 19200; any value works over USB-ACM).
+    pub baud: Option<u32>,
+    /// `host:port` of an Ethernet model (port 10940 when left out).
+    pub tcp: Option<String>,
+    /// Where the scanner sits on the robot.
+    pub mount: MountSection,
+}
+
+/// Where the laser is plugged in.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LaserLink {
+    /// A serial or USB-ACM device at a baud rate.
+    Serial {
+        /// Device path.
+        path: String,
+        /// Baud rate.
+        baud: u32,
+    },
+    /// An Ethernet sensor.
+    Tcp {
+        /// `host:port` or `host`.
+        address: String,
+    },
+}
+
+/// A sensor's pose on the robot (all keys required).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MountSection {
+    /// Forward offset from the centre of the wheel axis, m.
+    pub x_m: f64,
+    /// Leftward offset, m.
+    pub y_m: f64,
+    /// Yaw relative to the robot's x axis, counter-clockwise, rad.
+    pub yaw_rad: f64,
+    /// Height above the floor, m.
+    pub height_m: f64,
+}
+
+/// `[camera]`: frames from a V4L2 device or a folder of images, searched for upper
+/// bodies with a Haar cascade.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSection {
+    /// A folder of PNG/JPEG images, served in name order.
+    pub folder: Option<PathBuf>,
+    /// Frames per second of `folder`.
+    pub fps: Option<f64>,
+    /// Start the folder over at its end (default false: the camera then falls silent).
+    #[serde(default)]
+    pub repeat: bool,
+    /// A V4L2 device, e.g. `/dev/video0` (needs tether built with `--features v4l2`).
+    pub v4l2: Option<String>,
+    /// Pinhole intrinsics of the frames.
+    pub intrinsics: IntrinsicsSection,
+    /// Where the camera sits: the lens' offset and yaw as for the laser, its height
+    /// and its upward tilt.
+    pub mount: CameraMountSection,
+    /// Cascade XML (default: Debian's `haarcascade_upperbody.xml` of `opencv-data`).
+    pub cascade: Option<PathBuf>,
+    /// Pyramid scale factor of the detector (default 1.1).
+    pub scale_factor: Option<f64>,
+    /// Neighbours a detection needs (default 3).
+    pub min_neighbors: Option<u32>,
+}
+
+/// Where the frames come from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FrameInput {
+    /// A folder of images served at a rate.
+    Folder {
+        /// The folder.
+        path: PathBuf,
+        /// Frames per second.
+        fps: f64,
+        /// Start over at the end.
+        repeat: bool,
+    },
+    /// A V4L2 device.
+    V4l2 {
+        /// Device path.
+        device: String,
+    },
+}
+
+/// Pinhole intrinsics (all keys required).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntrinsicsSection {
+    /// Focal length along u, px.
+    pub fx_px: f64,
+    /// Focal length along v, px.
+    pub fy_px: f64,
+    /// Principal point u, px.
+    pub cx_px: f64,
+    /// Principal point v, px.
+    pub cy_px: f64,
+    /// Frame width, px.
+    pub width_px: u32,
+    /// Frame height, px.
+    pub height_px: u32,
+}
+
+/// The camera's pose (all keys required).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraMountSection {
+    /// Forward offset of the lens from the centre of the wheel axis, m.
+    pub x_m: f64,
+    /// Leftward offset, m.
+    pub y_m: f64,
+    /// Yaw of the optical axis relative to the robot's x axis, rad.
+    pub yaw_rad: f64,
+    /// Height of the lens above the floor, m.
+    pub height_m: f64,
+    /// Upward pitch of the optical axis, rad.
+    pub tilt_rad: f64,
+}
+
+/// `[follow]`: the virtual spring.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FollowSection {
+    /// Follow distance (the spring's free length), m.
+    pub follow_distance_m: f64,
+    /// Where the spring is attached, ahead of the wheel axis, m (> 0).
+    pub attach_ahead_m: f64,
+    /// Natural frequency of the distance loop, rad/s (gains critically damped).
+    pub distance_omega_radps: f64,
+    /// Natural frequency of the bearing loop, rad/s.
+    pub bearing_omega_radps: f64,
+    /// Explicit gains `{ k1, k2, k3, k4, mass_kg, inertia_kgm2 }`, replacing those the
+    /// frequencies give.
+    pub gains: Option<SpringGains>,
+}
+
+/// Which base adapter receives the commands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BaseKind {
+    /// None: commands only go to stdout and the recording.
+    None,
+    /// An iRobot Create (1 or 2) over its Open Interface: Drive Direct on a serial port.
+    Create,
+    /// Left and right wheel speeds as text lines, on a serial port or into a file.
+    Wheels,
+}
+
+/// Format of the wheel-speed lines.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WheelFormat {
+    /// `{"stamp_ns":..,"left_mps":..,"right_mps":..}`
+    #[default]
+    Json,
+    /// `left_mps right_mps` (m/s, 3 decimals, one space).
+    Text,
+}
+
+/// `[base]`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BaseSection {
+    /// `none`, `create` or `wheels`.
+    pub kind: BaseKind,
+    /// The serial device (`create`; `wheels`: a serial device when `baud` is set, a
+    /// file otherwise).
+    pub device: Option<PathBuf>,
+    /// Baud rate (`create`: required, 57600 for a Create 1, 115200 for a Create 2).
+    pub baud: Option<u32>,
+    /// `wheels`: line format (default `json`).
+    pub format: Option<WheelFormat>,
+}
+
+/// `[output]`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSection {
+    /// One JSON line per pipeline tick on stdout (the command, why it stops, the target).
+    pub stdout: bool,
+    /// An MCAP file (ROS 2 messages): the scans, the dead-reckoned odometry and
+    /// tether's people, target and commands, for `tether replay` and Foxglove.
+    pub record: Option<PathBuf>,
+}
+
+/// `[pipeline]` keys that belong to the tables above (where they are required).
+const OWNED_ELSEWHERE: &[(&str, &str)] = &[
+    ("pipeline.laser.mount", "laser.mount"),
+    ("pipeline.camera", "camera.intrinsics and camera.mount"),
+    ("pipeline.limits.track_width_m", "robot.track_width_m"),
+    ("pipeline.limits.max_speed_mps", "robot.max_speed_mps"),
+    (
+        "pipeline.limits.max_wheel_speed_mps",
+        "robot.max_wheel_speed_mps",
+    ),
+    ("pipeline.limits.max_accel_mps2", "robot.max_accel_mps2"),
+    ("pipeline.safety.robot_radius_m", "robot.radius_m"),
+    (
+        "pipeline.follower.follow_distance_m",
+        "follow.follow_distance_m",
+    ),
+    ("pipeline.follower.attach_ahead_m", "follow.attach_ahead_m"),
+    (
+        "pipeline.follower.distance_omega_radps",
+        "follow.distance_omega_radps",
+    ),
+    (
+        "pipeline.follower.bearing_omega_radps",
+        "follow.bearing_omega_radps",
+    ),
+    ("pipeline.follower.gains", "follow.gains"),
+];
+
+fn positive(field: &str, value: f64) -> Result<(), (String, String)> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err((
+            field.to_owned(),
+            format!("= {value}: must be a positive number"),
+        ))
+    }
+}
+
+fn finite(field: &str, value: f64) -> Result<(), (String, String)> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err((
+            field.to_owned(),
+            format!("= {value}: must be a finite number"),
+        ))
+    }
+}
+
+impl RobotConfig {
+    /// Reads and checks a config file.
+    pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Read {
+            path: path.to_path_buf(),
+            error,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses and checks a config; `path` names it in errors.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
+        let parse_error = |message: String| ConfigError::Parse {
+            path: path.to_path_buf(),
+            message: message.trim_end().to_owned(),
+        };
+        // Keys of `[pipeline]` that the required tables own: refused, not overridden
+        // behind the user's back.
+        let table: toml::Table = toml::from_str(text).map_err(|e| parse_error(e.to_string()))?;
+        for (key, owner) in OWNED_ELSEWHERE {
+            let mut parts = key.split('.');
+            let mut node = parts.next().and_then(|first| table.get(first));
+            for part in parts {
+                node = node.and_then(|n| n.get(part));
+            }
+            if node.is_some() {
+                return Err(ConfigError::Invalid {
+                    path: path.to_path_buf(),
+                    field: (*key).to_owned(),
+                    message: format!("is set in `{owner}` on a live robot; remove it here"),
+                });
+            }
+        }
+        let config: RobotConfig = toml::from_str(text).map_err(|e| parse_error(e.to_string()))?;
+        config
+            .validate()
+            .map_err(|(field, message)| ConfigError::Invalid {
+                path: path.to_path_buf(),
+                field,
+                message,
+            })?;
+        config
+            .pipeline_config()
+            .map_err(|message| ConfigError::Invalid {
+                path: path.to_path_buf(),
+                field: "pipeline".into(),
+                message,
+            })?;
+        Ok(config)
+    }
+
+    fn validate(&self) -> Result<(), (String, String)> {
+        let r = &self.robot;
+        positive("robot.radius_m", r.radius_m)?;
+        positive("robot.track_width_m", r.track_width_m)?;
+        positive("robot.max_speed_mps", r.max_speed_mps)?;
+        positive("robot.max_wheel_speed_mps", r.max_wheel_speed_mps)?;
+        positive("robot.max_accel_mps2", r.max_accel_mps2)?;
+        let l = &self.laser;
+        match (&l.serial, &l.tcp) {
+            (Some(_), Some(_)) => {
+                return Err((
+                    "laser".into(),
+                    "has both `serial` and `tcp`: the laser is on one of them".into(),
+                ));
+            }
+            (None, None) => {
+                return Err((
+                    "laser".into(),
+                    "needs `serial = \"/dev/ttyACM0\"` or `tcp = \"host:port\"`".into(),
+                ));
+            }
+            (Some(path), None) if path.is_empty() => {
+                return Err(("laser.serial".into(), "is empty".into()));
+            }
+            (None, Some(addr)) if addr.is_empty() => {
+                return Err(("laser.tcp".into(), "is empty".into()));
+            }
+            _ => {}
+        }
+        if l.tcp.is_some() && l.baud.is_some() {
+            return Err((
+                "laser.baud".into(),
+                "only applies to `serial`, not to `tcp`".into(),
+            ));
+        }
+        if l.baud == Some(0) {
+            return Err(("laser.baud".into(), "= 0: must be a baud rate".into()));
+        }
+        let m = &l.mount;
+        finite("laser.mount.x_m", m.x_m)?;
+        finite("laser.mount.y_m", m.y_m)?;
+        finite("laser.mount.yaw_rad", m.yaw_rad)?;
+        positive("laser.mount.height_m", m.height_m)?;
+        if let Some(c) = &self.camera {
+            match (&c.folder, &c.v4l2) {
+                (Some(_), Some(_)) => {
+                    return Err((
+                        "camera".into(),
+                        "has both `folder` and `v4l2`: frames come from one of them".into(),
+                    ));
+                }
+                (None, None) => {
+                    return Err((
+                        "camera".into(),
+                        "needs `folder = \"DIR\"` (with `fps`) or `v4l2 = \"/dev/video0\"`".into(),
+                    ));
+                }
+                (Some(_), None) => match c.fps {
+                    Some(fps) => positive("camera.fps", fps)?,
+                    None => {
+                        return Err((
+                            "camera.fps".into(),
+                            "is missing: a folder of frames needs a rate".into(),
+                        ));
+                    }
+                },
+                (None, Some(_)) => {
+                    if c.fps.is_some() {
+                        return Err((
+                            "camera.fps".into(),
+                            "only applies to `folder` (a V4L2 device runs at its own rate)".into(),
+                        ));
+                    }
+                    if c.repeat {
+                        return Err(("camera.repeat".into(), "only applies to `folder`".into()));
+                    }
+                }
+            }
+            if let Some(s) = c.scale_factor
+                && !(s.is_finite() && s > 1.0)
+            {
+                return Err((
+                    "camera.scale_factor".into(),
+                    format!("= {s}: must be above 1 (OpenCV's default is 1.1)"),
+                ));
+            }
+            let i = &c.intrinsics;
+            positive("camera.intrinsics.fx_px", i.fx_px)?;
+            positive("camera.intrinsics.fy_px", i.fy_px)?;
+            finite("camera.intrinsics.cx_px", i.cx_px)?;
+            finite("camera.intrinsics.cy_px", i.cy_px)?;
+            positive("camera.intrinsics.width_px", f64::from(i.width_px))?;
+            positive("camera.intrinsics.height_px", f64::from(i.height_px))?;
+            let m = &c.mount;
+            finite("camera.mount.x_m", m.x_m)?;
+            finite("camera.mount.y_m", m.y_m)?;
+            finite("camera.mount.yaw_rad", m.yaw_rad)?;
+            positive("camera.mount.height_m", m.height_m)?;
+            finite("camera.mount.tilt_rad", m.tilt_rad)?;
+        }
+        let f = &self.follow;
+        positive("follow.follow_distance_m", f.follow_distance_m)?;
+        positive("follow.attach_ahead_m", f.attach_ahead_m)?;
+        positive("follow.distance_omega_radps", f.distance_omega_radps)?;
+        positive("follow.bearing_omega_radps", f.bearing_omega_radps)?;
+        let b = &self.base;
+        match b.kind {
+            BaseKind::None => {
+                for (key, set) in [
+                    ("device", b.device.is_some()),
+                    ("baud", b.baud.is_some()),
+                    ("format", b.format.is_some()),
+                ] {
+                    if set {
+                        return Err((
+                            format!("base.{key}"),
+                            "is set but `kind = \"none\"` drives no base".into(),
+                        ));
+                    }
+                }
+            }
+            BaseKind::Create => {
+                if b.device.is_none() {
+                    return Err((
+                        "base.device".into(),
+                        "is missing: the Create's serial port, e.g. \"/dev/ttyUSB0\"".into(),
+                    ));
+                }
+                if b.baud.is_none() {
+                    return Err((
+                        "base.baud".into(),
+                        "is missing: 57600 for a Create 1, 115200 for a Create 2".into(),
+                    ));
+                }
+                if b.format.is_some() {
+                    return Err(("base.format".into(), "only applies to `wheels`".into()));
+                }
+            }
+            BaseKind::Wheels => {
+                if b.device.is_none() {
+                    return Err((
+                        "base.device".into(),
+                        "is missing: a serial device (with `baud`) or a file".into(),
+                    ));
+                }
+            }
+        }
+        if b.baud == Some(0) {
+            return Err(("base.baud".into(), "= 0: must be a baud rate".into()));
+        }
+        Ok(())
+    }
+
+    /// Where the laser is.
+    pub fn laser_link(&self) -> LaserLink {
+        match (&self.laser.serial, &self.laser.tcp) {
+            (Some(path), _) => LaserLink::Serial {
+                path: path.clone(),
+                baud: self
+                    .laser
+                    .baud
+                    .unwrap_or(tether_io::scip::DEFAULT_BAUD_RATE),
+            },
+            (None, Some(address)) => LaserLink::Tcp {
+                address: address.clone(),
+            },
+            // `validate` refuses a laser without either.
+            (None, None) => LaserLink::Tcp {
+                address: String::new(),
+            },
+        }
+    }
+
+    /// Where the camera frames come from, if there is a camera.
+    pub fn frame_input(&self) -> Option<FrameInput> {
+        let c = self.camera.as_ref()?;
+        match (&c.folder, &c.v4l2) {
+            (Some(path), _) => Some(FrameInput::Folder {
+                path: path.clone(),
+                fps: c.fps.unwrap_or(10.0),
+                repeat: c.repeat,
+            }),
+            (None, Some(device)) => Some(FrameInput::V4l2 {
+                device: device.clone(),
+            }),
+            (None, None) => None,
+        }
+    }
+
+    /// The pipeline's configuration: `[pipeline]` with the robot's geometry, the
+    /// sensors' poses and the follower's settings put in; the laser only without a
+    /// camera.
+    pub fn pipeline_config(&self) -> Result<PipelineConfig, String> {
+        let mut p = self.pipeline.clone();
+        let r = &self.robot;
+        p.limits.track_width_m = r.track_width_m;
+        p.limits.max_speed_mps = r.max_speed_mps;
+        p.limits.max_wheel_speed_mps = r.max_wheel_speed_mps;
+        p.limits.max_accel_mps2 = r.max_accel_mps2;
+        p.safety.robot_radius_m = r.radius_m;
+        let m = &self.laser.mount;
+        p.laser.mount = LaserMount {
+            x_m: m.x_m,
+            y_m: m.y_m,
+            yaw_rad: m.yaw_rad,
+            height_m: m.height_m,
+        };
+        let f = &self.follow;
+        p.follower.follow_distance_m = f.follow_distance_m;
+        p.follower.attach_ahead_m = f.attach_ahead_m;
+        p.follower.distance_omega_radps = f.distance_omega_radps;
+        p.follower.bearing_omega_radps = f.bearing_omega_radps;
+        p.follower.gains = f.gains;
+        match &self.camera {
+            Some(c) => {
+                let i = &c.intrinsics;
+                let m = &c.mount;
+                p.camera = CameraModel {
+                    intrinsics: CameraIntrinsics {
+                        fx_px: i.fx_px,
+                        fy_px: i.fy_px,
+                        cx_px: i.cx_px,
+                        cy_px: i.cy_px,
+                        width_px: i.width_px,
+                        height_px: i.height_px,
+                    },
+                    mount: CameraMount {
+                        x_m: m.x_m,
+                        y_m: m.y_m,
+                        yaw_rad: m.yaw_rad,
+                        height_m: m.height_m,
+                        tilt_rad: m.tilt_rad,
+                    },
+                };
+            }
+            None => p.fusion.use_vision = false,
+        }
+        p.laser.validate().map_err(|e| format!("laser: {e}"))?;
+        p.camera.validate().map_err(|e| format!("camera: {e}"))?;
+        p.limits.validate().map_err(|e| format!("limits: {e}"))?;
+        p.follower
+            .validate()
+            .map_err(|e| format!("follower: {e}"))?;
+        Ok(p)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
+
+    use super::*;
+
+    const MINIMAL: &str = r#"
+[robot]
+radius_m = 0.2
+track_width_m = 0.3
+max_speed_mps = 1.0
+max_wheel_speed_mps = 1.2
+max_accel_mps2 = 1.0
+
+[laser]
+serial = "/dev/ttyACM0"
+mount = { x_m = 0.1, y_m = 0.0, yaw_rad = 0.0, height_m = 0.3 }
+
+[follow]
+follow_distance_m = 1.2
+attach_ahead_m = 0.3
+distance_omega_radps = 2.0
+bearing_omega_radps = 2.5
+
+[base]
+kind = "none"
+
+[output]
+stdout = true
+"#;
+
+    fn parse(text: &str) -> Result<RobotConfig, ConfigError> {
+        RobotConfig::parse(text, Path::new("robot.toml"))
+    }
+
+    #[test]
+    fn a_minimal_config_fills_the_pipeline() {
+        let c = parse(MINIMAL).unwrap();
+        let p = c.pipeline_config().unwrap();
+        assert_eq!(p.limits.track_width_m, 0.3);
+        assert_eq!(p.limits.max_speed_mps, 1.0);
+        assert_eq!(p.safety.robot_radius_m, 0.2);
+        assert_eq!(p.follower.follow_distance_m, 1.2);
+        assert_eq!(p.laser.mount.x_m, 0.1);
+        assert!(!p.fusion.use_vision, "no camera: laser only");
+        assert_eq!(
+            c.laser_link(),
+            LaserLink::Serial {
+                path: "/dev/ttyACM0".into(),
+                baud: 19_200
+            }
+        );
+        assert!(c.frame_input().is_none());
+    }
+
+    /// Every required key, removed in turn, is named in the error.
+    #[test]
+    fn a_missing_key_is_named() {
+        for key in [
+            "radius_m",
+            "track_width_m",
+            "max_speed_mps",
+            "max_wheel_speed_mps",
+            "max_accel_mps2",
+            "follow_distance_m",
+            "attach_ahead_m",
+            "distance_omega_radps",
+            "bearing_omega_radps",
+            "kind",
+            "stdout",
+        ] {
+            let text: String = MINIMAL
+                .lines()
+                .filter(|l| !l.starts_with(&format!("{key} =")))
+                .map(|l| format!("{l}\n"))
+                .collect();
+            let e = parse(&text).unwrap_err().to_string();
+            assert!(e.contains(&format!("missing field `{key}`")), "{key}: {e}");
+        }
+        let text = MINIMAL.replace(", height_m = 0.3 }", " }");
+        let e = parse(&text).unwrap_err().to_string();
+        assert!(e.contains("missing field `height_m`"), "{e}");
+        for table in ["[robot]", "[follow]", "[output]"] {
+            let name = table.trim_matches(['[', ']']);
+            let text = MINIMAL.replace(table, "[unused]");
+            let e = parse(&text).unwrap_err().to_string();
+            assert!(e.contains(name), "{table}: {e}");
+        }
+    }
+
+    #[test]
+    fn an_unknown_or_mistyped_key_is_named() {
+        let e = parse(&MINIMAL.replace("radius_m = 0.2", "radius_m = 0.2\nwheel_base = 0.3"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("unknown field `wheel_base`"), "{e}");
+        assert!(e.contains("line"), "has a position: {e}");
+        let e = parse(&MINIMAL.replace("max_speed_mps = 1.0", "max_speed_mps = \"fast\""))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("max_speed_mps"), "{e}");
+        let e = parse(&MINIMAL.replace("kind = \"none\"", "kind = \"roomba\""))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("roomba") && e.contains("create"), "{e}");
+    }
+
+    #[test]
+    fn a_wrong_value_is_named() {
+        let cases = [
+            (
+                "track_width_m = 0.3",
+                "track_width_m = -0.3",
+                "robot.track_width_m",
+            ),
+            (
+                "max_accel_mps2 = 1.0",
+                "max_accel_mps2 = nan",
+                "robot.max_accel_mps2",
+            ),
+            (
+                "serial = \"/dev/ttyACM0\"",
+                "serial = \"/dev/ttyACM0\"\ntcp = \"10.0.0.1\"",
+                "laser",
+            ),
+            ("serial = \"/dev/ttyACM0\"", "baud = 115200", "laser"),
+            ("kind = \"none\"", "kind = \"create\"", "base.device"),
+            (
+                "kind = \"none\"",
+                "kind = \"create\"\ndevice = \"/dev/ttyUSB0\"",
+                "base.baud",
+            ),
+            (
+                "kind = \"none\"",
+                "kind = \"none\"\nbaud = 57600",
+                "base.baud",
+            ),
+            (
+                "attach_ahead_m = 0.3",
+                "attach_ahead_m = 0.0",
+                "follow.attach_ahead_m",
+            ),
+        ];
+        for (from, to, field) in cases {
+            let e = parse(&MINIMAL.replace(from, to)).unwrap_err();
+            assert_eq!(e.field(), Some(field), "{to}: {e}");
+            assert!(e.to_string().contains(field), "{e}");
+        }
+    }
+
+    #[test]
+    fn pipeline_may_not_repeat_what_the_robot_tables_own() {
+        let text = format!("{MINIMAL}\n[pipeline.limits]\ntrack_width_m = 0.5\n");
+        let e = parse(&text).unwrap_err();
+        assert_eq!(e.field(), Some("pipeline.limits.track_width_m"));
+        assert!(e.to_string().contains("robot.track_width_m"), "{e}");
+        // Tuning that is not owned elsewhere is welcome.
+        let text = format!(
+            "{MINIMAL}\n[pipeline.limits]\nmax_turn_radps = 1.0\n[pipeline.safety]\nlaser_timeout_s = 0.5\n"
+        );
+        let c = parse(&text).unwrap();
+        let p = c.pipeline_config().unwrap();
+        assert_eq!(p.limits.max_turn_radps, 1.0);
+        assert_eq!(p.safety.laser_timeout_s, 0.5);
+        assert_eq!(p.limits.track_width_m, 0.3);
+        let e = parse(&format!("{MINIMAL}\n[pipeline.limits]\nturbo = 1.0\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("unknown field `turbo`"), "{e}");
+    }
+
+    #[test]
+    fn the_example_config_parses() {
+        let c = parse(include_str!("../../../../configs/robot.example.toml")).unwrap();
+        assert_eq!(c.base.kind, BaseKind::Create);
+        assert_eq!(c.base.baud, Some(115_200));
+        assert_eq!(
+            c.laser_link(),
+            LaserLink::Serial {
+                path: "/dev/ttyACM0".into(),
+                baud: 115_200
+            }
+        );
+        assert!(matches!(c.frame_input(), Some(FrameInput::V4l2 { .. })));
+        let p = c.pipeline_config().unwrap();
+        assert_eq!(p.limits.track_width_m, 0.235);
+        assert_eq!(p.limits.max_reverse_mps, 0.0);
+        assert_eq!(p.camera.mount.height_m, 0.65);
+        assert!(p.fusion.use_vision);
+    }
+
+    #[test]
+    fn camera_sources() {
+        let camera = r#"
+[camera]
+folder = "frames"
+fps = 15.0
+intrinsics = { fx_px = 500.0, fy_px = 500.0, cx_px = 319.5, cy_px = 239.5, width_px = 640, height_px = 480 }
+mount = { x_m = 0.05, y_m = 0.0, yaw_rad = 0.0, height_m = 0.65, tilt_rad = 0.3 }
+"#;
+        let c = parse(&format!("{MINIMAL}{camera}")).unwrap();
+        assert_eq!(
+            c.frame_input(),
+            Some(FrameInput::Folder {
+                path: "frames".into(),
+                fps: 15.0,
+                repeat: false
+            })
+        );
+        let p = c.pipeline_config().unwrap();
+        assert!(p.fusion.use_vision);
+        assert_eq!(p.camera.intrinsics.fx_px, 500.0);
+        assert_eq!(p.camera.mount.tilt_rad, 0.3);
+        let e = parse(&format!("{MINIMAL}{}", camera.replace("fps = 15.0\n", ""))).unwrap_err();
+        assert_eq!(e.field(), Some("camera.fps"));
+        let e = parse(&format!(
+            "{MINIMAL}{}",
+            camera.replace(" tilt_rad = 0.3", "")
+        ))
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("missing field `tilt_rad`"), "{e}");
+        let v4l2 = camera.replace("folder = \"frames\"\nfps = 15.0", "v4l2 = \"/dev/video0\"");
+        let c = parse(&format!("{MINIMAL}{v4l2}")).unwrap();
+        assert_eq!(
+            c.frame_input(),
+            Some(FrameInput::V4l2 {
+                device: "/dev/video0".into()
+            })
+        );
+    }
+}

@@ -1,0 +1,599 @@
+//! The live robot's main loop: sensor data from threads, the pipeline, a control timer,
+//! the outputs.
+//!
+//! The laser and the camera run on their own threads and send [`Input`]s over a
+//! channel. The loop waits on the channel at most until the next control instant, so the
+//! pipeline gets its timer ticks (`on_timer`, 20 Hz) even when every sensor falls
+//! silent, and its watchdog then commands a stop. Every tick's command goes to every
+//! output at once; when the run ends (its duration, Ctrl-C, a failed laser or output)
+//! every output gets a final stop.
+//!
+//! Time: every stamp is the host's clock (`Clock`), the one the laser driver maps the
+//! sensor's stamps to. The pipeline refuses data older than what it has already
+//! processed, but a scan arrives a little after it was taken, often after a timer tick:
+//! such data are processed at the last tick's time (the clamp is counted), while the
+//! robot's pose is still looked up at the data's own stamp.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::time::Duration;
+
+use tether_control::Twist;
+use tether_core::{LaserScan, PixelBox, Pose2, Robot, Stamp, World};
+use tether_io::mcap::{Header, LaserScanMsg, McapError, OdometryMsg, TwistMsg};
+use tether_io::scip::Clock;
+use tether_pipeline::{Pipeline, Tick, TickInput};
+
+use super::base::{CommandLine, CommandSink, TargetLine};
+use super::odometry::DeadReckoning;
+use crate::results::ResultWriter;
+
+/// What the sensor threads send.
+#[derive(Debug)]
+pub enum Input {
+    /// A laser scan, stamped in host time.
+    Scan(LaserScan),
+    /// Something the laser driver met and recovered from.
+    LaserFault(String),
+    /// The laser failed for good (unplugged, not answering).
+    LaserFailed(String),
+    /// The people boxes of a camera frame, stamped when the frame arrived.
+    Camera {
+        /// Arrival time of the frame.
+        stamp: Stamp,
+        /// Upper-body boxes.
+        boxes: Vec<PixelBox>,
+    },
+    /// The camera stopped: `None` at the end of a folder, the error otherwise. The run
+    /// goes on with the laser alone.
+    CameraEnded(Option<String>),
+}
+
+/// Settings of the loop.
+#[derive(Debug, Clone)]
+pub struct LoopConfig {
+    /// Control timer period. Default 50 ms (20 Hz).
+    pub control_period: Duration,
+    /// Stop after this long; `None`: until interrupted.
+    pub duration: Option<Duration>,
+    /// Track width, for the wheel speeds of the outputs, m.
+    pub track_width_m: f64,
+}
+
+/// Why the run ended.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Ending {
+    /// The duration passed.
+    Duration,
+    /// Ctrl-C (or the stop flag).
+    Interrupted,
+    /// The laser failed.
+    LaserFailed(String),
+    /// Every sensor thread is gone.
+    InputsClosed,
+    /// An output could not be written.
+    OutputFailed {
+        /// Which output.
+        output: String,
+        /// What went wrong.
+        error: String,
+    },
+}
+
+impl Ending {
+    /// The `stop` of the final command line.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Ending::Duration => "duration",
+            Ending::Interrupted => "interrupted",
+            Ending::LaserFailed(_) => "laser_failed",
+            Ending::InputsClosed => "inputs_closed",
+            Ending::OutputFailed { .. } => "output_failed",
+        }
+    }
+
+    /// Whether the run ended as asked (duration, Ctrl-C) rather than on a failure.
+    pub fn is_clean(&self) -> bool {
+        matches!(self, Ending::Duration | Ending::Interrupted)
+    }
+}
+
+/// What a run did.
+#[derive(Debug, Clone)]
+pub struct RunSummary {
+    /// Why it ended.
+    pub ending: Ending,
+    /// Pipeline ticks (scans, camera frames, timer).
+    pub ticks: u64,
+    /// Scans processed.
+    pub scans: u64,
+    /// Camera frames processed.
+    pub frames: u64,
+    /// Laser faults the driver recovered from.
+    pub laser_faults: u64,
+    /// Data processed at the last tick's time because they were older.
+    pub clamped_stamps: u64,
+    /// Ticks with a locked target.
+    pub ticks_with_target: u64,
+    /// Outputs whose final stop failed, with the error.
+    pub final_stop_failures: Vec<(String, String)>,
+    /// Distance driven by dead reckoning, m.
+    pub distance_m: f64,
+}
+
+/// The MCAP recording of a live run: the scans (`/scan`), the dead-reckoned odometry
+/// (`/odom`, `odom` -> `base_link`) and the pipeline's ticks (see [`ResultWriter`]).
+pub struct Recorder<W: std::io::Write + std::io::Seek> {
+    writer: ResultWriter<W>,
+}
+
+impl Recorder<std::io::BufWriter<std::fs::File>> {
+    /// A recording at `path`.
+    pub fn create(path: &std::path::Path) -> Result<Self, McapError> {
+        Ok(Recorder {
+            writer: ResultWriter::create(path, "odom")?,
+        })
+    }
+}
+
+impl<W: std::io::Write + std::io::Seek> Recorder<W> {
+    /// A recording into `writer` (its frame should be `odom`).
+    pub fn new(writer: ResultWriter<W>) -> Self {
+        Recorder { writer }
+    }
+
+    fn scan(&mut self, scan: &LaserScan, period_s: f64) -> Result<(), McapError> {
+        let beams = scan.len().max(1) as f64;
+        let msg = LaserScanMsg::new(scan.clone(), period_s / beams, period_s);
+        self.writer.mcap().write("/scan", scan.stamp, &msg)
+    }
+
+    fn tick(
+        &mut self,
+        tick: &Tick,
+        pose: Pose2<World, Robot>,
+        moving: Twist,
+    ) -> Result<(), McapError> {
+        let odom = OdometryMsg::planar(
+            Header::new(tick.stamp, self.writer.frame()),
+            "base_link",
+            pose,
+            moving.v_mps,
+            moving.w_radps,
+        );
+        self.writer.mcap().write("/odom", tick.stamp, &odom)?;
+        self.writer.write_tick(tick)
+    }
+
+    fn final_stop(&mut self, stamp: Stamp) -> Result<(), McapError> {
+        let cmd = TwistMsg::unicycle(0.0, 0.0);
+        self.writer.mcap().write("/tether/cmd_vel", stamp, &cmd)
+    }
+
+    /// Writes the summary and closes the file.
+    pub fn finish(self) -> Result<W, McapError> {
+        self.writer.finish()
+    }
+}
+
+/// The loop's state.
+struct Live<'a, W: std::io::Write + std::io::Seek> {
+    pipeline: &'a mut Pipeline,
+    clock: &'a dyn Clock,
+    sinks: &'a mut [Box<dyn CommandSink>],
+    recorder: Option<&'a mut Recorder<W>>,
+    odometry: DeadReckoning,
+    config: &'a LoopConfig,
+    last_stamp: Stamp,
+    summary: RunSummary,
+    scan_period_s: f64,
+    /// Where the distance driven was last measured to.
+    travelled_to: tether_core::Point2<World>,
+}
+
+impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
+    fn now(&self) -> Stamp {
+        Stamp::from_ns(self.clock.now_ns())
+    }
+
+    /// A data stamp the pipeline accepts: not before the last tick.
+    fn pipeline_stamp(&mut self, stamp: Stamp) -> Stamp {
+        if stamp < self.last_stamp {
+            self.summary.clamped_stamps += 1;
+            self.last_stamp
+        } else {
+            stamp
+        }
+    }
+
+    fn scan(&mut self, mut scan: LaserScan) -> Result<(), Ending> {
+        if let Some(r) = self.recorder.as_deref_mut() {
+            r.scan(&scan, self.scan_period_s)
+                .map_err(recording_failed)?;
+        }
+        let pose = self.odometry.pose_at(scan.stamp);
+        scan.stamp = self.pipeline_stamp(scan.stamp);
+        let tick = self.pipeline.on_scan(&scan, pose);
+        self.summary.scans += 1;
+        self.emit(&tick, pose)
+    }
+
+    fn camera(&mut self, stamp: Stamp, boxes: &[PixelBox]) -> Result<(), Ending> {
+        let pose = self.odometry.pose_at(stamp);
+        let stamp = self.pipeline_stamp(stamp);
+        let tick = self.pipeline.on_camera_boxes(stamp, boxes, pose);
+        self.summary.frames += 1;
+        self.emit(&tick, pose)
+    }
+
+    fn timer(&mut self, now: Stamp) -> Result<(), Ending> {
+        let stamp = self.pipeline_stamp(now);
+        let pose = self.odometry.pose_at(stamp);
+        let tick = self.pipeline.on_timer(stamp, pose);
+        self.emit(&tick, pose)
+    }
+
+    /// Sends a tick's command to every output and drives it in the dead reckoning.
+    fn emit(&mut self, tick: &Tick, pose: Pose2<World, Robot>) -> Result<(), Ending> {
+        self.last_stamp = self.last_stamp.max(tick.stamp);
+        self.summary.ticks += 1;
+        let now = self.now();
+        let here = self.odometry.pose_at(now).translation();
+        self.summary.distance_m += self.travelled_to.distance_m(here);
+        self.travelled_to = here;
+        self.odometry.set_command(now, tick.command);
+        let input = match tick.input {
+            TickInput::Scan => "scan",
+            TickInput::Camera => "camera",
+            TickInput::Timer => "timer",
+        };
+        let mut line = CommandLine::new(
+            tick.stamp.ns(),
+            input,
+            tick.command.v_mps,
+            tick.command.w_radps,
+            self.config.track_width_m,
+        );
+        line.stop = tick.stop.map(|s| s.name());
+        if let (Some(id), Some(estimate)) = (tick.target.state.locked_track(), tick.target.estimate)
+        {
+            self.summary.ticks_with_target += 1;
+            let in_robot = pose.inverse() * estimate.mean;
+            line.target = Some(TargetLine {
+                id,
+                x_m: estimate.mean.x,
+                y_m: estimate.mean.y,
+                range_m: in_robot.range_m(),
+                bearing_rad: in_robot.bearing_rad(),
+            });
+        }
+        if let Some(r) = self.recorder.as_deref_mut() {
+            r.tick(tick, pose, tick.command).map_err(recording_failed)?;
+        }
+        for sink in self.sinks.iter_mut() {
+            sink.send(&line).map_err(|e| Ending::OutputFailed {
+                output: sink.name().to_owned(),
+                error: e.to_string(),
+            })?;
+        }
+        Ok(())
+    }
+
+    fn run(&mut self, inputs: &Receiver<Input>, stop: &AtomicBool) -> Ending {
+        let period_ns = i64::try_from(self.config.control_period.as_nanos())
+            .unwrap_or(i64::MAX)
+            .max(1_000_000);
+        let start = self.now();
+        let end = self
+            .config
+            .duration
+            .map(|d| start.saturating_add_ns(i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)));
+        let mut next_timer = start.saturating_add_ns(period_ns);
+        let mut camera_alive = true;
+        loop {
+            if stop.load(Ordering::Relaxed) {
+                return Ending::Interrupted;
+            }
+            let now = self.now();
+            if end.is_some_and(|end| now >= end) {
+                return Ending::Duration;
+            }
+            if now >= next_timer {
+                if let Err(e) = self.timer(now) {
+                    return e;
+                }
+                next_timer = next_timer.saturating_add_ns(period_ns);
+                if next_timer <= now {
+                    // Fell behind (a stalled machine): no burst of catch-up ticks.
+                    next_timer = now.saturating_add_ns(period_ns);
+                }
+                continue;
+            }
+            let wait_ns = next_timer.ns_since(now).clamp(0, period_ns);
+            let wait = Duration::from_nanos(wait_ns as u64);
+            let result = match inputs.recv_timeout(wait) {
+                Ok(Input::Scan(scan)) => self.scan(scan),
+                Ok(Input::Camera { stamp, boxes }) => {
+                    if camera_alive {
+                        self.camera(stamp, &boxes)
+                    } else {
+                        Ok(())
+                    }
+                }
+                Ok(Input::LaserFault(fault)) => {
+                    self.summary.laser_faults += 1;
+                    tracing::debug!("laser: {fault}");
+                    Ok(())
+                }
+                Ok(Input::LaserFailed(error)) => Err(Ending::LaserFailed(error)),
+                Ok(Input::CameraEnded(why)) => {
+                    camera_alive = false;
+                    match why {
+                        None => tracing::info!("the camera's frames ended; laser only from now on"),
+                        Some(e) => {
+                            tracing::error!("the camera failed ({e}); laser only from now on")
+                        }
+                    }
+                    Ok(())
+                }
+                Err(RecvTimeoutError::Timeout) => Ok(()),
+                Err(RecvTimeoutError::Disconnected) => Err(Ending::InputsClosed),
+            };
+            if let Err(ending) = result {
+                return ending;
+            }
+        }
+    }
+
+    /// The final stop to every output and the recording.
+    fn finish(&mut self, ending: &Ending) {
+        let stamp = self.now().max(self.last_stamp);
+        let line = CommandLine::final_stop(stamp.ns(), ending.name());
+        for sink in self.sinks.iter_mut() {
+            if let Err(e) = sink.finish(&line) {
+                self.summary
+                    .final_stop_failures
+                    .push((sink.name().to_owned(), e.to_string()));
+            }
+        }
+        if let Some(r) = self.recorder.as_deref_mut()
+            && let Err(e) = r.final_stop(stamp)
+        {
+            self.summary
+                .final_stop_failures
+                .push(("recording".into(), e.to_string()));
+        }
+        let here = self.odometry.pose_at(stamp).translation();
+        self.summary.distance_m += self.travelled_to.distance_m(here);
+        self.odometry.set_command(stamp, Twist::STOP);
+    }
+}
+
+fn recording_failed(e: McapError) -> Ending {
+    Ending::OutputFailed {
+        output: "recording".into(),
+        error: e.to_string(),
+    }
+}
+
+/// Runs the pipeline on `inputs` until `config.duration` passes, `stop` is set, the
+/// laser fails or an output fails; then sends a final stop to every output. The scans'
+/// period (`scan_period_s`) only labels the recorded scans.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "each is a separate part of the run"
+)]
+pub fn run<W: std::io::Write + std::io::Seek>(
+    pipeline: &mut Pipeline,
+    clock: &dyn Clock,
+    inputs: &Receiver<Input>,
+    sinks: &mut [Box<dyn CommandSink>],
+    recorder: Option<&mut Recorder<W>>,
+    stop: &AtomicBool,
+    config: &LoopConfig,
+    scan_period_s: f64,
+) -> RunSummary {
+    let start = Stamp::from_ns(clock.now_ns());
+    let mut live = Live {
+        pipeline,
+        clock,
+        sinks,
+        recorder,
+        odometry: DeadReckoning::new(start),
+        config,
+        last_stamp: start,
+        summary: RunSummary {
+            ending: Ending::InputsClosed,
+            ticks: 0,
+            scans: 0,
+            frames: 0,
+            laser_faults: 0,
+            clamped_stamps: 0,
+            ticks_with_target: 0,
+            final_stop_failures: Vec::new(),
+            distance_m: 0.0,
+        },
+        scan_period_s,
+        travelled_to: tether_core::Point2::ORIGIN,
+    };
+    let ending = live.run(inputs, stop);
+    live.finish(&ending);
+    let mut summary = live.summary;
+    summary.ending = ending;
+    summary
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
+
+    use std::io::Cursor;
+    use std::sync::mpsc;
+    use std::sync::{Arc, Mutex};
+
+    use tether_io::scip::SystemClock;
+    use tether_pipeline::PipelineConfig;
+
+    use super::*;
+
+    /// Keeps what it is sent; fails after `fail_after` commands if set.
+    struct Keep {
+        lines: Arc<Mutex<Vec<CommandLine>>>,
+        fail_after: Option<usize>,
+    }
+
+    impl CommandSink for Keep {
+        fn name(&self) -> &str {
+            "keep"
+        }
+
+        fn send(&mut self, command: &CommandLine) -> std::io::Result<()> {
+            let mut lines = self.lines.lock().unwrap();
+            if self.fail_after.is_some_and(|n| lines.len() >= n) && command.input != "final" {
+                return Err(std::io::Error::other("unplugged"));
+            }
+            lines.push(command.clone());
+            Ok(())
+        }
+    }
+
+    fn keep(fail_after: Option<usize>) -> (Box<dyn CommandSink>, Arc<Mutex<Vec<CommandLine>>>) {
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let sink = Keep {
+            lines: Arc::clone(&lines),
+            fail_after,
+        };
+        (Box::new(sink), lines)
+    }
+
+    fn config(duration_ms: Option<u64>) -> LoopConfig {
+        LoopConfig {
+            control_period: Duration::from_millis(50),
+            duration: duration_ms.map(Duration::from_millis),
+            track_width_m: 0.3,
+        }
+    }
+
+    fn go(
+        inputs: &Receiver<Input>,
+        sinks: &mut [Box<dyn CommandSink>],
+        recorder: Option<&mut Recorder<Cursor<Vec<u8>>>>,
+        loop_config: &LoopConfig,
+    ) -> (RunSummary, Pipeline) {
+        let mut pipeline = Pipeline::new(PipelineConfig::default(), None).unwrap();
+        let stop = AtomicBool::new(false);
+        let summary = run(
+            &mut pipeline,
+            &SystemClock,
+            inputs,
+            sinks,
+            recorder,
+            &stop,
+            loop_config,
+            0.1,
+        );
+        (summary, pipeline)
+    }
+
+    /// An empty room 3 m around, stamped `stamp`.
+    fn scan(stamp: Stamp) -> LaserScan {
+        let beams = 682;
+        LaserScan::new(
+            stamp,
+            "laser",
+            -2.086,
+            0.006_135_92,
+            0.02,
+            5.6,
+            vec![3.0; beams],
+        )
+        .unwrap()
+    }
+
+    fn now() -> Stamp {
+        Stamp::from_ns(SystemClock.now_ns())
+    }
+
+    #[test]
+    fn silent_sensors_get_timer_ticks_and_zero_commands() {
+        let (_tx, rx) = mpsc::sync_channel::<Input>(4);
+        let (sink, lines) = keep(None);
+        let mut sinks = vec![sink];
+        let (summary, _) = go(&rx, &mut sinks, None, &config(Some(400)));
+        assert_eq!(summary.ending, Ending::Duration);
+        let lines = lines.lock().unwrap();
+        // 400 ms at 20 Hz: about 8 ticks (a stalled machine runs fewer, never a burst).
+        assert!((2..=9).contains(&summary.ticks), "{} ticks", summary.ticks);
+        assert_eq!(lines.len() as u64, summary.ticks + 1);
+        for l in &lines[..lines.len() - 1] {
+            assert_eq!((l.input, l.v_mps, l.w_radps), ("timer", 0.0, 0.0));
+            assert_eq!(l.stop, Some("no_target"));
+        }
+        let last = lines.last().unwrap();
+        assert_eq!(
+            (last.input, last.stop, last.v_mps),
+            ("final", Some("duration"), 0.0)
+        );
+        assert!(lines.windows(2).all(|w| w[0].stamp_ns <= w[1].stamp_ns));
+    }
+
+    #[test]
+    fn late_scans_are_clamped_not_refused_and_recorded() {
+        let (tx, rx) = mpsc::sync_channel::<Input>(16);
+        let feeder = std::thread::spawn(move || {
+            for _ in 0..5 {
+                std::thread::sleep(Duration::from_millis(60));
+                // Taken 80 ms ago: usually before the last timer tick.
+                let stamp = now().saturating_add_ns(-80_000_000);
+                tx.send(Input::Scan(scan(stamp))).unwrap();
+            }
+            tx.send(Input::LaserFailed("unplugged".into())).unwrap();
+        });
+        let (sink, lines) = keep(None);
+        let mut sinks = vec![sink];
+        let writer = ResultWriter::new(Cursor::new(Vec::new()), "odom").unwrap();
+        let mut recorder = Recorder::new(writer);
+        let (summary, pipeline) = go(&rx, &mut sinks, Some(&mut recorder), &config(None));
+        feeder.join().unwrap();
+        assert_eq!(summary.ending, Ending::LaserFailed("unplugged".into()));
+        assert_eq!(summary.scans, 5);
+        assert!(summary.clamped_stamps >= 1, "{summary:?}");
+        assert_eq!(pipeline.stats().out_of_order_ticks, 0);
+        let lines = lines.lock().unwrap();
+        assert_eq!(lines.iter().filter(|l| l.input == "scan").count(), 5);
+        assert_eq!(lines.last().unwrap().stop, Some("laser_failed"));
+        let bytes = recorder.finish().unwrap().into_inner();
+        assert!(bytes.len() > 5 * 682, "the scans are in the recording");
+    }
+
+    #[test]
+    fn a_failing_output_ends_the_run_and_the_others_still_stop() {
+        let (_tx, rx) = mpsc::sync_channel::<Input>(4);
+        let (good, good_lines) = keep(None);
+        let (bad, _) = keep(Some(3));
+        let mut sinks = vec![good, bad];
+        let (summary, _) = go(&rx, &mut sinks, None, &config(Some(5_000)));
+        assert_eq!(
+            summary.ending,
+            Ending::OutputFailed {
+                output: "keep".into(),
+                error: "unplugged".into()
+            }
+        );
+        let good_lines = good_lines.lock().unwrap();
+        assert_eq!(good_lines.len(), 5, "4 commands, then the final stop");
+        assert_eq!(good_lines.last().unwrap().stop, Some("output_failed"));
+    }
+
+    #[test]
+    fn closed_inputs_end_the_run() {
+        let (tx, rx) = mpsc::sync_channel::<Input>(4);
+        drop(tx);
+        let (sink, lines) = keep(None);
+        let mut sinks = vec![sink];
+        let (summary, _) = go(&rx, &mut sinks, None, &config(Some(5_000)));
+        assert_eq!(summary.ending, Ending::InputsClosed);
+        assert!(!summary.ending.is_clean());
+        assert_eq!(lines.lock().unwrap().last().unwrap().input, "final");
+    }
+}

@@ -1,0 +1,491 @@
+//! `tether run` end to end without hardware: `tether urg-emulator --pty` serves a
+//! simulated corridor in one process, `tether run` reads that pseudo-terminal in
+//! another, and the commands it prints go back to the emulator's robot, which drives
+//! them. The emulator's ground truth then shows whether the robot followed the person.
+//!
+//! Real time on a possibly loaded machine: the bars are loose, every wait has a limit
+//! that fails with what the processes said, and the processes are killed whatever
+//! happens.
+
+#![allow(clippy::unwrap_used, reason = "a test should fail loudly on bad data")]
+
+mod common;
+
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
+use std::sync::mpsc;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use common::{scratch, tether, text};
+
+/// A child process killed when the test ends, however it ends.
+struct Proc {
+    name: &'static str,
+    child: Child,
+    stderr: PathBuf,
+}
+
+impl Proc {
+    fn spawn(name: &'static str, dir: &Path, args: &[&str], stdin: Stdio) -> Proc {
+        let stderr = dir.join(format!("{name}.stderr"));
+        let child = Command::new(env!("CARGO_BIN_EXE_tether"))
+            .args(args)
+            .stdin(stdin)
+            .stdout(Stdio::piped())
+            .stderr(std::fs::File::create(&stderr).unwrap())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot start {name}: {e}"));
+        Proc {
+            name,
+            child,
+            stderr,
+        }
+    }
+
+    fn stderr(&self) -> String {
+        std::fs::read_to_string(&self.stderr).unwrap_or_default()
+    }
+
+    /// Waits up to `limit` for the process to exit.
+    fn wait_for(&mut self, limit: Duration) -> Option<ExitStatus> {
+        let started = Instant::now();
+        loop {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                return Some(status);
+            }
+            if started.elapsed() > limit {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    fn signal(&self, signal: &str) {
+        let status = Command::new("kill")
+            .args([signal, &self.child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success(), "kill {signal} {}", self.name);
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// The emulator on a new pty serving `corridor`, its robot driven by the commands on its
+/// stdin; returns it with the pty's path.
+fn emulator(dir: &Path) -> (Proc, String) {
+    let truth = dir.join("truth.jsonl");
+    let mut emu = Proc::spawn(
+        "urg-emulator",
+        dir,
+        &[
+            "urg-emulator",
+            "--pty",
+            "--scenario",
+            "corridor",
+            "--commands-stdin",
+            "--truth",
+            truth.to_str().unwrap(),
+        ],
+        Stdio::piped(),
+    );
+    let stdout = emu.child.stdout.take().unwrap();
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let _ = BufReader::new(stdout).read_line(&mut line);
+        let _ = tx.send(line);
+    });
+    let line = rx
+        .recv_timeout(Duration::from_secs(30))
+        .unwrap_or_else(|_| {
+            panic!(
+                "the emulator printed no pty path in 30 s; stderr:\n{}",
+                emu.stderr()
+            )
+        });
+    let pty = line
+        .trim()
+        .rsplit(" on ")
+        .next()
+        .filter(|p| p.starts_with("/dev/"))
+        .unwrap_or_else(|| panic!("no pty path in {line:?}; stderr:\n{}", emu.stderr()))
+        .to_owned();
+    (emu, pty)
+}
+
+/// A config for the corridor's robot (the simulator's defaults) on `pty`.
+fn config(dir: &Path, pty: &str) -> PathBuf {
+    config_with(dir, pty, "")
+}
+
+/// [`config`] with `extra` tables.
+fn config_with(dir: &Path, pty: &str, extra: &str) -> PathBuf {
+    let path = dir.join("robot.toml");
+    let text = format!(
+        r#"[robot]
+radius_m = 0.2
+track_width_m = 0.3
+max_speed_mps = 1.4
+max_wheel_speed_mps = 1.6
+max_accel_mps2 = 1.2
+
+[laser]
+serial = "{pty}"
+mount = {{ x_m = 0.10, y_m = 0.0, yaw_rad = 0.0, height_m = 0.30 }}
+
+[follow]
+follow_distance_m = 1.0
+attach_ahead_m = 0.3
+distance_omega_radps = 4.0
+bearing_omega_radps = 3.0
+
+[base]
+kind = "wheels"
+device = "{wheels}"
+format = "text"
+
+[output]
+stdout = true
+record = "{record}"
+
+# A loaded test machine may delay a scan now and then.
+[pipeline.safety]
+laser_timeout_s = 0.5
+target_timeout_s = 0.8
+{extra}"#,
+        wheels = dir.join("wheels.txt").display(),
+        record = dir.join("run.mcap").display(),
+    );
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// `tether run` with its stdout lines kept and passed on to `feed` (the emulator's
+/// stdin).
+fn run(
+    dir: &Path,
+    config: &Path,
+    extra: &[&str],
+    feed: ChildStdin,
+) -> (Proc, Arc<Mutex<Vec<String>>>) {
+    let mut args = vec!["run", "--config", config.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let mut run = Proc::spawn("run", dir, &args, Stdio::null());
+    let stdout = run.child.stdout.take().unwrap();
+    let lines = Arc::new(Mutex::new(Vec::new()));
+    let kept = Arc::clone(&lines);
+    std::thread::spawn(move || {
+        let mut feed = Some(feed);
+        for line in BufReader::new(stdout).lines() {
+            let Ok(line) = line else { break };
+            if let Some(f) = feed.as_mut()
+                && writeln!(f, "{line}").is_err()
+            {
+                feed = None;
+            }
+            kept.lock().unwrap().push(line);
+        }
+    });
+    (run, lines)
+}
+
+fn json(line: &str) -> serde_json::Value {
+    serde_json::from_str(line).unwrap_or_else(|e| panic!("not JSON ({e}): {line}"))
+}
+
+/// Waits until `run` has printed `n` lines.
+fn wait_for_lines(run: &mut Proc, lines: &Mutex<Vec<String>>, n: usize) {
+    let started = Instant::now();
+    while lines.lock().unwrap().len() < n {
+        if let Some(status) = run.child.try_wait().unwrap() {
+            panic!("tether run exited early ({status}):\n{}", run.stderr());
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "tether run printed fewer than {n} lines in 60 s; stderr:\n{}",
+            run.stderr()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// The last line, checked to be the final stop for `why`.
+fn assert_final_stop(lines: &Mutex<Vec<String>>, why: &str, stderr: &str) {
+    // The reader thread may still be taking the last line.
+    let started = Instant::now();
+    loop {
+        let last = lines.lock().unwrap().last().map(|l| json(l));
+        if let Some(last) = last
+            && last["input"] == "final"
+        {
+            assert_eq!(last["v_mps"], 0.0);
+            assert_eq!(last["w_radps"], 0.0);
+            assert_eq!(last["stop"], why, "{last}");
+            return;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(5),
+            "the last line is not a final stop: {:?}\nstderr:\n{stderr}",
+            lines.lock().unwrap().last()
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn run_follows_the_emulators_person() {
+    let dir = scratch("live-follow");
+    let (mut emu, pty) = emulator(&dir);
+    let feed = emu.child.stdin.take().unwrap();
+    let config = config(&dir, &pty);
+    let (mut run, lines) = run(&dir, &config, &["--duration", "12"], feed);
+    let status = run.wait_for(Duration::from_secs(90)).unwrap_or_else(|| {
+        panic!(
+            "tether run did not end within 90 s; stderr:\n{}",
+            run.stderr()
+        )
+    });
+    assert!(status.success(), "tether run failed:\n{}", run.stderr());
+    assert_final_stop(&lines, "duration", &run.stderr());
+    drop(emu);
+
+    // No command before a lock; then the robot drives.
+    let lines: Vec<serde_json::Value> = lines.lock().unwrap().iter().map(|l| json(l)).collect();
+    let first_lock = lines
+        .iter()
+        .position(|l| !l["target"].is_null())
+        .unwrap_or_else(|| panic!("never locked a target; stderr:\n{}", run.stderr()));
+    for l in &lines[..first_lock] {
+        assert_eq!(
+            (l["v_mps"].as_f64(), l["w_radps"].as_f64()),
+            (Some(0.0), Some(0.0)),
+            "{l}"
+        );
+        assert_eq!(l["stop"], "no_target", "{l}");
+    }
+    let driving = lines
+        .iter()
+        .filter(|l| l["v_mps"].as_f64().unwrap() > 0.2)
+        .count();
+    assert!(
+        driving > 40,
+        "only {driving} of {} commands drive",
+        lines.len()
+    );
+
+    // The emulator's truth: the robot drove after the person and kept its distance.
+    let truth: Vec<serde_json::Value> = std::fs::read_to_string(dir.join("truth.jsonl"))
+        .unwrap()
+        .lines()
+        .map(json)
+        .collect();
+    assert!(truth.len() > 60, "only {} scans served", truth.len());
+    let xy = |v: &serde_json::Value| (v["x"].as_f64().unwrap(), v["y"].as_f64().unwrap());
+    let gap = |t: &serde_json::Value| {
+        let (rx, ry) = xy(&t["robot"]);
+        let target = t["people"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["target"] == true)
+            .unwrap();
+        let (px, py) = xy(target);
+        (px - rx).hypot(py - ry)
+    };
+    let (x0, _) = xy(&truth[0]["robot"]);
+    let last = truth.last().unwrap();
+    let (x1, y1) = xy(&last["robot"]);
+    let closest = truth.iter().map(gap).fold(f64::INFINITY, f64::min);
+    let end_gap = gap(last);
+    eprintln!(
+        "robot drove {:.2} m; closest {closest:.2} m; final gap {end_gap:.2} m; {} commands",
+        x1 - x0,
+        lines.len()
+    );
+    assert!(x1 - x0 > 2.0, "the robot moved only {:.2} m", x1 - x0);
+    assert!(
+        (y1 - 1.2).abs() < 0.6,
+        "the robot left the corridor's middle: y = {y1}"
+    );
+    assert!(
+        closest > 0.5,
+        "the robot came within {closest:.2} m of the person"
+    );
+    assert!(end_gap < 3.5, "the robot fell {end_gap:.2} m behind");
+    assert_eq!(last["collisions"], 0, "{last}");
+
+    // The base adapter got every command and the final stop.
+    let wheels = std::fs::read_to_string(dir.join("wheels.txt")).unwrap();
+    assert_eq!(
+        wheels.lines().count(),
+        lines.len(),
+        "one wheel line per command"
+    );
+    assert_eq!(wheels.lines().last(), Some("0.000 0.000"));
+
+    // The recording replays.
+    let record = dir.join("run.mcap");
+    let out = tether(&[
+        "replay",
+        record.to_str().unwrap(),
+        "--odom-topic",
+        "/odom",
+        "--out",
+        dir.join("replay.mcap").to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let report = text(&out.stdout);
+    let scans: usize = report
+        .lines()
+        .find_map(|l| l.split(" scans").next()?.trim().parse().ok())
+        .unwrap_or(0);
+    assert!(scans > 60, "{report}");
+}
+
+#[test]
+fn ctrl_c_ends_the_run_with_a_final_stop() {
+    let dir = scratch("live-ctrl-c");
+    let (mut emu, pty) = emulator(&dir);
+    let feed = emu.child.stdin.take().unwrap();
+    let config = config(&dir, &pty);
+    let (mut run, lines) = run(&dir, &config, &[], feed);
+    wait_for_lines(&mut run, &lines, 30);
+    run.signal("-INT");
+    let status = run.wait_for(Duration::from_secs(20)).unwrap_or_else(|| {
+        panic!(
+            "tether run ignored Ctrl-C for 20 s; stderr:\n{}",
+            run.stderr()
+        )
+    });
+    assert!(status.success(), "{status}:\n{}", run.stderr());
+    assert_final_stop(&lines, "interrupted", &run.stderr());
+}
+
+#[test]
+fn a_vanished_laser_stops_the_robot_and_fails_clearly() {
+    let dir = scratch("live-unplugged");
+    let (mut emu, pty) = emulator(&dir);
+    let feed = emu.child.stdin.take().unwrap();
+    let config = config(&dir, &pty);
+    let (mut run, lines) = run(&dir, &config, &[], feed);
+    wait_for_lines(&mut run, &lines, 30);
+    emu.signal("-KILL");
+    let status = run.wait_for(Duration::from_secs(30)).unwrap_or_else(|| {
+        panic!(
+            "tether run went on for 30 s without its laser; stderr:\n{}",
+            run.stderr()
+        )
+    });
+    assert!(!status.success(), "a lost laser must fail the run");
+    let stderr = run.stderr();
+    assert!(stderr.contains("the laser failed"), "{stderr}");
+    assert_final_stop(&lines, "laser_failed", &stderr);
+}
+
+#[test]
+fn run_names_the_wrong_key_of_its_config() {
+    let dir = scratch("live-config");
+    let good = std::fs::read_to_string(config(&dir, "/dev/null")).unwrap();
+    for (from, to, expected) in [
+        ("radius_m = 0.2\n", "", "missing field `radius_m`"),
+        (
+            "track_width_m = 0.3",
+            "track_width_m = -0.3",
+            "robot.track_width_m",
+        ),
+        ("kind = \"wheels\"", "kind = \"tank\"", "tank"),
+        (
+            "stdout = true",
+            "stdout = true\nstderr = true",
+            "unknown field `stderr`",
+        ),
+    ] {
+        let path = dir.join("bad.toml");
+        std::fs::write(&path, good.replace(from, to)).unwrap();
+        let out = tether(&["run", "--config", path.to_str().unwrap()]);
+        assert!(!out.status.success(), "{to}");
+        let stderr = text(&out.stderr);
+        assert!(stderr.contains(expected), "{to}: {stderr}");
+        assert!(out.stdout.is_empty(), "no command for a refused config");
+    }
+}
+
+/// Skips (printing why) unless `TETHER_REQUIRE_SHARED=1` demands the test.
+fn skip_unless(ok: bool, reason: &str) -> bool {
+    if !ok {
+        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
+            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
+        }
+        eprintln!("skipped: {reason}");
+    }
+    ok
+}
+
+#[test]
+fn camera_frames_from_a_folder_reach_the_pipeline() {
+    let cascade = Path::new("/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml");
+    if !skip_unless(
+        cascade.is_file(),
+        "Debian's opencv-data cascades are not installed",
+    ) {
+        return;
+    }
+    let dir = scratch("live-camera");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for k in 0..5u8 {
+        let file = std::fs::File::create(frames.join(format!("frame{k}.png"))).unwrap();
+        let mut encoder = png::Encoder::new(file, 640, 480);
+        encoder.set_color(png::ColorType::Grayscale);
+        encoder.set_depth(png::BitDepth::Eight);
+        let pixels: Vec<u8> = (0..640 * 480)
+            .map(|i| ((i % 640) / 3) as u8 + 10 * k)
+            .collect();
+        encoder
+            .write_header()
+            .unwrap()
+            .write_image_data(&pixels)
+            .unwrap();
+    }
+    let (mut emu, pty) = emulator(&dir);
+    let feed = emu.child.stdin.take().unwrap();
+    let camera = format!(
+        r#"
+[camera]
+folder = "{}"
+fps = 10.0
+intrinsics = {{ fx_px = 460.0, fy_px = 460.0, cx_px = 319.5, cy_px = 239.5, width_px = 640, height_px = 480 }}
+mount = {{ x_m = 0.05, y_m = 0.0, yaw_rad = 0.0, height_m = 0.65, tilt_rad = 0.49 }}
+cascade = "{}"
+"#,
+        frames.display(),
+        cascade.display()
+    );
+    let config = config_with(&dir, &pty, &camera);
+    let (mut run, lines) = run(&dir, &config, &["--duration", "3"], feed);
+    let status = run.wait_for(Duration::from_secs(60)).unwrap_or_else(|| {
+        panic!(
+            "tether run did not end within 60 s; stderr:\n{}",
+            run.stderr()
+        )
+    });
+    let stderr = run.stderr();
+    assert!(status.success(), "{stderr}");
+    assert!(stderr.contains("5 camera frames"), "{stderr}");
+    assert!(stderr.contains("frames ended"), "{stderr}");
+    let camera_ticks = lines
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|l| json(l)["input"] == "camera")
+        .count();
+    assert_eq!(camera_ticks, 5);
+}
