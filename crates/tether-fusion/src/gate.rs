@@ -7,6 +7,9 @@ use tether_core::{Frame, Gaussian2};
 
 /// Chi-square quantile, 2 degrees of freedom, 95 %.
 pub const CHI2_2DOF_95: f64 = 5.991;
+/// 99 % quantile of chi-square with 1 degree of freedom (a scalar innovation, e.g. a
+/// bearing).
+pub const CHI2_1DOF_99: f64 = 6.635;
 /// Chi-square quantile, 2 degrees of freedom, 99 % (the default gate).
 pub const CHI2_2DOF_99: f64 = 9.210;
 /// Chi-square quantile, 2 degrees of freedom, 99.9 %.

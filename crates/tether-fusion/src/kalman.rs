@@ -218,16 +218,23 @@ impl CvFilter {
     /// Extended Kalman update with a bearing-only observation: the direction from
     /// `origin` to the person, `bearing_rad`, with standard deviation `sigma_rad`.
     /// `h(x) = atan2(py - oy, px - ox)`, `H = [-dy/r^2, dx/r^2, 0, 0]`.
+    ///
+    /// The update is made only when the bearing innovation passes its own gate,
+    /// `nu^2 / S <= gate` with `S = H P H^T + sigma^2` (one degree of freedom, e.g.
+    /// [`crate::gate::CHI2_1DOF_99`]): a bearing that the track cannot explain (someone
+    /// else on a nearby viewing ray) is left out rather than pull the track sideways.
+    /// Returns whether the track was updated.
     pub fn update_bearing<F: Frame>(
         &mut self,
         origin: Point2<F>,
         bearing_rad: f64,
         sigma_rad: f64,
-    ) {
+        gate: f64,
+    ) -> bool {
         let (dx, dy) = (self.x[0] - origin.x, self.x[1] - origin.y);
         let r2 = dx * dx + dy * dy;
         if !(r2 > 1e-4) || !bearing_rad.is_finite() || !(sigma_rad > 0.0) {
-            return;
+            return false;
         }
         let h = [-dy / r2, dx / r2];
         let innovation = crate::wrap(bearing_rad - dy.atan2(dx));
@@ -236,6 +243,9 @@ impl CvFilter {
             .map(|i| self.p[i][0] * h[0] + self.p[i][1] * h[1])
             .collect();
         let s = h[0] * ph[0] + h[1] * ph[1] + sigma_rad * sigma_rad;
+        if !(innovation * innovation / s <= gate) {
+            return false;
+        }
         let k: Vec<f64> = ph.iter().map(|v| v / s).collect();
         for i in 0..4 {
             self.x[i] += k[i] * innovation;
@@ -255,6 +265,7 @@ impl CvFilter {
         }
         symmetrize(&mut p);
         self.p = p;
+        true
     }
 
     /// True when every entry is finite.
@@ -392,7 +403,7 @@ mod tests {
     fn a_bearing_narrows_the_track_across_the_ray_only() {
         let mut f = CvFilter::new(&obs(3.0, 0.0, 0.2), 0.5);
         // Seen from the origin slightly to the left.
-        f.update_bearing(Point2::<World>::new(0.0, 0.0), 0.02, 0.005);
+        assert!(f.update_bearing(Point2::<World>::new(0.0, 0.0), 0.02, 0.005, f64::INFINITY));
         let p = f.position::<World>();
         assert!((p.mean.y - 0.06).abs() < 0.01, "{:?}", p.mean);
         assert!((p.mean.x - 3.0).abs() < 1e-3);

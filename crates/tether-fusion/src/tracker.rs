@@ -372,8 +372,17 @@ impl Tracker {
                 .is_some_and(|l| stamp.secs_since(l) <= self.config.laser_support_s);
             match (o.source, o.bearing) {
                 (Source::Vision, Some(b)) if laser_support => {
-                    t.filter
-                        .update_bearing(b.origin, b.bearing_rad, b.sigma_rad);
+                    if !t.filter.update_bearing(
+                        b.origin,
+                        b.bearing_rad,
+                        b.sigma_rad,
+                        crate::gate::CHI2_1DOF_99,
+                    ) {
+                        // The position gated but the bearing does not fit: someone
+                        // else near the track's viewing ray.
+                        self.stats.rejected_observations += 1;
+                        continue;
+                    }
                 }
                 _ => {
                     let rule = match o.source {
