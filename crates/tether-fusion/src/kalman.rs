@@ -400,6 +400,21 @@ mod tests {
     }
 
     #[test]
+    fn a_bearing_the_track_cannot_explain_is_gated_out() {
+        // Track 3 m ahead with 5 cm across the ray: its bearing sd is ~0.017 rad, plus
+        // 0.01 rad of measurement. 0.02 rad off passes the 99 % gate, 0.15 rad does not.
+        let origin = Point2::<World>::new(0.0, 0.0);
+        let gate = crate::gate::CHI2_1DOF_99;
+        let mut f = CvFilter::new(&obs(3.0, 0.0, 0.05), 0.5);
+        let before = f;
+        assert!(!f.update_bearing(origin, 0.15, 0.01, gate));
+        assert_eq!(f.x, before.x);
+        assert_eq!(f.p, before.p);
+        assert!(f.update_bearing(origin, 0.02, 0.01, gate));
+        assert!(f.x[1] > 0.0);
+    }
+
+    #[test]
     fn a_bearing_narrows_the_track_across_the_ray_only() {
         let mut f = CvFilter::new(&obs(3.0, 0.0, 0.2), 0.5);
         // Seen from the origin slightly to the left.
