@@ -137,5 +137,31 @@ fn tracks_a_bag_with_camera_frames_raw_and_compressed() {
             );
         }
     }
+    // `tether replay` runs the same frames through the same detector.
+    let expected: usize = frames
+        .iter()
+        .map(|f| boxes_in(f["png"].as_str().unwrap()))
+        .sum();
+    let result = dir.join("replay.mcap");
+    let out = tether(&[
+        "replay",
+        bag,
+        "--scan-topic",
+        "/scan",
+        "--image-topic",
+        "/camera/image",
+        "--out",
+        result.to_str().unwrap(),
+    ]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}{}", text(&out.stderr));
+    assert!(
+        stdout.contains(&format!(
+            "{n_scans} scans, {} camera frames ({expected} detections)",
+            frames.len()
+        )),
+        "{stdout}"
+    );
+    assert!(result.with_extension("html").is_file());
     let _ = std::fs::remove_dir_all(&dir);
 }
