@@ -64,6 +64,11 @@ impl CascadeModel {
         }
     }
 
+    /// Weak classifiers (stumps) over all stages.
+    pub fn weak_count(&self) -> usize {
+        self.stages.iter().map(|s| s.stumps.len()).sum()
+    }
+
     /// The stages compiled for integral images with `stride` entries per row.
     pub fn compile(&self, stride: usize) -> CompiledCascade {
         CompiledCascade {

@@ -96,12 +96,7 @@ fn opencv_loads_the_trained_cascade_and_finds_the_same_boxes() {
     eprintln!(
         "trained {} stages ({} weak classifiers) in {:.1} s",
         state.cascade.stages.len(),
-        state
-            .cascade
-            .stages
-            .iter()
-            .map(|s| s.stumps.len())
-            .sum::<usize>(),
+        state.cascade.weak_count(),
         started.elapsed().as_secs_f64()
     );
     for r in &state.reports {

@@ -20,7 +20,7 @@ use tether_vision::calibrate::{CalibrationSample, calibrate_camera};
 use tether_vision::monocular::MonocularParams;
 use tether_vision::{Cascade, Detector, imread_gray};
 
-use super::detect::{params as detect_params, resolve_cascade};
+use super::detect::resolve_cascade;
 
 /// Options of `tether calibrate camera`.
 #[derive(Debug, clap::Args)]
@@ -41,12 +41,9 @@ pub struct Args {
     /// Cascade for image samples (default: Debian's haarcascade_upperbody.xml).
     #[arg(long, value_name = "FILE")]
     pub cascade: Option<PathBuf>,
-    /// Pyramid scale factor for image samples.
-    #[arg(long, default_value_t = 1.1, value_name = "F")]
-    pub scale_factor: f64,
-    /// Grouping threshold for image samples.
-    #[arg(long, default_value_t = 3, value_name = "N")]
-    pub min_neighbors: u32,
+    /// The cascade's search settings for image samples.
+    #[command(flatten)]
+    pub search: super::detect::DetectOptions,
 }
 
 /// One CSV row before detection.
@@ -110,6 +107,7 @@ fn load_camera(path: Option<&Path>) -> anyhow::Result<CameraModel> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let camera = load_camera(args.camera.as_deref())?;
     let rows = parse_rows(&args.samples)?;
+    let params = args.search.params()?;
     let mut detector = None;
     let mut samples = Vec::with_capacity(rows.len());
     for row in rows {
@@ -121,10 +119,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     detector = Some(Detector::new(cascade));
                 }
                 let det = detector.as_ref().context("detector")?;
-                let p = detect_params(args.scale_factor, args.min_neighbors, None, None)?;
                 let image = imread_gray(&image_path)?;
                 let best = det
-                    .detect(&image, &p)?
+                    .detect(&image, &params)?
                     .into_iter()
                     .max_by_key(|r| r.area())
                     .with_context(|| format!("no person found in {}", image_path.display()))?;

@@ -22,18 +22,9 @@ pub struct Args {
     /// /usr/share/opencv4/haarcascades/haarcascade_upperbody.xml (Debian's opencv-data).
     #[arg(long, value_name = "FILE")]
     pub cascade: Option<PathBuf>,
-    /// Ratio between consecutive pyramid scales (> 1).
-    #[arg(long, default_value_t = 1.1, value_name = "F")]
-    pub scale_factor: f64,
-    /// Neighbours a group of windows needs to be kept; 0 prints the raw windows.
-    #[arg(long, default_value_t = 3, value_name = "N")]
-    pub min_neighbors: u32,
-    /// Smallest box, px.
-    #[arg(long, num_args = 2, value_names = ["W", "H"])]
-    pub min_size: Option<Vec<u32>>,
-    /// Largest box, px (default: the image size).
-    #[arg(long, num_args = 2, value_names = ["W", "H"])]
-    pub max_size: Option<Vec<u32>>,
+    /// The cascade's search settings.
+    #[command(flatten)]
+    pub search: DetectOptions,
     /// Detection threads (0: one per core); the boxes do not depend on it.
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub threads: usize,
@@ -69,35 +60,46 @@ fn size(option: Option<&Vec<u32>>, name: &str) -> anyhow::Result<[u32; 2]> {
     }
 }
 
-/// Detection parameters from the common options.
-pub fn params(
-    scale_factor: f64,
-    min_neighbors: u32,
-    min_size: Option<&Vec<u32>>,
-    max_size: Option<&Vec<u32>>,
-) -> anyhow::Result<DetectParams> {
-    anyhow::ensure!(
-        scale_factor.is_finite() && scale_factor > 1.0,
-        "--scale-factor must be a number above 1 (OpenCV's default is 1.1), got {scale_factor}"
-    );
-    Ok(DetectParams {
-        scale_factor,
-        min_neighbors,
-        min_size_px: size(min_size, "min-size")?,
-        max_size_px: size(max_size, "max-size")?,
-    })
+/// The search settings of `detectMultiScale`, taken by every command that runs a
+/// cascade (`detect`, `eval-cascade`, `track`, `replay`, `calibrate camera`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct DetectOptions {
+    /// Ratio between consecutive pyramid scales (> 1).
+    #[arg(long, default_value_t = 1.1, value_name = "F")]
+    pub scale_factor: f64,
+    /// Neighbours a group of windows needs to be kept; 0 keeps the raw windows.
+    #[arg(long, default_value_t = 3, value_name = "N")]
+    pub min_neighbors: u32,
+    /// Smallest box, px.
+    #[arg(long, num_args = 2, value_names = ["W", "H"])]
+    pub min_size: Option<Vec<u32>>,
+    /// Largest box, px (default: the image size).
+    #[arg(long, num_args = 2, value_names = ["W", "H"])]
+    pub max_size: Option<Vec<u32>>,
+}
+
+impl DetectOptions {
+    /// The detector's parameters, checked.
+    pub fn params(&self) -> anyhow::Result<DetectParams> {
+        let scale_factor = self.scale_factor;
+        anyhow::ensure!(
+            scale_factor.is_finite() && scale_factor > 1.0,
+            "--scale-factor must be a number above 1 (OpenCV's default is 1.1), got {scale_factor}"
+        );
+        Ok(DetectParams {
+            scale_factor,
+            min_neighbors: self.min_neighbors,
+            min_size_px: size(self.min_size.as_ref(), "min-size")?,
+            max_size_px: size(self.max_size.as_ref(), "max-size")?,
+        })
+    }
 }
 
 /// Runs the detector on every image and prints the JSON report.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let cascade_path = resolve_cascade(args.cascade.as_deref())?;
     let cascade = Cascade::load(&cascade_path)?;
-    let params = params(
-        args.scale_factor,
-        args.min_neighbors,
-        args.min_size.as_ref(),
-        args.max_size.as_ref(),
-    )?;
+    let params = args.search.params()?;
     let detector = Detector::new(cascade).with_threads(args.threads)?;
     let mut images = Vec::with_capacity(args.images.len());
     for path in &args.images {

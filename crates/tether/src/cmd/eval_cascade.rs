@@ -23,18 +23,9 @@ pub struct Args {
     /// Compare with the top FRAC of each labelled box (for an upper-body cascade).
     #[arg(long, value_name = "FRAC")]
     pub upper: Option<f64>,
-    /// Ratio between consecutive pyramid scales (> 1).
-    #[arg(long, default_value_t = 1.1, value_name = "F")]
-    pub scale_factor: f64,
-    /// Neighbours a group of windows needs to be kept.
-    #[arg(long, default_value_t = 3, value_name = "N")]
-    pub min_neighbors: u32,
-    /// Smallest box, px.
-    #[arg(long, num_args = 2, value_names = ["W", "H"])]
-    pub min_size: Option<Vec<u32>>,
-    /// Largest box, px.
-    #[arg(long, num_args = 2, value_names = ["W", "H"])]
-    pub max_size: Option<Vec<u32>>,
+    /// The cascade's search settings.
+    #[command(flatten)]
+    pub search: super::detect::DetectOptions,
     /// Threads (0: one per core); images are shared among them.
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub threads: usize,
@@ -51,12 +42,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "--upper must be in (0, 1], got {u} (0.4 keeps the top 40 % of each box)"
         );
     }
-    let params = super::detect::params(
-        args.scale_factor,
-        args.min_neighbors,
-        args.min_size.as_ref(),
-        args.max_size.as_ref(),
-    )?;
+    let params = args.search.params()?;
     let cascade = Cascade::load(&args.cascade)?;
     let annotations = read_info(&args.info)?;
     let pool = rayon::ThreadPoolBuilder::new()

@@ -236,8 +236,12 @@ fn start(
             let source = frame_source(&input, &intrinsics)?;
             let detector = Camera::new(&CameraArgs {
                 cascade: section.cascade.clone(),
-                scale_factor: section.scale_factor.unwrap_or(1.1),
-                min_neighbors: section.min_neighbors.unwrap_or(3),
+                search: super::detect::DetectOptions {
+                    scale_factor: section.scale_factor.unwrap_or(1.1),
+                    min_neighbors: section.min_neighbors.unwrap_or(3),
+                    min_size: None,
+                    max_size: None,
+                },
                 threads: 1,
             })?;
             tracing::info!("camera: {}", source.describe());

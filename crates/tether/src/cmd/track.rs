@@ -47,12 +47,9 @@ pub struct CameraArgs {
     /// /usr/share/opencv4/haarcascades/haarcascade_upperbody.xml).
     #[arg(long, value_name = "FILE")]
     pub cascade: Option<PathBuf>,
-    /// Pyramid scale factor of the cascade detector.
-    #[arg(long, default_value_t = 1.1, value_name = "F")]
-    pub scale_factor: f64,
-    /// Neighbours a detection needs.
-    #[arg(long, default_value_t = 3, value_name = "N")]
-    pub min_neighbors: u32,
+    /// The cascade's search settings.
+    #[command(flatten)]
+    pub search: super::detect::DetectOptions,
     /// Detection threads (0: one per core); results do not depend on it.
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub threads: usize,
@@ -107,7 +104,7 @@ impl Camera {
     pub fn new(args: &CameraArgs) -> anyhow::Result<Self> {
         let cascade_path = super::detect::resolve_cascade(args.cascade.as_deref())?;
         let cascade = Cascade::load(&cascade_path)?;
-        let params = super::detect::params(args.scale_factor, args.min_neighbors, None, None)?;
+        let params = args.search.params()?;
         Ok(Camera {
             detector: Detector::new(cascade).with_threads(args.threads)?,
             params,

@@ -333,12 +333,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "wrote {} ({} stages, {} weak classifiers) in {:.1} s; report {}, state {}",
                 args.out.display(),
                 state.cascade.stages.len(),
-                state
-                    .cascade
-                    .stages
-                    .iter()
-                    .map(|s| s.stumps.len())
-                    .sum::<usize>(),
+                state.cascade.weak_count(),
                 cli.start.elapsed().as_secs_f64(),
                 report_path.display(),
                 state_path.display()
