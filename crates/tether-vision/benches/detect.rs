@@ -2,7 +2,8 @@
 //! `haarcascade_upperbody.xml`, scale factor 1.1, minNeighbors 3.
 //!
 //! `cargo bench -p tether-vision --bench detect` first prints a comparison measured in
-//! this run: tether on 1 and 2 threads and OpenCV 4.x single-threaded (through
+//! this run: tether on 1 and 2 threads (AVX2 when the CPU has it), tether on one thread
+//! with the portable SSE2 scan, and OpenCV 4.x single-threaded (through
 //! `../shared/tools/opencv_reference.py --time-runs`), best of several runs each, and the
 //! ratio; then divan's own statistics for tether, including reading the two JPEG files
 //! (`imread_jpeg_640x480`: tether's own decoder, `tether_vision::jpeg`). Set
@@ -35,6 +36,8 @@ fn shared() -> PathBuf {
 struct Setup {
     detector_1: Detector,
     detector_2: Detector,
+    /// One thread, the portable SSE2 scan even where the CPU has AVX2.
+    detector_sse2: Detector,
     images: Vec<(String, GrayImage)>,
 }
 
@@ -59,6 +62,7 @@ static SETUP: LazyLock<Option<Setup>> = LazyLock::new(|| {
         .collect();
     Some(Setup {
         detector_1: Detector::new(cascade.clone()),
+        detector_sse2: Detector::new(cascade.clone()).with_avx2(false),
         detector_2: Detector::new(cascade).with_threads(2).expect("two threads"),
         images,
     })
@@ -132,39 +136,51 @@ fn compare_with_opencv(setup: &Setup) {
     } else {
         opencv_ms(&paths)
     };
-    println!("upperbody, 640x480, scale 1.1, minNeighbors 3 (best of {RUNS} runs, ms)");
     println!(
-        "{:<26} {:>10} {:>10} {:>10} {:>9} {:>9}",
-        "image", "tether x1", "tether x2", "OpenCV x1", "ratio x1", "ratio x2"
+        "upperbody, 640x480, scale 1.1, minNeighbors 3 (best of {RUNS} runs, ms); x1 and x2 use \
+         AVX2: {}; x1 SSE2 is the portable scan",
+        setup.detector_1.uses_avx2()
     );
-    let (mut sum1, mut sum2, mut sum_cv) = (0.0, 0.0, 0.0);
+    println!(
+        "{:<26} {:>10} {:>10} {:>10} {:>10} {:>9} {:>9} {:>9}",
+        "image",
+        "tether x1",
+        "tether x2",
+        "x1 SSE2",
+        "OpenCV x1",
+        "ratio x1",
+        "ratio x2",
+        "SSE2 x1"
+    );
+    let mut sums = [0.0; 4];
     for (k, (name, image)) in setup.images.iter().enumerate() {
         let t1 = best_ms(&setup.detector_1, image);
         let t2 = best_ms(&setup.detector_2, image);
-        sum1 += t1;
-        sum2 += t2;
-        match opencv.as_ref().map(|o| o[k]) {
-            Some(cv) => {
-                sum_cv += cv;
-                println!(
-                    "{name:<26} {t1:>10.1} {t2:>10.1} {cv:>10.1} {:>8.1}x {:>8.1}x",
-                    cv / t1,
-                    cv / t2
-                );
-            }
-            None => println!(
-                "{name:<26} {t1:>10.1} {t2:>10.1} {:>10} {:>9} {:>9}",
-                "-", "-", "-"
-            ),
+        let ts = best_ms(&setup.detector_sse2, image);
+        let cv = opencv.as_ref().map(|o| o[k]);
+        for (sum, t) in sums.iter_mut().zip([t1, t2, ts, cv.unwrap_or(0.0)]) {
+            *sum += t;
         }
+        print_row(name, [t1, t2, ts], cv);
     }
     if opencv.is_some() {
-        println!(
-            "{:<26} {sum1:>10.1} {sum2:>10.1} {sum_cv:>10.1} {:>8.1}x {:>8.1}x",
-            "total",
-            sum_cv / sum1,
-            sum_cv / sum2
-        );
+        print_row("total", [sums[0], sums[1], sums[2]], Some(sums[3]));
+    }
+}
+
+/// One line of the comparison: tether's times (x1, x2, x1 SSE2), OpenCV's and the ratios.
+fn print_row(name: &str, [t1, t2, ts]: [f64; 3], cv: Option<f64>) {
+    match cv {
+        Some(cv) => println!(
+            "{name:<26} {t1:>10.1} {t2:>10.1} {ts:>10.1} {cv:>10.1} {:>8.1}x {:>8.1}x {:>8.1}x",
+            cv / t1,
+            cv / t2,
+            cv / ts
+        ),
+        None => println!(
+            "{name:<26} {t1:>10.1} {t2:>10.1} {ts:>10.1} {:>10} {:>9} {:>9} {:>9}",
+            "-", "-", "-", "-"
+        ),
     }
 }
 
