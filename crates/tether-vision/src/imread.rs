@@ -30,9 +30,9 @@
 //! the `JDCT_ISLOW` inverse DCT with the arithmetic of libjpeg-turbo's x86 SIMD code,
 //! and libjpeg's handling of truncated and damaged data (including the block smoothing
 //! of an incomplete progressive file). Measured against `cv2.imread` on the shared
-//! images, the vtest frames, OpenCV-written variants and damaged copies: all pixels
-//! equal (`tests/jpeg_parity.rs`). Lossless, arithmetic-coded and 12-bit files are
-//! refused with an error that says so.
+//! images, the vtest frames, OpenCV-written variants, arithmetic-coded copies and
+//! damaged copies: all pixels equal (`tests/jpeg_parity.rs`). Lossless and 12-bit files
+//! are refused with an error that says so.
 //!
 //! **Orientation**: like `imread` without `IMREAD_IGNORE_ORIENTATION`, an EXIF
 //! orientation tag (JPEG APP1 or PNG `eXIf`) is applied.

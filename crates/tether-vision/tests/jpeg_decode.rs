@@ -5,8 +5,9 @@
 //! The fixtures cover a baseline 4:2:0 file with restart markers, progressive colour and
 //! grey files, progressive files cut in their AC scans and in their second (DC-only
 //! known) scan, where libjpeg-turbo smooths the blocks, a cut baseline file, a file whose
-//! luma plane is subsampled (upsampled as libjpeg does), an Adobe CMYK file and an
-//! Adobe RGB file.
+//! luma plane is subsampled (upsampled as libjpeg does), an Adobe CMYK file, an
+//! Adobe RGB file, and arithmetic-coded copies (`jpegtran -arithmetic`) of the baseline
+//! and progressive files, one of them cut.
 
 use std::path::{Path, PathBuf};
 

@@ -7,11 +7,15 @@
 //!   progressive, restart intervals, every sampling factor OpenCV offers, grey,
 //!   optimised Huffman tables;
 //! - damaged copies of some of them (cut at seeded places, and with seeded byte changes),
-//!   where OpenCV and tether must also agree on whether there is an image at all.
+//!   where OpenCV and tether must also agree on whether there is an image at all;
+//! - arithmetic-coded copies of the shared images that `jpegtran -arithmetic` writes
+//!   (sequential, progressive with restart markers, grey), and damaged copies of some.
 //!
 //! Needs `../shared` and Python with OpenCV 4.x (`pip install
-//! opencv-python-headless==4.14.0.94 numpy`); without them the test prints why and
-//! passes without checking, unless `TETHER_REQUIRE_SHARED=1`. Run it with
+//! opencv-python-headless==4.14.0.94 numpy`), and `jpegtran` (`apt-get install
+//! libjpeg-turbo-progs`) for the arithmetic-coded files; without them the test prints
+//! why and passes without checking (or without the arithmetic-coded files), unless
+//! `TETHER_REQUIRE_SHARED=1`. Run it with
 //! `--nocapture` to see the report.
 //!
 //! One kind of damage is left out on purpose: a `0xFF` byte written into the
@@ -129,6 +133,46 @@ for k, p in enumerate(sys.argv[2:]):
         open(f'{out}/{k}.cvsize', 'w').write(f'{g.shape[1]} {g.shape[0]}')
 "#;
 
+/// Arithmetic-coded copies of `sources` written by `jpegtran` into `dir`, or why there
+/// are none.
+fn arithmetic_copies(sources: &[PathBuf], dir: &Path) -> Result<Vec<PathBuf>, String> {
+    let kinds: [(&str, &[&str]); 3] = [
+        ("arith", &["-arithmetic"]),
+        (
+            "arith_progressive_rst2",
+            &["-arithmetic", "-progressive", "-restart", "2"],
+        ),
+        ("arith_grey", &["-arithmetic", "-grayscale"]),
+    ];
+    let mut out = Vec::new();
+    for src in sources {
+        let stem = src
+            .file_stem()
+            .expect("name")
+            .to_string_lossy()
+            .into_owned();
+        for (kind, flags) in kinds {
+            let p = dir.join(format!("{stem}_{kind}.jpg"));
+            let run = Command::new("jpegtran")
+                .args(flags)
+                .args(["-outfile".as_ref(), p.as_os_str(), src.as_os_str()])
+                .output()
+                .map_err(|e| {
+                    format!("jpegtran cannot run ({e}); apt-get install libjpeg-turbo-progs")
+                })?;
+            if !run.status.success() {
+                return Err(format!(
+                    "jpegtran failed on {}: {}",
+                    src.display(),
+                    String::from_utf8_lossy(&run.stderr)
+                ));
+            }
+            out.push(p);
+        }
+    }
+    Ok(out)
+}
+
 /// A seeded xorshift generator.
 struct Rng(u64);
 
@@ -240,11 +284,37 @@ fn jpeg_gray_equals_opencv() {
         }
     }
 
+    let arith_dir = tmp.join("arithmetic");
+    std::fs::create_dir_all(&arith_dir).expect("temporary folder");
+    let arithmetic = match arithmetic_copies(&originals, &arith_dir) {
+        Ok(files) => files,
+        Err(why) => {
+            assert!(
+                std::env::var("TETHER_REQUIRE_SHARED").as_deref() != Ok("1"),
+                "{why}; TETHER_REQUIRE_SHARED=1 demands the arithmetic-coded files"
+            );
+            println!("arithmetic-coded files SKIPPED: {why}");
+            Vec::new()
+        }
+    };
+    let mut damaged_arithmetic = Vec::new();
+    for (i, v) in arithmetic.iter().enumerate() {
+        let name = v
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        if name.starts_with("messi5_") || name.starts_with("fruits_") {
+            damage(v, &tmp, 0x7f4a_7c15 + i as u64, &mut damaged_arithmetic);
+        }
+    }
+
     let groups = [
         ("shared images", originals),
         ("vtest frames (every 10th)", frames),
         ("written by OpenCV now", variants),
         ("damaged copies", damaged),
+        ("arithmetic-coded by jpegtran", arithmetic),
+        ("damaged arithmetic-coded copies", damaged_arithmetic),
     ];
     let decoded = tmp.join("opencv");
     std::fs::create_dir_all(&decoded).expect("temporary folder");

@@ -8,12 +8,16 @@
 //! - **Markers** (`jdmarker.c`): SOI, APPn (JFIF APP0 and Adobe APP14 decide the colour
 //!   space as in `jdapimin.c`; the first EXIF APP1 before the image gives the
 //!   orientation, as OpenCV reads it), DQT (8- and 16-bit), SOF0/SOF1 (sequential
-//!   Huffman) and SOF2 (progressive Huffman), DHT, SOS, DRI, COM, DNL, EOI, fill bytes.
-//!   Missing Huffman tables of a sequential file are the standard ones (Motion-JPEG), as
-//!   in libjpeg-turbo.
+//!   Huffman), SOF2 (progressive Huffman), SOF9 and SOF10 (sequential and progressive
+//!   arithmetic coding), DHT, DAC, SOS, DRI, COM, DNL, EOI, fill bytes. Missing Huffman
+//!   tables of a sequential file are the standard ones (Motion-JPEG), as in
+//!   libjpeg-turbo.
 //! - **Entropy decoding** (`jdhuff.c`, `jdphuff.c`): byte stuffing, restart markers with
 //!   libjpeg's resynchronisation when they are missing or out of order, DC/AC first and
 //!   refinement scans with EOB runs, corrupt run lengths clamped as libjpeg does.
+//!   Arithmetic coding (`jdarith.c`, module `arith`): T.81's binary decoder with the
+//!   DAC conditioning, zeros fed after a marker met in the data, and a scan that decodes
+//!   an impossible value left alone up to the next restart marker, as libjpeg does.
 //! - **Damaged data**: libjpeg warns and carries on; so does tether (the warnings are
 //!   returned). Past the end of a truncated file the stream reads as fake EOI markers;
 //!   the MCU in which the data runs out is decoded with zero bits and the ones after it
@@ -41,11 +45,12 @@
 //! `fread` buffer of OpenCV's file source happens to end, so tether decodes such an MCU
 //! as the exact path does. Valid files never contain `FF FF 00` in their scans.
 //!
-//! Refused with an error that names the kind: 12-bit samples, lossless (SOF3),
-//! arithmetic coding (SOF9-SOF11), hierarchical and differential frames, and 2- or
+//! Refused with an error that names the kind: 12-bit samples, lossless (SOF3, SOF11),
+//! hierarchical and differential frames, and 2- or
 //! 5-or-more-component files (OpenCV cannot read these as grey either). Corrupt input
 //! never panics: errors name the marker and the byte offset.
 
+mod arith;
 mod huffman;
 pub(crate) mod idct;
 mod output;
@@ -113,6 +118,12 @@ pub enum Warning {
         /// Where the SOS marker ended.
         offset: usize,
     },
+    /// Arithmetic-coded data decoded to an impossible value; the rest of the scan up to
+    /// the next restart marker is left as it was.
+    BadArithmeticCode {
+        /// Position in the file when it was noticed.
+        offset: usize,
+    },
 }
 
 impl Warning {
@@ -123,7 +134,8 @@ impl Warning {
             | Warning::RestartResync { offset, .. }
             | Warning::BadHuffmanCode { offset }
             | Warning::CorruptData { offset }
-            | Warning::BogusScan { offset } => offset,
+            | Warning::BogusScan { offset }
+            | Warning::BadArithmeticCode { offset } => offset,
         };
         *offset = (*offset).min(len);
     }
@@ -164,6 +176,11 @@ impl fmt::Display for Warning {
                     "inconsistent scan parameters in the SOS ending at byte {offset}"
                 )
             }
+            Warning::BadArithmeticCode { offset } => write!(
+                f,
+                "corrupt arithmetic-coded data before byte {offset}; the scan stops until \
+                 the next restart marker"
+            ),
         }
     }
 }
@@ -331,6 +348,8 @@ impl Component {
 /// The frame header and the geometry derived from it.
 pub(crate) struct Frame {
     pub process: Process,
+    /// Arithmetic coding (SOF9, SOF10) instead of Huffman coding.
+    pub arithmetic: bool,
     pub width: usize,
     pub height: usize,
     pub comps: Vec<Component>,
@@ -359,6 +378,8 @@ pub(crate) struct Decoder<'a> {
     pub dc_tables: [Option<HuffSpec>; 4],
     pub ac_tables: [Option<HuffSpec>; 4],
     pub restart_interval: u32,
+    /// Arithmetic-coding conditioning (DAC).
+    pub conditioning: arith::Conditioning,
     pub frame: Option<Frame>,
     pub scan: ScanHeader,
     /// Number of SOS markers read (libjpeg's `input_scan_number`).
@@ -393,6 +414,7 @@ impl<'a> Decoder<'a> {
             dc_tables: [None, None, None, None],
             ac_tables: [None, None, None, None],
             restart_interval: 0,
+            conditioning: arith::Conditioning::default(),
             frame: None,
             scan: ScanHeader::default(),
             input_scan_number: 0,
@@ -429,7 +451,11 @@ impl<'a> Decoder<'a> {
             let frame = self.frame_ref()?;
             frame.process == Process::Progressive || self.scan.comps.len() < frame.comps.len()
         };
-        if self.frame_ref()?.process == Process::Sequential {
+        let huffman_sequential = {
+            let frame = self.frame_ref()?;
+            frame.process == Process::Sequential && !frame.arithmetic
+        };
+        if huffman_sequential {
             // libjpeg-turbo's jinit_huff_decoder: the standard tables where none is defined.
             let std_dc = [HuffSpec::std_dc_luminance(), HuffSpec::std_dc_chrominance()];
             let std_ac = [HuffSpec::std_ac_luminance(), HuffSpec::std_ac_chrominance()];
@@ -493,8 +519,10 @@ impl<'a> Decoder<'a> {
                         "invalid JPEG file structure: two SOI markers",
                     ));
                 }
-                marker::SOF0 | marker::SOF1 => self.read_sof(code, Process::Sequential)?,
-                marker::SOF2 => self.read_sof(code, Process::Progressive)?,
+                marker::SOF0 | marker::SOF1 => self.read_sof(code, Process::Sequential, false)?,
+                marker::SOF2 => self.read_sof(code, Process::Progressive, false)?,
+                marker::SOF9 => self.read_sof(code, Process::Sequential, true)?,
+                marker::SOF10 => self.read_sof(code, Process::Progressive, true)?,
                 marker::SOF3 => {
                     return Err(JpegError::unsupported(
                         at,
@@ -502,12 +530,12 @@ impl<'a> Decoder<'a> {
                         "lossless JPEG (SOF3) is not supported; convert the file to PNG",
                     ));
                 }
-                0xc9..=0xcb => {
+                marker::SOF11 => {
                     return Err(JpegError::unsupported(
                         at,
                         Some(code),
-                        "arithmetic-coded JPEG is not supported; re-encode it with Huffman \
-                         coding (e.g. `jpegtran -optimize in.jpg > out.jpg`)",
+                        "lossless arithmetic-coded JPEG (SOF11) is not supported; convert the \
+                         file to PNG",
                     ));
                 }
                 0xc5..=0xc7 | marker::JPG | 0xcd..=0xcf => {
@@ -669,18 +697,25 @@ impl<'a> Decoder<'a> {
     }
 
     fn read_dac(&mut self) -> Result<(), JpegError> {
-        // Arithmetic-coding conditioning tables: checked as libjpeg checks them, unused.
+        // Arithmetic-coding conditioning tables (`get_dac`).
         let mut len = self.length();
         while len > 0 {
-            let index = self.src.byte();
+            let index = usize::from(self.src.byte());
             let val = self.src.byte();
             len -= 2;
-            if index >= 32 || (index < 16 && (val & 0x0f) > (val >> 4)) {
+            if index >= 2 * arith::TABLES || (index < 16 && (val & 0x0f) > (val >> 4)) {
                 return Err(JpegError::corrupt(
                     self.src.pos(),
                     Some(marker::DAC),
                     "bogus DAC index or value",
                 ));
+            }
+            let c = &mut self.conditioning;
+            if index >= arith::TABLES {
+                c.ac_k[index - arith::TABLES] = val;
+            } else {
+                c.dc_l[index] = val & 0x0f;
+                c.dc_u[index] = val >> 4;
             }
         }
         if len != 0 {
@@ -697,7 +732,7 @@ impl<'a> Decoder<'a> {
         Ok(())
     }
 
-    fn read_sof(&mut self, code: u8, process: Process) -> Result<(), JpegError> {
+    fn read_sof(&mut self, code: u8, process: Process, arithmetic: bool) -> Result<(), JpegError> {
         let at = self.src.pos();
         if self.saw_sof {
             return Err(JpegError::corrupt(
@@ -760,6 +795,7 @@ impl<'a> Decoder<'a> {
         }
         self.frame = Some(Frame {
             process,
+            arithmetic,
             width,
             height,
             comps,

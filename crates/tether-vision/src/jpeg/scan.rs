@@ -4,6 +4,7 @@
 //! ways libjpeg's coefficient controller drives them (`jdcoefct.c`): straight to the
 //! IDCT for a single-scan file, into whole-image coefficient buffers otherwise.
 
+use super::arith::{ArithDecoder, ArithScan};
 use super::huffman::{BitReader, HuffTable, NATURAL_ORDER, table_error};
 use super::idct::idct_block;
 use super::source::{Source, marker};
@@ -28,6 +29,8 @@ pub(crate) struct ScanState {
     pub eobrun: u32,
     dc: Vec<Option<HuffTable>>,
     ac: Vec<Option<HuffTable>>,
+    /// The arithmetic decoder of an arithmetic-coded scan (then `dc` and `ac` are empty).
+    arith: Option<ArithDecoder>,
 }
 
 impl Decoder<'_> {
@@ -149,8 +152,45 @@ impl Decoder<'_> {
                 1,
             )
         };
-        // Tables: which ones a scan of this kind uses.
         let progressive = frame.process == Process::Progressive;
+        if frame.arithmetic {
+            let arith = ArithDecoder::new(
+                ArithScan {
+                    progressive,
+                    ss: scan.ss,
+                    se: scan.se,
+                    ah: scan.ah,
+                    al: scan.al,
+                    dc_tbl: scan
+                        .comps
+                        .iter()
+                        .map(|&ci| frame.comps[ci].dc_tbl)
+                        .collect(),
+                    ac_tbl: scan
+                        .comps
+                        .iter()
+                        .map(|&ci| frame.comps[ci].ac_tbl)
+                        .collect(),
+                    membership: membership.clone(),
+                    conditioning: self.conditioning,
+                },
+                self.restart_interval,
+            );
+            return Ok(ScanState {
+                bits: BitReader::new(),
+                membership,
+                mcus_per_row,
+                mcu_rows,
+                rows_per_imcu,
+                restarts_to_go: self.restart_interval,
+                last_dc: [0; 4],
+                eobrun: 0,
+                dc: Vec::new(),
+                ac: Vec::new(),
+                arith: Some(arith),
+            });
+        }
+        // Tables: which ones a scan of this kind uses.
         let (want_dc, want_ac) = if progressive {
             (scan.ss == 0 && scan.ah == 0, scan.ss != 0)
         } else {
@@ -182,6 +222,7 @@ impl Decoder<'_> {
             eobrun: 0,
             dc,
             ac,
+            arith: None,
         })
     }
 
@@ -204,9 +245,20 @@ impl Decoder<'_> {
         HuffTable::new(spec, is_dc).map_err(|why| table_error(at, is_dc, index, why))
     }
 
-    /// libjpeg's `process_restart` and `read_restart_marker`.
+    /// libjpeg's `process_restart` (Huffman).
     fn process_restart(&mut self, st: &mut ScanState) {
         st.bits.reset(&mut self.src);
+        self.read_restart_marker();
+        st.last_dc = [0; 4];
+        st.eobrun = 0;
+        st.restarts_to_go = self.restart_interval;
+        if self.src.unread_marker.is_none() {
+            st.bits.insufficient = false;
+        }
+    }
+
+    /// libjpeg's `read_restart_marker`: the expected RSTn, or resynchronisation.
+    pub(crate) fn read_restart_marker(&mut self) {
         let m = self.src.take_marker();
         let expected = self.next_restart_num;
         if m != marker::RST0 + expected {
@@ -217,12 +269,6 @@ impl Decoder<'_> {
             self.resync_to_restart(m, expected);
         }
         self.next_restart_num = (expected + 1) & 7;
-        st.last_dc = [0; 4];
-        st.eobrun = 0;
-        st.restarts_to_go = self.restart_interval;
-        if self.src.unread_marker.is_none() {
-            st.bits.insufficient = false;
-        }
     }
 
     /// libjpeg's `jpeg_resync_to_restart`: decides whether to discard the marker found,
@@ -275,7 +321,13 @@ impl Decoder<'_> {
         for mcu_row in 0..st.mcu_rows {
             for mcu_col in 0..st.mcus_per_row {
                 blocks[..n_blocks].fill([0; 64]);
-                self.decode_mcu_sequential(&mut st, &mut blocks[..n_blocks], &needed);
+                match st.arith.take() {
+                    Some(mut arith) => {
+                        self.decode_mcu_arith(&mut arith, &mut blocks[..n_blocks]);
+                        st.arith = Some(arith);
+                    }
+                    None => self.decode_mcu_sequential(&mut st, &mut blocks[..n_blocks], &needed),
+                }
                 // IDCT the blocks inside the component (not the MCU padding).
                 let mut b = 0;
                 for (i, &ci) in comps.iter().enumerate() {
@@ -342,7 +394,10 @@ impl Decoder<'_> {
                     *slot = frame.comps[ci].coefs[idx];
                 }
                 let n = positions.len();
-                if progressive {
+                if let Some(mut arith) = st.arith.take() {
+                    self.decode_mcu_arith(&mut arith, &mut mcu[..n]);
+                    st.arith = Some(arith);
+                } else if progressive {
                     if let Err(e) = self.decode_mcu_progressive(&mut st, &mut mcu[..n]) {
                         result = Err(e);
                         break 'rows;

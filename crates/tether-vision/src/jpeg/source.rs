@@ -13,6 +13,9 @@ pub(crate) mod marker {
     pub const SOF1: u8 = 0xc1;
     pub const SOF2: u8 = 0xc2;
     pub const SOF3: u8 = 0xc3;
+    pub const SOF9: u8 = 0xc9;
+    pub const SOF10: u8 = 0xca;
+    pub const SOF11: u8 = 0xcb;
     pub const DHT: u8 = 0xc4;
     pub const JPG: u8 = 0xc8;
     pub const DAC: u8 = 0xcc;

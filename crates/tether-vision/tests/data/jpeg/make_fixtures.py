@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Writes the JPEG fixtures of tests/jpeg_decode.rs and OpenCV's grey decode of each.
 
-Run from this directory with OpenCV 4.14 and Pillow:
+Run from this directory with OpenCV 4.14, Pillow and jpegtran:
   pip install opencv-python-headless==4.14.0.94 numpy pillow
+  apt-get install libjpeg-turbo-progs
   python3 make_fixtures.py
 Each NAME.jpg gets NAME.cv2.gray: the raw bytes of cv2.imread(NAME.jpg,
 cv2.IMREAD_GRAYSCALE | cv2.IMREAD_IGNORE_ORIENTATION), row by row, and the sizes go to
@@ -147,6 +148,16 @@ def main():
     base = files["baseline_420_rst2"]
     files["baseline_truncated"] = base[: len(base) // 2]
     files["luma_subsampled"] = luma_subsampled()
+    # Arithmetic coding: jpegtran (libjpeg-turbo-progs) re-codes the coefficients
+    # losslessly; the decode must not change.
+    import subprocess
+    def arithmetic(src, *flags):
+        return subprocess.run(["jpegtran", "-arithmetic", *flags], input=files[src],
+                              capture_output=True, check=True).stdout
+    files["arith_420_rst2"] = arithmetic("baseline_420_rst2")
+    files["arith_progressive_420"] = arithmetic("progressive_420", "-progressive")
+    arith_prog = files["arith_progressive_420"]
+    files["arith_progressive_truncated"] = arith_prog[: len(arith_prog) * 3 // 5]
     from io import BytesIO
     rgb = Image.fromarray(cv2.cvtColor(img, cv2.COLOR_BGR2RGB))
     for name, im, kw in [("cmyk_adobe", rgb.convert("CMYK"), {}),
