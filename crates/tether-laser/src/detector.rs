@@ -6,12 +6,12 @@ use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
 use thiserror::Error;
 
 use crate::arc::{ArcTestConfig, arc_test};
-use crate::classifier::LegClassifier;
-use crate::features::{Candidate, FeatureScratch, add_context, segment_features};
+use crate::classifier::{CompiledClassifier, LegClassifier};
+use crate::features::{Candidate, FeatureScratch, ScanView, add_context, segment_features};
 use crate::fit::centroid;
 use crate::people::{Leg, PairScratch, PairingConfig, PersonObservation, pair_legs};
 use crate::preprocess::{BeamTable, PreprocessStats, ScanPoint, preprocess_into};
-use crate::segment::{Breakpoint, Segment, segment_into};
+use crate::segment::{Breakpoint, ClusterScratch, Segment, cluster_into};
 
 /// A detector configuration that cannot work.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
@@ -32,7 +32,7 @@ pub enum DetectorKind {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DetectorConfig {
-    /// Segmentation rule (default: adaptive breakpoint, lambda = 10 deg).
+    /// Segmentation rule (default: Euclidean clustering at 0.13 m, [`Breakpoint::default`]).
     pub breakpoint: Breakpoint,
     /// Fewest returns in a leg candidate (default 3).
     pub min_points: usize,
@@ -112,8 +112,13 @@ pub struct LegDetector {
     config: DetectorConfig,
     noise: RangeNoiseModel,
     classifier: Option<LegClassifier>,
+    /// The classifier laid out for speed.
+    compiled: CompiledClassifier,
     table: BeamTable,
     points: Vec<ScanPoint>,
+    order: Vec<usize>,
+    clustered: Vec<ScanPoint>,
+    cluster_scratch: ClusterScratch,
     segments: Vec<Segment>,
     candidates: Vec<Candidate>,
     scratch: FeatureScratch,
@@ -147,9 +152,16 @@ impl LegDetector {
         Ok(LegDetector {
             config,
             noise,
+            compiled: classifier
+                .as_ref()
+                .map(CompiledClassifier::new)
+                .unwrap_or_default(),
             classifier,
             table: BeamTable::default(),
             points: Vec::new(),
+            order: Vec::new(),
+            clustered: Vec::new(),
+            cluster_scratch: ClusterScratch::default(),
             segments: Vec::new(),
             candidates: Vec::new(),
             scratch: FeatureScratch::default(),
@@ -184,22 +196,30 @@ impl LegDetector {
         let learned = self.classifier.is_some();
         out.stats = self.find_candidates(scan, learned);
         for c in &self.candidates {
-            let pts = &self.points[c.segment.start..c.segment.end];
+            let pts = &self.clustered[c.segment.start..c.segment.end];
             let leg = match &self.classifier {
                 None => arc_test(pts, &self.config.arc).ok().map(|arc| Leg {
                     centre_in_laser: arc.centre_in_laser,
                     radius_m: arc.radius_m,
+                    centroid_in_laser: c.centroid_in_laser,
                     score: (1.0 - arc.spread_m / self.config.arc.delta_m).clamp(0.0, 1.0),
                     first_beam: pts[0].beam,
                     last_beam: pts[pts.len() - 1].beam,
                     n_points: pts.len(),
                 }),
-                Some(model) => {
-                    let margin = model.margin(&c.features);
-                    (margin >= model.decision_margin).then(|| {
-                        learned_leg(pts, c.centroid_in_laser, &self.config, 0.5 * (margin + 1.0))
-                    })
-                }
+                Some(_) => self.compiled.margin_if_leg(&c.features).map(|margin| {
+                    let (centre_in_laser, radius_m) =
+                        learned_centre(c.centroid_in_laser, c.features[WIDTH], &self.config);
+                    Leg {
+                        centre_in_laser,
+                        radius_m,
+                        centroid_in_laser: c.centroid_in_laser,
+                        score: 0.5 * (margin + 1.0),
+                        first_beam: pts[0].beam,
+                        last_beam: pts[pts.len() - 1].beam,
+                        n_points: pts.len(),
+                    }
+                }),
             };
             out.legs.extend(leg);
         }
@@ -220,24 +240,29 @@ impl LegDetector {
         self.candidates.clone()
     }
 
-    /// Pre-processes and segments `scan`, and keeps the candidate segments (with their
+    /// Pre-processes and clusters `scan`, and keeps the candidate clusters (with their
     /// features if `with_features`) in `self.candidates`.
     fn find_candidates(&mut self, scan: &LaserScan, with_features: bool) -> DetectionStats {
         let mut stats = self.segment(scan);
         self.candidates.clear();
-        for s in 0..self.segments.len() {
-            let seg = self.segments[s];
-            if !self.is_candidate(seg) {
+        let view = ScanView {
+            points: &self.points,
+            cluster_of: self.cluster_scratch.cluster_of(),
+            angle_increment_rad: scan.angle_increment_rad,
+        };
+        for (k, &seg) in self.segments.iter().enumerate() {
+            let pts = &self.clustered[seg.start..seg.end];
+            if !is_candidate(pts, &self.config) {
                 continue;
             }
             let features = if with_features {
-                segment_features(&self.points, seg, &mut self.scratch)
+                segment_features(&view, k as u32, pts, &mut self.scratch)
             } else {
                 [0.0; crate::features::N_FEATURES]
             };
             self.candidates.push(Candidate {
                 segment: seg,
-                centroid_in_laser: centroid(&self.points[seg.start..seg.end]),
+                centroid_in_laser: centroid(pts),
                 features,
             });
         }
@@ -248,63 +273,68 @@ impl LegDetector {
         stats
     }
 
-    /// Pre-processes and segments `scan` into the detector's buffers.
+    /// Pre-processes and clusters `scan` into the detector's buffers.
     fn segment(&mut self, scan: &LaserScan) -> DetectionStats {
         self.table.update(scan);
         let preprocess = preprocess_into(scan, &self.noise, &self.table, &mut self.points);
-        segment_into(
+        cluster_into(
             &self.points,
             scan.angle_increment_rad,
             &self.noise,
             self.config.breakpoint,
+            &mut self.cluster_scratch,
+            &mut self.order,
             &mut self.segments,
         );
+        self.clustered.clear();
+        self.clustered
+            .extend(self.order.iter().map(|&i| self.points[i]));
         DetectionStats {
             preprocess,
             segments: self.segments.len(),
             candidates: 0,
         }
     }
-
-    fn is_candidate(&self, seg: Segment) -> bool {
-        if seg.len() < self.config.min_points {
-            return false;
-        }
-        let (a, b) = (
-            self.points[seg.start].point_in_laser,
-            self.points[seg.end - 1].point_in_laser,
-        );
-        a.distance_m(b) <= self.config.max_width_m
-    }
 }
 
-/// The leg a classified segment stands for. The returns cover the side facing the
-/// sensor, so their centroid lies in front of the leg's axis: for a circle of
-/// radius `R` whose visible half is sampled evenly across the line of sight, by
-/// `mean(sqrt(R^2 - y^2)) = pi R / 4`. The centre is the centroid moved that far
-/// away from the sensor, with `R` = half the segment's width clamped to the leg
-/// diameter range.
-fn learned_leg(pts: &[ScanPoint], c: Point2<Laser>, config: &DetectorConfig, score: f64) -> Leg {
-    let (first, last) = (pts[0], pts[pts.len() - 1]);
-    let radius_m = (0.5 * first.point_in_laser.distance_m(last.point_in_laser)).clamp(
+/// Whether a cluster (its returns in beam order) is tested as a leg: enough returns,
+/// and first and last no farther apart than `max_width_m`.
+fn is_candidate(pts: &[ScanPoint], config: &DetectorConfig) -> bool {
+    if pts.len() < config.min_points {
+        return false;
+    }
+    pts[0]
+        .point_in_laser
+        .distance_m(pts[pts.len() - 1].point_in_laser)
+        <= config.max_width_m
+}
+
+/// Index of `width_m` in the feature vector.
+const WIDTH: usize = 5;
+
+/// Where the leg of a classified cluster stands, and its radius. The returns cover
+/// the side facing the sensor, so their centroid `c` lies in front of the leg's axis:
+/// for a circle of radius `R` whose visible half is sampled evenly across the line of
+/// sight, by `mean(sqrt(R^2 - y^2)) = pi R / 4`. The centre is `c` moved that far away
+/// from the sensor, with `R` = half the cluster's width (first to last return) clamped
+/// to the leg diameter range of `config.arc`.
+pub fn learned_centre(
+    c: Point2<Laser>,
+    width_m: f64,
+    config: &DetectorConfig,
+) -> (Point2<Laser>, f64) {
+    let radius_m = (0.5 * width_m).clamp(
         0.5 * config.arc.diameter_min_m,
         0.5 * config.arc.diameter_max_m,
     );
     let range = c.range_m();
     let push = std::f64::consts::FRAC_PI_4 * radius_m;
-    let centre_in_laser = if range > 0.0 {
+    let centre = if range > 0.0 {
         Point2::new(c.x * (1.0 + push / range), c.y * (1.0 + push / range))
     } else {
         c
     };
-    Leg {
-        centre_in_laser,
-        radius_m,
-        score,
-        first_beam: first.beam,
-        last_beam: last.beam,
-        n_points: pts.len(),
-    }
+    (centre, radius_m)
 }
 
 #[cfg(test)]
@@ -315,7 +345,7 @@ mod tests {
     fn config_round_trips_and_is_checked() {
         let config = DetectorConfig::default();
         let json = serde_json::to_string(&config).unwrap();
-        assert!(json.contains("\"rule\":\"adaptive_or_jump\""), "{json}");
+        assert!(json.contains("\"rule\":\"euclidean\""), "{json}");
         let back: DetectorConfig = serde_json::from_str(&json).unwrap();
         assert_eq!(back, config);
         let partial: DetectorConfig =

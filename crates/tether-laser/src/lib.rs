@@ -5,12 +5,13 @@
 //!
 //! 1. [`preprocess`](mod@preprocess): drop beams with no return, subtract the calibrated range bias
 //!    `bias(r)` ([`tether_core::RangeNoiseModel`]).
-//! 2. [`segment`]: split where consecutive returns jump more than Borges and Aldon's
+//! 2. [`segment`]: cluster the returns: by default leg_tracker's Euclidean clustering
+//!    (0.13 m), or split where consecutive returns jump more than Borges and Aldon's
 //!    adaptive breakpoint or a fixed distance.
 //! 3. Leg candidates, by either
 //!    - [`arc`]: the paper's test (bisectors of chords meeting within delta = 40 mm,
 //!      centre behind the arc, leg-sized diameter), or
-//!    - [`classifier`]: AdaBoost on stumps over the segment [`features`] of Arras,
+//!    - [`classifier`]: AdaBoost on small trees over the cluster [`features`] of Arras,
 //!      Mozos and Burgard (2007), trained on labelled recordings ([`training`]); a
 //!      default model is built in ([`LegClassifier::default_model`]).
 //! 4. [`people`]: pair legs within 0.6 m into people at the midpoint, keep lone legs as
@@ -40,7 +41,8 @@ pub use calibration::{
     fit_range_noise, simulate_samples,
 };
 pub use classifier::{
-    AdaBoostConfig, LegClassifier, ModelError, Node, Provenance, TrainError, Tree, train_adaboost,
+    AdaBoostConfig, CompiledClassifier, LegClassifier, ModelError, Node, Provenance, TrainError,
+    Tree, train_adaboost,
 };
 pub use detector::{
     ConfigError, Detection, DetectionStats, DetectorConfig, DetectorKind, LegDetector,

@@ -11,14 +11,16 @@ pub struct Leg {
     pub centre_in_laser: Point2<Laser>,
     /// Estimated radius of the cross-section, m.
     pub radius_m: f64,
+    /// Mean of the cluster's returns, m: where the returns are, in front of the centre.
+    pub centroid_in_laser: Point2<Laser>,
     /// Confidence in `[0, 1]`: `1 - spread / delta` for the arc test, `(F + 1) / 2`
     /// for the learned classifier.
     pub score: f64,
-    /// First beam of the segment.
+    /// First beam of the cluster.
     pub first_beam: usize,
-    /// Last beam of the segment.
+    /// Last beam of the cluster.
     pub last_beam: usize,
-    /// Number of returns in the segment.
+    /// Number of returns in the cluster.
     pub n_points: usize,
 }
 
@@ -225,6 +227,7 @@ mod tests {
         Leg {
             centre_in_laser: Point2::new(x, y),
             radius_m: 0.06,
+            centroid_in_laser: Point2::new(x - 0.05, y),
             score: 0.8,
             first_beam: 0,
             last_beam: 0,

@@ -1,7 +1,10 @@
 //! Real recordings (issue 3): leg_tracker's labelled scans in
 //! `../shared/data/laser/leg_tracker/`, read with tether-io.
 //!
-//! - The committed default model is exactly what training on the training split gives.
+//! - The labels are the centroids of the default clustering's clusters (the protocol
+//!   compares detections with exactly what the labeller labelled).
+//! - The committed default model is exactly what training on the training split gives,
+//!   with the decision margin its cross-validation chooses.
 //! - Precision and recall of both detectors on the test split, which nothing was
 //!   trained or tuned on; the bounds guard against regressions of the measured values
 //!   (see the crate README for the figures).
@@ -66,29 +69,89 @@ fn negatives(dir: &Path, topics: &[&str]) -> Vec<LaserScan> {
 }
 
 #[test]
-fn training_reproduces_the_committed_model() {
+fn the_labels_are_the_centroids_of_the_default_clusters() {
+    // leg_tracker labelled every cluster (Euclidean, 0.13 m, >= 3 returns) in a bearing
+    // window within 5 m; the default clustering reproduces those clusters, so every
+    // label is a candidate's centroid (to float rounding) and nothing in the window is
+    // unlabelled.
     let Some(dir) = data_dir() else { return };
-    let positives = labelled(&dir, &TRAIN_POSITIVE_BAGS);
-    let negatives = negatives(&dir, &TRAIN_NEGATIVE_TOPICS);
-    assert_eq!(positives.len(), 197 + 83 + 175 + 295);
-    assert_eq!(negatives.len(), 435 + 434);
-    let config = default_adaboost_config();
     let mut detector =
         LegDetector::arc(DetectorConfig::default(), RangeNoiseModel::default()).unwrap();
-    let (model, set) = train_from_scans(
+    let bags: Vec<&str> = TRAIN_POSITIVE_BAGS
+        .iter()
+        .chain(&TEST_POSITIVE_BAGS)
+        .copied()
+        .collect();
+    let (mut labels, mut in_region) = (0, 0);
+    for bag in bags {
+        let region = LabelledRegion::of_bag(bag);
+        for (scan, legs) in labelled(&dir, &[bag]) {
+            let candidates = detector.candidates(&scan);
+            for leg in &legs {
+                let nearest = candidates
+                    .iter()
+                    .map(|c| c.centroid_in_laser.distance_m(*leg))
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    nearest < 1e-5,
+                    "{bag}: label {leg:?} is {nearest} m from a cluster"
+                );
+            }
+            labels += legs.len();
+            in_region += candidates
+                .iter()
+                .filter(|c| region.contains(c.centroid_in_laser))
+                .count();
+        }
+    }
+    assert_eq!(labels, 1852);
+    assert_eq!(
+        in_region, labels,
+        "every cluster in the labelled window is a label"
+    );
+}
+
+#[test]
+fn training_reproduces_the_committed_model() {
+    let Some(dir) = data_dir() else { return };
+    let bags: Vec<(&str, Labelled)> = TRAIN_POSITIVE_BAGS
+        .iter()
+        .map(|b| (*b, labelled(&dir, &[b])))
+        .collect();
+    let topics: Vec<Vec<LaserScan>> = TRAIN_NEGATIVE_TOPICS
+        .iter()
+        .map(|t| negatives(&dir, &[t]))
+        .collect();
+    let scans: Vec<usize> = bags.iter().map(|(_, s)| s.len()).collect();
+    assert_eq!(scans, vec![197, 83, 175, 295]);
+    assert_eq!(topics.iter().map(Vec::len).sum::<usize>(), 435 + 434);
+    let mut detector =
+        LegDetector::arc(DetectorConfig::default(), RangeNoiseModel::default()).unwrap();
+    let folds = folds_from_scans(
         &mut detector,
-        positives.iter().map(|(s, l)| (s, l.as_slice())),
-        negatives.iter(),
-        &config,
-        provenance(&config),
-    )
-    .unwrap();
+        &bags
+            .iter()
+            .map(|(b, s)| (*b, s.as_slice()))
+            .collect::<Vec<_>>(),
+        &topics.iter().map(Vec::as_slice).collect::<Vec<_>>(),
+    );
+    let (model, set, cv) = train_with_cross_validation(&folds, &default_adaboost_config()).unwrap();
+    let c = cv.best_counts();
     println!(
-        "{} positives ({} labels unmatched), {} negatives",
+        "{} positives ({} labels unmatched), {} negatives; cross-validation: margin {}, \
+         precision {:.3}, recall {:.3}, F1 {:.3}",
         set.positives(),
         set.unmatched_labels,
-        set.negatives()
+        set.negatives(),
+        cv.margin(),
+        c.precision(),
+        c.recall(),
+        c.f1()
     );
+    assert_eq!(set.unmatched_labels, 0);
+    assert_eq!(set.positives(), 1164);
+    // Measured: precision 0.838, recall 0.807 on the held-out folds.
+    assert!(c.precision() > 0.82 && c.recall() > 0.79, "{c:?}");
     assert!(
         model.to_json() == DEFAULT_MODEL_JSON,
         "the committed model differs from what training gives; rerun `{DEFAULT_TRAIN_COMMAND}`"
@@ -131,16 +194,19 @@ fn precision_and_recall_on_the_test_split() {
             t.recall()
         );
         assert_eq!(t.true_positives + t.false_negatives, labels);
+        // Every cluster in the labelled window is labelled and every detection is a
+        // cluster's: none can be false there.
+        assert_eq!(e.labelled.false_positives, 0, "{name}");
     }
-    // Measured: arc 0.156 / 0.336, learned 0.634 / 0.724 (issue 3 asks 0.90 / 0.90 of
-    // the learned one; see the README for why these recordings do not allow it).
+    // Measured: arc 0.147 / 0.315, learned 0.723 / 0.769 (issue 3 asks 0.90 / 0.90 of
+    // the learned one; see the README for what these recordings allow).
     let (a, l) = (arc.total(), learned.total());
     assert!(
-        l.precision() >= 0.60 && l.recall() >= 0.70,
+        l.precision() >= 0.72 && l.recall() >= 0.76,
         "learned: {l:?}"
     );
-    assert!(a.recall() >= 0.30, "arc: {a:?}");
+    assert!(a.recall() >= 0.30 && a.precision() >= 0.14, "arc: {a:?}");
     // SPEC 4.6: furniture fools the arc test; the classifier is the cure.
-    assert!(learned.negative_false_positives * 3 < arc.negative_false_positives);
-    assert!(l.precision() > 3.0 * a.precision());
+    assert!(learned.negative_false_positives * 5 < arc.negative_false_positives);
+    assert!(l.precision() > 4.0 * a.precision());
 }

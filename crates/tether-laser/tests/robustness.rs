@@ -151,7 +151,32 @@ fn both_detectors_see_the_walker_in_synthetic_scans() {
             }
         }
     }
-    assert!(hits[0] >= 6 && hits[1] >= 8, "arc, learned: {hits:?} of 10");
+    println!("walker found by arc, learned: {hits:?} of 10");
+    // Measured: 10 and 10.
+    assert!(hits[0] >= 6 && hits[1] >= 9, "arc, learned: {hits:?} of 10");
+}
+
+#[test]
+fn table_legs_fool_the_arc_test_not_the_classifier() {
+    // The synthetic office's table: four legs of 5 cm diameter, 0.7 m and 1.1 m apart.
+    let table = |l: &tether_laser::Leg| {
+        synthetic::office_circles()[4..]
+            .iter()
+            .any(|c| l.centre_in_laser.distance_m(Point2::new(c.x, c.y)) < 0.15)
+    };
+    let mut on_table = [0usize; 2];
+    for seed in 0..20 {
+        let scan = synthetic::urg_scan(&synthetic::office_circles(), 0.007, seed);
+        for (k, d) in detectors().iter_mut().enumerate() {
+            on_table[k] += d.detect(&scan).legs.iter().filter(|l| table(l)).count();
+        }
+    }
+    println!("table legs taken for legs by arc, learned: {on_table:?} in 20 scans");
+    // Measured: 5 and 0.
+    assert!(
+        on_table[0] >= 3 && on_table[1] * 5 <= on_table[0],
+        "{on_table:?}"
+    );
 }
 
 #[test]

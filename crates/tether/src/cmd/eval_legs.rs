@@ -65,9 +65,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     println!(
         "a detection within {EVAL_MATCH_RADIUS_M} m of a labelled leg centre finds it (one to \
-         one); on labelled scans, detections outside |bearing| < {:.0} deg, range < {} m (where \
-         the labeller worked) are not counted",
-        region.max_abs_bearing_rad.to_degrees(),
+         one); on labelled scans, a detection that finds none is false only if its returns' \
+         centroid lies where the labeller labelled every cluster ({:.0} to {:.0} deg, under {} \
+         m); on the scans without people every detection is false",
+        region.min_bearing_rad.to_degrees(),
+        region.max_bearing_rad.to_degrees(),
         region.max_range_m
     );
     println!();

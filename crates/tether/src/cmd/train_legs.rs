@@ -1,5 +1,6 @@
 //! `tether train-legs`: train the learned leg classifier on leg_tracker's labelled
-//! recordings (the training split of issue 3 only).
+//! recordings (the training split of issue 3 only), choosing its decision margin by
+//! cross-validation on that split.
 
 use std::path::{Path, PathBuf};
 
@@ -8,7 +9,7 @@ use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
 use tether_io::rosbag::{read_labelled_scans, read_scans};
 use tether_laser::training::{
     NEGATIVE_BAG, POSITIVE_LABEL_TOPIC, POSITIVE_SCAN_TOPIC, TRAIN_NEGATIVE_TOPICS,
-    TRAIN_POSITIVE_BAGS, default_adaboost_config, provenance, train_from_scans,
+    TRAIN_POSITIVE_BAGS, default_adaboost_config, folds_from_scans, train_with_cross_validation,
 };
 use tether_laser::{AdaBoostConfig, DetectorConfig, LegClassifier, LegDetector};
 
@@ -91,20 +92,56 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         max_depth: args.depth,
         ..default_adaboost_config()
     };
-    let positives = labelled_scans(&args.data, &TRAIN_POSITIVE_BAGS)?;
-    let negatives = negative_scans(&args.data, &TRAIN_NEGATIVE_TOPICS)?;
     let mut detector = LegDetector::arc(DetectorConfig::default(), RangeNoiseModel::default())?;
-    let started = std::time::Instant::now();
-    let (model, set) = train_from_scans(
+    let mut bags = Vec::new();
+    for bag in TRAIN_POSITIVE_BAGS {
+        bags.push((bag, labelled_scans(&args.data, &[bag])?));
+    }
+    let mut topics = Vec::new();
+    for topic in TRAIN_NEGATIVE_TOPICS {
+        topics.push(negative_scans(&args.data, &[topic])?);
+    }
+    let folds = folds_from_scans(
         &mut detector,
-        positives.iter().map(|(s, l)| (s, l.as_slice())),
-        negatives.iter(),
-        &config,
-        provenance(&config),
-    )?;
+        &bags
+            .iter()
+            .map(|(name, scans)| (*name, scans.as_slice()))
+            .collect::<Vec<_>>(),
+        &topics.iter().map(Vec::as_slice).collect::<Vec<_>>(),
+    );
+    let started = std::time::Instant::now();
+    let (model, set, cv) = train_with_cross_validation(&folds, &config)?;
     println!(
-        "trained {} trees of depth {} on {} legs and {} non-legs in {:.1} s ({} labelled legs \
-         matched no segment)",
+        "cross-validation ({} folds: one positive bag and a block of the negative scans \
+         each), detections within 0.15 m of a label:",
+        folds.len()
+    );
+    println!("fold     TP     FP     FN   precision recall");
+    for (k, c) in cv.fold_counts.iter().enumerate() {
+        println!(
+            "{:<5} {:>5} {:>6} {:>6}   {:>9.3} {:>6.3}",
+            k + 1,
+            c.true_positives,
+            c.false_positives,
+            c.false_negatives,
+            c.precision(),
+            c.recall()
+        );
+    }
+    let c = cv.best_counts();
+    println!(
+        "all   {:>5} {:>6} {:>6}   {:>9.3} {:>6.3}   (decision margin {}: the highest F1, {:.3})",
+        c.true_positives,
+        c.false_positives,
+        c.false_negatives,
+        c.precision(),
+        c.recall(),
+        cv.margin(),
+        c.f1()
+    );
+    println!(
+        "trained {} trees of depth {} on {} legs and {} non-legs in {:.1} s, cross-validation \
+         included ({} labelled legs matched no cluster)",
         model.trees.len(),
         config.max_depth,
         set.positives(),
