@@ -85,10 +85,26 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", error_text(&err));
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// An error with its causes, `outer: inner: ...`, leaving out a cause whose text the
+/// message before it already holds (many errors quote their source).
+fn error_text(err: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in err.chain() {
+        let part = cause.to_string();
+        if text.is_empty() {
+            text = part;
+        } else if !text.contains(&part) {
+            text.push_str(": ");
+            text.push_str(&part);
+        }
+    }
+    text
 }
 
 fn init_logging(verbose: u8) {
@@ -105,4 +121,32 @@ fn init_logging(verbose: u8) {
         .with_target(false)
         .without_time()
         .init();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::error_text;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("inner failure at byte 7")]
+    struct Inner;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("cannot decode: {0}")]
+    struct Quoting(#[source] Inner);
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("cannot decode")]
+    struct Plain(#[source] Inner);
+
+    #[test]
+    fn causes_are_printed_once() {
+        let quoting = anyhow::Error::new(Quoting(Inner)).context("reading a.jpg");
+        assert_eq!(
+            error_text(&quoting),
+            "reading a.jpg: cannot decode: inner failure at byte 7"
+        );
+        let plain = anyhow::Error::new(Plain(Inner));
+        assert_eq!(error_text(&plain), "cannot decode: inner failure at byte 7");
+    }
 }
