@@ -101,6 +101,13 @@ pub struct TrackerConfig {
     /// A track updated by the laser within this long takes only the bearing of a
     /// vision observation, s (0: always the full position).
     pub laser_support_s: f64,
+    /// A camera observation updates no track that another confirmed track is closer to
+    /// than this, m (0: no such rule). Two people closer than about a body width (0.5 m)
+    /// overlap in the image: the box, and the range the monocular model reads from it,
+    /// may be either one's or both merged, and giving it to the wrong track at a crossing
+    /// drags that track onto the other person; the laser, which resolves their legs,
+    /// updates them alone until they part.
+    pub vision_min_separation_m: f64,
 }
 
 impl Default for TrackerConfig {
@@ -117,6 +124,7 @@ impl Default for TrackerConfig {
             laser_update: UpdateRule::Kalman,
             vision_update: UpdateRule::CovarianceIntersection,
             laser_support_s: 0.5,
+            vision_min_separation_m: 0.5,
         }
     }
 }
@@ -145,12 +153,17 @@ impl TrackerConfig {
             ("max_position_sigma_m", self.max_position_sigma_m),
             ("max_observation_sigma_m", self.max_observation_sigma_m),
         ];
-        if !(self.laser_support_s.is_finite() && self.laser_support_s >= 0.0) {
-            return Err(TrackerConfigError {
-                field: "laser_support_s",
-                value: self.laser_support_s,
-                why: "must be >= 0",
-            });
+        for (field, value) in [
+            ("laser_support_s", self.laser_support_s),
+            ("vision_min_separation_m", self.vision_min_separation_m),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(TrackerConfigError {
+                    field,
+                    value,
+                    why: "must be >= 0",
+                });
+            }
         }
         for (field, value) in positive {
             if !(value.is_finite() && value > 0.0) {
@@ -365,6 +378,21 @@ impl Tracker {
         for (ti, oi) in assignment.iter().enumerate() {
             let Some(oi) = *oi else { continue };
             let o = &observations[oi];
+            // Two people closer than a body width overlap in the image: a box and its
+            // range may be either one's (or both merged), so only the laser updates them
+            // (`vision_min_separation_m`).
+            if o.source == Source::Vision && self.config.vision_min_separation_m > 0.0 {
+                let here = self.tracks[ti].position().mean;
+                let crowded = self.tracks.iter().enumerate().any(|(tj, u)| {
+                    tj != ti
+                        && u.confirmed
+                        && u.position().mean.distance_m(here) < self.config.vision_min_separation_m
+                });
+                if crowded {
+                    self.stats.ambiguous_observations += 1;
+                    continue;
+                }
+            }
             let t = &mut self.tracks[ti];
             let before = t.filter;
             let laser_support = t
@@ -512,6 +540,41 @@ mod tests {
         assert!(tr.tracks().iter().all(|t| t.confirmed));
         let a = tr.track(ids.unwrap().0).unwrap();
         assert!((a.velocity().x - 1.0).abs() < 0.1);
+    }
+
+    #[test]
+    fn camera_leaves_people_closer_than_a_body_width_to_the_laser() {
+        // Two confirmed tracks, `gap` apart; a camera observation on the first.
+        let hits_after_camera = |gap: f64| {
+            let mut tr = Tracker::new(TrackerConfig::default()).unwrap();
+            for k in 0..5 {
+                tr.process(
+                    at(100 * k),
+                    &[obs(2.0, 0.0, Source::Laser), obs(2.0, gap, Source::Laser)],
+                );
+            }
+            let before = tr.stats().ambiguous_observations;
+            let r = tr.process(at(550), &[obs(2.0, -0.05, Source::Vision)]);
+            (
+                r.track_of[0].is_some(),
+                tr.stats().ambiguous_observations - before,
+            )
+        };
+        assert_eq!(
+            hits_after_camera(0.4),
+            (false, 1),
+            "too close: left to the laser"
+        );
+        assert_eq!(
+            hits_after_camera(1.0),
+            (true, 0),
+            "apart: the camera updates"
+        );
+        let c = TrackerConfig {
+            vision_min_separation_m: -0.5,
+            ..TrackerConfig::default()
+        };
+        assert!(c.validate().is_err());
     }
 
     #[test]
