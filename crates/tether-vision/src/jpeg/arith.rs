@@ -11,6 +11,7 @@
 //! warning.
 
 use super::huffman::NATURAL_ORDER;
+use super::scan::ScanState;
 use super::source::Source;
 use super::{Decoder, Warning};
 
@@ -180,73 +181,39 @@ pub(crate) struct ArithScan {
     /// DC and AC table of each component of the scan.
     pub dc_tbl: Vec<usize>,
     pub ac_tbl: Vec<usize>,
-    /// Per block of an MCU: index into the scan's components.
-    pub membership: Vec<usize>,
     pub conditioning: Conditioning,
 }
 
 /// The arithmetic decoder's registers and statistics for one scan.
 pub(crate) struct ArithDecoder {
+    coder: Coder,
+    last_dc: [i32; 4],
+    dc_context: [usize; 4],
+    dc_stats: Vec<[u8; DC_BINS]>,
+    ac_stats: Vec<[u8; AC_BINS]>,
+    fixed_bin: u8,
+    scan: ArithScan,
+}
+
+/// The decoder's registers (T.81 D.2, as `jdarith.c` keeps them).
+#[derive(Debug, Clone, Copy)]
+struct Coder {
     /// Code register: interval base and input bits.
     c: i64,
     /// Interval size.
     a: i64,
     /// Input bits left in `c` (-16 before the first two bytes, -1 after an error).
     ct: i32,
-    last_dc: [i32; 4],
-    dc_context: [usize; 4],
-    dc_stats: Vec<[u8; DC_BINS]>,
-    ac_stats: Vec<[u8; AC_BINS]>,
-    fixed_bin: u8,
-    pub restarts_to_go: u32,
-    scan: ArithScan,
 }
 
-impl ArithDecoder {
-    /// `start_pass`: statistics of the scan's tables cleared, registers reset.
-    pub(crate) fn new(scan: ArithScan, restart_interval: u32) -> ArithDecoder {
-        let mut d = ArithDecoder {
+impl Coder {
+    /// Registers that read two bytes before the first decision.
+    fn new() -> Coder {
+        Coder {
             c: 0,
             a: 0,
             ct: -16,
-            last_dc: [0; 4],
-            dc_context: [0; 4],
-            dc_stats: vec![[0; DC_BINS]; TABLES],
-            ac_stats: vec![[0; AC_BINS]; TABLES],
-            fixed_bin: 113,
-            restarts_to_go: restart_interval,
-            scan,
-        };
-        d.reset_statistics();
-        d
-    }
-
-    fn reset_statistics(&mut self) {
-        let s = &self.scan;
-        for ci in 0..s.dc_tbl.len() {
-            if !s.progressive || (s.ss == 0 && s.ah == 0) {
-                if let Some(bins) = self.dc_stats.get_mut(s.dc_tbl[ci]) {
-                    *bins = [0; DC_BINS];
-                }
-                self.last_dc[ci] = 0;
-                self.dc_context[ci] = 0;
-            }
-            if (!s.progressive || s.ss != 0)
-                && let Some(bins) = self.ac_stats.get_mut(s.ac_tbl[ci])
-            {
-                *bins = [0; AC_BINS];
-            }
         }
-    }
-
-    /// `process_restart` after the restart marker was read: statistics and registers
-    /// start again.
-    pub(crate) fn restart(&mut self, restart_interval: u32) {
-        self.reset_statistics();
-        self.c = 0;
-        self.a = 0;
-        self.ct = -16;
-        self.restarts_to_go = restart_interval;
     }
 
     /// `arith_decode`: one binary decision with the statistics bin `bin`.
@@ -315,58 +282,127 @@ impl ArithDecoder {
         }
         symbol >> 7 != 0
     }
+}
+
+/// Which statistics bins a decision uses: a DC or an AC table's.
+#[derive(Debug, Clone, Copy)]
+enum Bins {
+    Dc(usize),
+    Ac(usize),
+}
+
+impl ArithDecoder {
+    /// `start_pass`: statistics of the scan's tables cleared, registers reset.
+    pub(crate) fn new(scan: ArithScan) -> ArithDecoder {
+        let mut d = ArithDecoder {
+            coder: Coder::new(),
+            last_dc: [0; 4],
+            dc_context: [0; 4],
+            dc_stats: vec![[0; DC_BINS]; TABLES],
+            ac_stats: vec![[0; AC_BINS]; TABLES],
+            fixed_bin: 113,
+            scan,
+        };
+        d.reset_statistics();
+        d
+    }
+
+    fn reset_statistics(&mut self) {
+        let s = &self.scan;
+        for ci in 0..s.dc_tbl.len() {
+            if !s.progressive || (s.ss == 0 && s.ah == 0) {
+                if let Some(bins) = self.dc_stats.get_mut(s.dc_tbl[ci]) {
+                    *bins = [0; DC_BINS];
+                }
+                self.last_dc[ci] = 0;
+                self.dc_context[ci] = 0;
+            }
+            if (!s.progressive || s.ss != 0)
+                && let Some(bins) = self.ac_stats.get_mut(s.ac_tbl[ci])
+            {
+                *bins = [0; AC_BINS];
+            }
+        }
+    }
+
+    /// `process_restart` after the restart marker was read: statistics and registers
+    /// start again.
+    pub(crate) fn restart(&mut self) {
+        self.reset_statistics();
+        self.coder = Coder::new();
+    }
 
     /// The fixed one-half bin.
     fn decode_fixed(&mut self, src: &mut Source<'_>) -> bool {
-        let mut bin = self.fixed_bin;
-        let bit = self.decode(src, &mut bin);
-        self.fixed_bin = bin;
-        bit
+        self.coder.decode(src, &mut self.fixed_bin)
     }
 
-    fn dc_bin(&mut self, src: &mut Source<'_>, tbl: usize, i: usize) -> bool {
-        let mut bin = self.dc_stats[tbl][i];
-        let bit = self.decode(src, &mut bin);
-        self.dc_stats[tbl][i] = bin;
-        bit
+    /// A decision with bin `i` of a table's statistics.
+    fn bin(&mut self, src: &mut Source<'_>, bins: Bins, i: usize) -> bool {
+        let stat = match bins {
+            Bins::Dc(t) => &mut self.dc_stats[t][i],
+            Bins::Ac(t) => &mut self.ac_stats[t][i],
+        };
+        self.coder.decode(src, stat)
     }
 
-    fn ac_bin(&mut self, src: &mut Source<'_>, tbl: usize, i: usize) -> bool {
-        let mut bin = self.ac_stats[tbl][i];
-        let bit = self.decode(src, &mut bin);
-        self.ac_stats[tbl][i] = bin;
-        bit
+    /// Figure F.23's loop: doubles the magnitude category bound `m` while the bins from
+    /// `st` on say so; `None` (and the error state) past 15 bits. Returns `m` and the bin
+    /// after the last one read.
+    fn widen(
+        &mut self,
+        src: &mut Source<'_>,
+        bins: Bins,
+        mut m: i32,
+        mut st: usize,
+    ) -> Option<(i32, usize)> {
+        while self.bin(src, bins, st) {
+            m <<= 1;
+            if m == 0x8000 {
+                self.overflow(src);
+                return None;
+            }
+            st += 1;
+        }
+        Some((m, st))
+    }
+
+    /// Figure F.24: the bits of the magnitude below `m`, from bin `st`, plus one.
+    fn magnitude(&mut self, src: &mut Source<'_>, bins: Bins, mut m: i32, st: usize) -> i32 {
+        let mut v = m;
+        while {
+            m >>= 1;
+            m != 0
+        } {
+            if self.bin(src, bins, st) {
+                v |= m;
+            }
+        }
+        v + 1
     }
 
     /// Marks the scan broken after damaged data (`ct = -1`) and warns.
     fn overflow(&mut self, src: &mut Source<'_>) {
         src.warnings
             .push(Warning::BadArithmeticCode { offset: src.pos() });
-        self.ct = -1;
+        self.coder.ct = -1;
     }
 
     /// A DC difference (F.1.4.4.1, Figures F.19-F.24) of scan component `ci`; `None` after
     /// a magnitude overflow.
     fn dc_diff(&mut self, src: &mut Source<'_>, ci: usize) -> Option<i32> {
         let tbl = self.scan.dc_tbl[ci] % TABLES;
+        let bins = Bins::Dc(tbl);
         let mut st = self.dc_context[ci];
-        if !self.dc_bin(src, tbl, st) {
+        if !self.bin(src, bins, st) {
             self.dc_context[ci] = 0;
             return Some(0);
         }
-        let sign = usize::from(self.dc_bin(src, tbl, st + 1));
+        let sign = usize::from(self.bin(src, bins, st + 1));
         st += 2 + sign;
-        let mut m: i32 = i32::from(self.dc_bin(src, tbl, st));
+        let mut m = i32::from(self.bin(src, bins, st));
         if m != 0 {
-            st = 20;
-            while self.dc_bin(src, tbl, st) {
-                m <<= 1;
-                if m == 0x8000 {
-                    self.overflow(src);
-                    return None;
-                }
-                st += 1;
-            }
+            (m, st) = self.widen(src, bins, m, 20)?;
         }
         let cond = &self.scan.conditioning;
         let (l, u) = (cond.dc_l[tbl], cond.dc_u[tbl]);
@@ -377,17 +413,7 @@ impl ArithDecoder {
         } else {
             4 + sign * 4
         };
-        let mut v = m;
-        st += 14;
-        while {
-            m >>= 1;
-            m != 0
-        } {
-            if self.dc_bin(src, tbl, st) {
-                v |= m;
-            }
-        }
-        v += 1;
+        let v = self.magnitude(src, bins, m, st + 14);
         Some(if sign != 0 { -v } else { v })
     }
 
@@ -400,36 +426,19 @@ impl ArithDecoder {
         k: usize,
         mut st: usize,
     ) -> Option<i32> {
+        let bins = Bins::Ac(tbl);
         let sign = self.decode_fixed(src);
         st += 2;
-        let mut m: i32 = i32::from(self.ac_bin(src, tbl, st));
-        if m != 0 && self.ac_bin(src, tbl, st) {
-            m <<= 1;
-            st = if k <= usize::from(self.scan.conditioning.ac_k[tbl]) {
+        let mut m = i32::from(self.bin(src, bins, st));
+        if m != 0 && self.bin(src, bins, st) {
+            let first = if k <= usize::from(self.scan.conditioning.ac_k[tbl]) {
                 189
             } else {
                 217
             };
-            while self.ac_bin(src, tbl, st) {
-                m <<= 1;
-                if m == 0x8000 {
-                    self.overflow(src);
-                    return None;
-                }
-                st += 1;
-            }
+            (m, st) = self.widen(src, bins, 2, first)?;
         }
-        let mut v = m;
-        st += 14;
-        while {
-            m >>= 1;
-            m != 0
-        } {
-            if self.ac_bin(src, tbl, st) {
-                v |= m;
-            }
-        }
-        v += 1;
+        let v = self.magnitude(src, bins, m, st + 14);
         Some(if sign { -v } else { v })
     }
 
@@ -446,10 +455,10 @@ impl ArithDecoder {
         let mut k = first;
         while k <= last {
             let mut st = 3 * (k - 1);
-            if self.ac_bin(src, tbl, st) {
+            if self.bin(src, Bins::Ac(tbl), st) {
                 break; // end of block
             }
-            while !self.ac_bin(src, tbl, st + 1) {
+            while !self.bin(src, Bins::Ac(tbl), st + 1) {
                 st += 3;
                 k += 1;
                 if k > last {
@@ -466,10 +475,16 @@ impl ArithDecoder {
         true
     }
 
-    /// `decode_mcu` (sequential): every block of the MCU, zeroed by the caller.
-    fn mcu_sequential(&mut self, src: &mut Source<'_>, blocks: &mut [[i16; 64]]) {
+    /// `decode_mcu` (sequential): every block of the MCU, zeroed by the caller;
+    /// `membership` gives each block's component in the scan.
+    fn mcu_sequential(
+        &mut self,
+        src: &mut Source<'_>,
+        membership: &[usize],
+        blocks: &mut [[i16; 64]],
+    ) {
         for (b, block) in blocks.iter_mut().enumerate() {
-            let Some(&ci) = self.scan.membership.get(b) else {
+            let Some(&ci) = membership.get(b) else {
                 return;
             };
             let Some(diff) = self.dc_diff(src, ci) else {
@@ -488,10 +503,15 @@ impl ArithDecoder {
     }
 
     /// `decode_mcu_DC_first`.
-    fn mcu_dc_first(&mut self, src: &mut Source<'_>, blocks: &mut [[i16; 64]]) {
+    fn mcu_dc_first(
+        &mut self,
+        src: &mut Source<'_>,
+        membership: &[usize],
+        blocks: &mut [[i16; 64]],
+    ) {
         let al = self.scan.al;
         for (b, block) in blocks.iter_mut().enumerate() {
-            let Some(&ci) = self.scan.membership.get(b) else {
+            let Some(&ci) = membership.get(b) else {
                 return;
             };
             let Some(diff) = self.dc_diff(src, ci) else {
@@ -542,18 +562,18 @@ impl ArithDecoder {
         let mut k = ss;
         while k <= se {
             let mut st = 3 * (k - 1);
-            if k > kex && self.ac_bin(src, tbl, st) {
+            if k > kex && self.bin(src, Bins::Ac(tbl), st) {
                 break; // end of block
             }
             loop {
                 let coef = &mut block[NATURAL_ORDER[k]];
                 if *coef != 0 {
-                    if self.ac_bin(src, tbl, st + 2) {
+                    if self.bin(src, Bins::Ac(tbl), st + 2) {
                         *coef = coef.wrapping_add(if *coef < 0 { m1 } else { p1 });
                     }
                     break;
                 }
-                if self.ac_bin(src, tbl, st + 1) {
+                if self.bin(src, Bins::Ac(tbl), st + 1) {
                     *coef = if self.decode_fixed(src) { m1 } else { p1 };
                     break;
                 }
@@ -570,15 +590,21 @@ impl ArithDecoder {
 }
 
 impl Decoder<'_> {
-    /// One MCU of an arithmetic-coded scan, restart marker first when one is due.
-    pub(crate) fn decode_mcu_arith(&mut self, d: &mut ArithDecoder, blocks: &mut [[i16; 64]]) {
+    /// One MCU of an arithmetic-coded scan (`st.arith`), restart marker first when one
+    /// is due.
+    pub(crate) fn decode_mcu_arith(&mut self, st: &mut ScanState, blocks: &mut [[i16; 64]]) {
+        let Some(d) = st.arith.as_mut() else {
+            return;
+        };
         if self.restart_interval != 0 {
-            if d.restarts_to_go == 0 {
+            if st.restarts_to_go == 0 {
                 self.read_restart_marker();
-                d.restart(self.restart_interval);
+                d.restart();
+                st.restarts_to_go = self.restart_interval;
             }
-            d.restarts_to_go = d.restarts_to_go.wrapping_sub(1);
+            st.restarts_to_go = st.restarts_to_go.wrapping_sub(1);
         }
+        let membership = &st.membership;
         let s = &d.scan;
         let (progressive, ss, ah) = (s.progressive, s.ss, s.ah);
         // The DC refinement decodes even in the error state; the others stop.
@@ -586,13 +612,13 @@ impl Decoder<'_> {
             d.mcu_dc_refine(&mut self.src, blocks);
             return;
         }
-        if d.ct == -1 {
+        if d.coder.ct == -1 {
             return;
         }
         let src = &mut self.src;
         match (progressive, ss == 0, ah == 0) {
-            (false, _, _) => d.mcu_sequential(src, blocks),
-            (true, true, _) => d.mcu_dc_first(src, blocks),
+            (false, _, _) => d.mcu_sequential(src, membership, blocks),
+            (true, true, _) => d.mcu_dc_first(src, membership, blocks),
             (true, false, true) => d.mcu_ac_first(src, blocks),
             (true, false, false) => d.mcu_ac_refine(src, blocks),
         }

@@ -17,7 +17,7 @@ const MAX_BLOCKS_IN_MCU: usize = 10;
 pub(crate) struct ScanState {
     pub bits: BitReader,
     /// Per block of an MCU: index into the scan's components.
-    membership: Vec<usize>,
+    pub membership: Vec<usize>,
     pub mcus_per_row: usize,
     /// For a single-component scan, the component's block rows; for an interleaved one,
     /// MCU rows.
@@ -30,7 +30,7 @@ pub(crate) struct ScanState {
     dc: Vec<Option<HuffTable>>,
     ac: Vec<Option<HuffTable>>,
     /// The arithmetic decoder of an arithmetic-coded scan (then `dc` and `ac` are empty).
-    arith: Option<ArithDecoder>,
+    pub arith: Option<ArithDecoder>,
 }
 
 impl Decoder<'_> {
@@ -153,63 +153,44 @@ impl Decoder<'_> {
             )
         };
         let progressive = frame.process == Process::Progressive;
+        let (mut dc, mut ac, mut arith) = (Vec::new(), Vec::new(), None);
         if frame.arithmetic {
-            let arith = ArithDecoder::new(
-                ArithScan {
-                    progressive,
-                    ss: scan.ss,
-                    se: scan.se,
-                    ah: scan.ah,
-                    al: scan.al,
-                    dc_tbl: scan
-                        .comps
-                        .iter()
-                        .map(|&ci| frame.comps[ci].dc_tbl)
-                        .collect(),
-                    ac_tbl: scan
-                        .comps
-                        .iter()
-                        .map(|&ci| frame.comps[ci].ac_tbl)
-                        .collect(),
-                    membership: membership.clone(),
-                    conditioning: self.conditioning,
-                },
-                self.restart_interval,
-            );
-            return Ok(ScanState {
-                bits: BitReader::new(),
-                membership,
-                mcus_per_row,
-                mcu_rows,
-                rows_per_imcu,
-                restarts_to_go: self.restart_interval,
-                last_dc: [0; 4],
-                eobrun: 0,
-                dc: Vec::new(),
-                ac: Vec::new(),
-                arith: Some(arith),
-            });
-        }
-        // Tables: which ones a scan of this kind uses.
-        let (want_dc, want_ac) = if progressive {
-            (scan.ss == 0 && scan.ah == 0, scan.ss != 0)
+            let tables = |pick: fn(&super::Component) -> usize| {
+                scan.comps
+                    .iter()
+                    .map(|&ci| pick(&frame.comps[ci]))
+                    .collect()
+            };
+            arith = Some(ArithDecoder::new(ArithScan {
+                progressive,
+                ss: scan.ss,
+                se: scan.se,
+                ah: scan.ah,
+                al: scan.al,
+                dc_tbl: tables(|c| c.dc_tbl),
+                ac_tbl: tables(|c| c.ac_tbl),
+                conditioning: self.conditioning,
+            }));
         } else {
-            (true, true)
-        };
-        let mut dc: Vec<Option<HuffTable>> = Vec::new();
-        let mut ac: Vec<Option<HuffTable>> = Vec::new();
-        for &ci in &scan.comps {
-            let c = &frame.comps[ci];
-            dc.push(if want_dc {
-                Some(self.table(true, c.dc_tbl, at)?)
+            // Huffman tables: which ones a scan of this kind uses.
+            let (want_dc, want_ac) = if progressive {
+                (scan.ss == 0 && scan.ah == 0, scan.ss != 0)
             } else {
-                None
-            });
-            ac.push(if want_ac {
-                Some(self.table(false, c.ac_tbl, at)?)
-            } else {
-                None
-            });
+                (true, true)
+            };
+            for &ci in &scan.comps {
+                let c = &frame.comps[ci];
+                dc.push(if want_dc {
+                    Some(self.table(true, c.dc_tbl, at)?)
+                } else {
+                    None
+                });
+                ac.push(if want_ac {
+                    Some(self.table(false, c.ac_tbl, at)?)
+                } else {
+                    None
+                });
+            }
         }
         Ok(ScanState {
             bits: BitReader::new(),
@@ -222,7 +203,7 @@ impl Decoder<'_> {
             eobrun: 0,
             dc,
             ac,
-            arith: None,
+            arith,
         })
     }
 
@@ -321,12 +302,10 @@ impl Decoder<'_> {
         for mcu_row in 0..st.mcu_rows {
             for mcu_col in 0..st.mcus_per_row {
                 blocks[..n_blocks].fill([0; 64]);
-                match st.arith.take() {
-                    Some(mut arith) => {
-                        self.decode_mcu_arith(&mut arith, &mut blocks[..n_blocks]);
-                        st.arith = Some(arith);
-                    }
-                    None => self.decode_mcu_sequential(&mut st, &mut blocks[..n_blocks], &needed),
+                if st.arith.is_some() {
+                    self.decode_mcu_arith(&mut st, &mut blocks[..n_blocks]);
+                } else {
+                    self.decode_mcu_sequential(&mut st, &mut blocks[..n_blocks], &needed);
                 }
                 // IDCT the blocks inside the component (not the MCU padding).
                 let mut b = 0;
@@ -394,9 +373,8 @@ impl Decoder<'_> {
                     *slot = frame.comps[ci].coefs[idx];
                 }
                 let n = positions.len();
-                if let Some(mut arith) = st.arith.take() {
-                    self.decode_mcu_arith(&mut arith, &mut mcu[..n]);
-                    st.arith = Some(arith);
+                if st.arith.is_some() {
+                    self.decode_mcu_arith(&mut st, &mut mcu[..n]);
                 } else if progressive {
                     if let Err(e) = self.decode_mcu_progressive(&mut st, &mut mcu[..n]) {
                         result = Err(e);
