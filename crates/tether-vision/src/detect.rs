@@ -1143,16 +1143,41 @@ struct LevelTables {
     /// Stumps in the detector's evaluation order (stump cascades only).
     stumps: Vec<LevelStump>,
     /// The same stumps for the lanes' quick path.
-    lane_stumps: Vec<LaneStump>,
-    /// The same again, checked for the AVX2 scan.
-    #[cfg(target_arch = "x86_64")]
-    table8: Option<avx2::Table>,
+    lane: LaneStumps,
     /// Tree nodes in the cascade's order (tree cascades only).
     nodes: Vec<LevelNode>,
     norm_main: [u32; 4],
     norm_sq: [u32; 4],
     area: f64,
     fits_view: bool,
+}
+
+/// A level's stumps for the lane scans; checked for the AVX2 scan's loads when all
+/// their offsets fit its view.
+#[derive(Debug)]
+enum LaneStumps {
+    Plain(Vec<LaneStump>),
+    #[cfg(target_arch = "x86_64")]
+    Checked(avx2::Table),
+}
+
+impl LaneStumps {
+    fn stumps(&self) -> &[LaneStump] {
+        match self {
+            LaneStumps::Plain(s) => s,
+            #[cfg(target_arch = "x86_64")]
+            LaneStumps::Checked(t) => t.stumps(),
+        }
+    }
+
+    /// The checked table, if the stumps are checked.
+    #[cfg(target_arch = "x86_64")]
+    fn table8(&self) -> Option<&avx2::Table> {
+        match self {
+            LaneStumps::Checked(t) => Some(t),
+            LaneStumps::Plain(_) => None,
+        }
+    }
 }
 
 /// What identifies a level's buffer layout: (main stride, row length, de-interleaved).
@@ -1245,14 +1270,17 @@ impl LevelTables {
             .map(|(s, l)| LaneStump::new(s, l))
             .collect();
         let area = f64::from((ww - 2) * (wh - 2));
+        #[cfg(target_arch = "x86_64")]
+        let lane = if stumps.is_empty() {
+            LaneStumps::Plain(lane_stumps)
+        } else {
+            avx2::Table::new(lane_stumps, norm_main, norm_sq, area)
+                .map_or_else(LaneStumps::Plain, LaneStumps::Checked)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let lane = LaneStumps::Plain(lane_stumps);
         LevelTables {
-            #[cfg(target_arch = "x86_64")]
-            table8: if stumps.is_empty() {
-                None
-            } else {
-                avx2::Table::new(&lane_stumps, norm_main, norm_sq, area)
-            },
-            lane_stumps,
+            lane,
             stumps,
             nodes,
             norm_main,
@@ -1274,7 +1302,7 @@ impl LevelEval<'_> {
         if let (Some(token), Some(stages), Some(table)) = (
             self.detector.avx2,
             self.detector.stages8.as_deref(),
-            self.t.table8.as_ref(),
+            self.t.lane.table8(),
         ) {
             self.scan_row_8(token, stages, table, planes, level, y, hits);
             return;
@@ -1443,7 +1471,7 @@ impl LevelEval<'_> {
     ) -> ([bool; LANES], [bool; LANES]) {
         let plan = &self.detector.plans[si];
         if let (Some(approx), Some(runs)) = (plan.approx, plan.runs) {
-            let stumps = &self.t.lane_stumps[plan.first..plan.first + plan.count];
+            let stumps = &self.t.lane.stumps()[plan.first..plan.first + plan.count];
             let mut sum = [f32x4::splat(approx.start); 2];
             for_each_kind!(runs, stumps, |K, run| accumulate_approx_pair::<K>(
                 run, main, norm, &mut sum
@@ -1505,7 +1533,7 @@ impl LevelEval<'_> {
     ) -> [bool; LANES] {
         let plan = &self.detector.plans[si];
         if let (Some(approx), Some(runs)) = (plan.approx, plan.runs) {
-            let stumps = &self.t.lane_stumps[plan.first..plan.first + plan.count];
+            let stumps = &self.t.lane.stumps()[plan.first..plan.first + plan.count];
             let mut sum = f32x4::splat(approx.start);
             for_each_kind!(runs, stumps, |K, run| accumulate_approx::<K>(
                 run, main, norm, &mut sum

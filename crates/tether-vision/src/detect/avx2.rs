@@ -103,23 +103,31 @@ pub(super) struct Table {
 }
 
 impl Table {
-    /// The table, or `None` when an offset is not below `VIEW`.
+    /// The table, or the stumps back when an offset is not below `VIEW`.
     pub(super) fn new(
-        stumps: &[LaneStump],
+        stumps: Vec<LaneStump>,
         norm_main: [u32; 4],
         norm_sq: [u32; 4],
         area: f64,
-    ) -> Option<Table> {
+    ) -> Result<Table, Vec<LaneStump>> {
         let inside = |o: &u32| (*o as usize) < VIEW;
         let ok = stumps.iter().all(|s| s.ofs.iter().all(inside))
             && norm_main.iter().all(inside)
             && norm_sq.iter().all(inside);
-        ok.then(|| Table {
-            stumps: stumps.to_vec(),
+        if !ok {
+            return Err(stumps);
+        }
+        Ok(Table {
+            stumps,
             norm_main,
             norm_sq,
             area,
         })
+    }
+
+    /// The stumps, in the detector's evaluation order.
+    pub(super) fn stumps(&self) -> &[LaneStump] {
+        &self.stumps
     }
 }
 
