@@ -3,9 +3,13 @@
 //! so that the benchmark needs no recordings.
 //!
 //! `*_real` benchmarks run on the 435 scans of `/rear_scan` of leg_tracker's
-//! `negative_2.bag` (768 beams, a cluttered room: 20-25 candidate clusters a scan), one
-//! scan per iteration in turn, so that the median is that of a real scan; without
-//! `../shared` beside the checkout they say so and measure nothing.
+//! `negative_2.bag` (a UHG-08LX in a cluttered room), one scan per iteration in turn,
+//! so that the median is that of a real scan: `*_real_768` as recorded (768 beams over
+//! 270 deg, 20-25 candidate clusters a scan), `*_real_urg` as the paper's URG-04LX
+//! would see the same room: both scanners step 360/1024 deg, so the URG-04LX's 683
+//! beams over 240 deg are the middle 683 of the 768, and its 5.6 m range limit turns
+//! farther returns into "no return" (about 12 candidates a scan). Without `../shared`
+//! beside the checkout they say so and measure nothing.
 //!
 //! Run: `cargo bench -p tether-laser --bench detect`.
 
@@ -47,20 +51,13 @@ fn run(bencher: Bencher, mut detector: LegDetector) {
 /// The learned classifier: features of every candidate, boosted trees, pairing.
 #[divan::bench]
 fn learned(bencher: Bencher) {
-    let model = LegClassifier::default_model().unwrap();
-    run(
-        bencher,
-        LegDetector::learned(DetectorConfig::default(), RangeNoiseModel::default(), model).unwrap(),
-    );
+    run(bencher, learned_detector());
 }
 
 /// The paper's arc test and pairing.
 #[divan::bench]
 fn arc(bencher: Bencher) {
-    run(
-        bencher,
-        LegDetector::arc(DetectorConfig::default(), RangeNoiseModel::default()).unwrap(),
-    );
+    run(bencher, arc_detector());
 }
 
 /// The rear scans of leg_tracker's room without people, if `../shared` is there.
@@ -76,8 +73,38 @@ fn real_scans() -> Vec<LaserScan> {
     }
 }
 
-fn run_real(bencher: Bencher, mut detector: LegDetector) {
-    let scans = real_scans();
+/// URG-04LX: 683 beams, range limit 5.6 m.
+const URG_BEAMS: usize = 683;
+const URG_RANGE_MAX_M: f32 = 5.6;
+
+/// `scan` as a URG-04LX at the same place would see it: the middle [`URG_BEAMS`]
+/// beams, returns beyond [`URG_RANGE_MAX_M`] dropped.
+fn as_urg(scan: &LaserScan) -> LaserScan {
+    let skip = scan.len().saturating_sub(URG_BEAMS) / 2;
+    let ranges = scan.ranges_m()[skip..]
+        .iter()
+        .take(URG_BEAMS)
+        .map(|&r| {
+            if r <= URG_RANGE_MAX_M {
+                r
+            } else {
+                f32::INFINITY
+            }
+        })
+        .collect();
+    LaserScan::new(
+        scan.stamp,
+        scan.frame_id.clone(),
+        scan.angle_rad(skip),
+        scan.angle_increment_rad,
+        0.02,
+        f64::from(URG_RANGE_MAX_M),
+        ranges,
+    )
+    .unwrap()
+}
+
+fn run_real(bencher: Bencher, mut detector: LegDetector, scans: &[LaserScan]) {
     let mut out = Detection::default();
     let mut next = 0;
     bencher.bench_local(|| {
@@ -89,21 +116,37 @@ fn run_real(bencher: Bencher, mut detector: LegDetector) {
     });
 }
 
-/// The learned classifier on real cluttered 768-beam scans.
-#[divan::bench(sample_size = 1, sample_count = 4350)]
-fn learned_real(bencher: Bencher) {
+fn learned_detector() -> LegDetector {
     let model = LegClassifier::default_model().unwrap();
-    run_real(
-        bencher,
-        LegDetector::learned(DetectorConfig::default(), RangeNoiseModel::default(), model).unwrap(),
-    );
+    LegDetector::learned(DetectorConfig::default(), RangeNoiseModel::default(), model).unwrap()
 }
 
-/// The arc test on real cluttered 768-beam scans.
+fn arc_detector() -> LegDetector {
+    LegDetector::arc(DetectorConfig::default(), RangeNoiseModel::default()).unwrap()
+}
+
+/// The learned classifier on the real cluttered scans as recorded, 768 beams.
 #[divan::bench(sample_size = 1, sample_count = 4350)]
-fn arc_real(bencher: Bencher) {
-    run_real(
-        bencher,
-        LegDetector::arc(DetectorConfig::default(), RangeNoiseModel::default()).unwrap(),
-    );
+fn learned_real_768(bencher: Bencher) {
+    run_real(bencher, learned_detector(), &real_scans());
+}
+
+/// The arc test on the real cluttered scans as recorded, 768 beams.
+#[divan::bench(sample_size = 1, sample_count = 4350)]
+fn arc_real_768(bencher: Bencher) {
+    run_real(bencher, arc_detector(), &real_scans());
+}
+
+/// The learned classifier on the real cluttered scans as a URG-04LX sees them.
+#[divan::bench(sample_size = 1, sample_count = 4350)]
+fn learned_real_urg(bencher: Bencher) {
+    let scans: Vec<LaserScan> = real_scans().iter().map(as_urg).collect();
+    run_real(bencher, learned_detector(), &scans);
+}
+
+/// The arc test on the real cluttered scans as a URG-04LX sees them.
+#[divan::bench(sample_size = 1, sample_count = 4350)]
+fn arc_real_urg(bencher: Bencher) {
+    let scans: Vec<LaserScan> = real_scans().iter().map(as_urg).collect();
+    run_real(bencher, arc_detector(), &scans);
 }

@@ -303,10 +303,9 @@ fn is_candidate(pts: &[ScanPoint], config: &DetectorConfig) -> bool {
     if pts.len() < config.min_points {
         return false;
     }
-    pts[0]
-        .point_in_laser
-        .distance_m(pts[pts.len() - 1].point_in_laser)
-        <= config.max_width_m
+    // Squared lengths: `hypot` would cost more than the rest of the test.
+    let v = pts[0].point_in_laser - pts[pts.len() - 1].point_in_laser;
+    v.x * v.x + v.y * v.y <= config.max_width_m * config.max_width_m
 }
 
 /// Index of `width_m` in the feature vector.

@@ -439,7 +439,11 @@ fn free_space(
         }
         let d = p.point_in_laser - c;
         let d_sq = d.x * d.x + d.y * d.y;
-        nearest_sq = nearest_sq.min(d_sq);
+        // A select, not `f64::min`: the same for these non-NaN sums (a NaN keeps the
+        // nearest so far either way) and without `min`'s NaN handling.
+        if d_sq < nearest_sq {
+            nearest_sq = d_sq;
+        }
         if d_sq < radii_sq[radii_sq.len() - 1] {
             let footprint = p.range_m * dphi;
             for (s, r_sq) in surface.iter_mut().zip(radii_sq) {
