@@ -38,12 +38,19 @@ fn scan() -> LaserScan {
     scan
 }
 
-fn run(bencher: Bencher, mut detector: LegDetector) {
-    let scan = scan();
+/// Detects in `scans` in turn, one scan per iteration (none if `scans` is empty), after
+/// one scan to size the detector's buffers.
+fn run(bencher: Bencher, mut detector: LegDetector, scans: &[LaserScan]) {
     let mut out = Detection::default();
-    detector.detect_into(&scan, &mut out);
+    if let Some(first) = scans.first() {
+        detector.detect_into(first, &mut out);
+    }
+    let mut next = 0;
     bencher.bench_local(|| {
-        detector.detect_into(black_box(&scan), &mut out);
+        if let Some(scan) = scans.get(next % scans.len().max(1)) {
+            detector.detect_into(black_box(scan), &mut out);
+        }
+        next += 1;
         black_box(out.people.len())
     });
 }
@@ -51,13 +58,13 @@ fn run(bencher: Bencher, mut detector: LegDetector) {
 /// The learned classifier: features of every candidate, boosted trees, pairing.
 #[divan::bench]
 fn learned(bencher: Bencher) {
-    run(bencher, learned_detector());
+    run(bencher, learned_detector(), &[scan()]);
 }
 
 /// The paper's arc test and pairing.
 #[divan::bench]
 fn arc(bencher: Bencher) {
-    run(bencher, arc_detector());
+    run(bencher, arc_detector(), &[scan()]);
 }
 
 /// The rear scans of leg_tracker's room without people, if `../shared` is there.
@@ -104,18 +111,6 @@ fn as_urg(scan: &LaserScan) -> LaserScan {
     .unwrap()
 }
 
-fn run_real(bencher: Bencher, mut detector: LegDetector, scans: &[LaserScan]) {
-    let mut out = Detection::default();
-    let mut next = 0;
-    bencher.bench_local(|| {
-        if let Some(scan) = scans.get(next % scans.len().max(1)) {
-            detector.detect_into(black_box(scan), &mut out);
-        }
-        next += 1;
-        black_box(out.people.len())
-    });
-}
-
 fn learned_detector() -> LegDetector {
     let model = LegClassifier::default_model().unwrap();
     LegDetector::learned(DetectorConfig::default(), RangeNoiseModel::default(), model).unwrap()
@@ -128,25 +123,25 @@ fn arc_detector() -> LegDetector {
 /// The learned classifier on the real cluttered scans as recorded, 768 beams.
 #[divan::bench(sample_size = 1, sample_count = 4350)]
 fn learned_real_768(bencher: Bencher) {
-    run_real(bencher, learned_detector(), &real_scans());
+    run(bencher, learned_detector(), &real_scans());
 }
 
 /// The arc test on the real cluttered scans as recorded, 768 beams.
 #[divan::bench(sample_size = 1, sample_count = 4350)]
 fn arc_real_768(bencher: Bencher) {
-    run_real(bencher, arc_detector(), &real_scans());
+    run(bencher, arc_detector(), &real_scans());
 }
 
 /// The learned classifier on the real cluttered scans as a URG-04LX sees them.
 #[divan::bench(sample_size = 1, sample_count = 4350)]
 fn learned_real_urg(bencher: Bencher) {
     let scans: Vec<LaserScan> = real_scans().iter().map(as_urg).collect();
-    run_real(bencher, learned_detector(), &scans);
+    run(bencher, learned_detector(), &scans);
 }
 
 /// The arc test on the real cluttered scans as a URG-04LX sees them.
 #[divan::bench(sample_size = 1, sample_count = 4350)]
 fn arc_real_urg(bencher: Bencher) {
     let scans: Vec<LaserScan> = real_scans().iter().map(as_urg).collect();
-    run_real(bencher, arc_detector(), &scans);
+    run(bencher, arc_detector(), &scans);
 }

@@ -443,6 +443,10 @@ impl CompiledClassifier {
                 }
                 out.shallow.push(tree);
             }
+            // The records hold every tree: the general layout is not kept twice.
+            out.features = Vec::new();
+            out.thresholds = Vec::new();
+            out.leaves = Vec::new();
         }
         out
     }

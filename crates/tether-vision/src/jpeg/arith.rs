@@ -388,6 +388,14 @@ impl ArithDecoder {
         self.coder.ct = -1;
     }
 
+    /// Component `ci`'s next DC value: the previous one plus [`Self::dc_diff`], kept to
+    /// 16 bits as libjpeg-turbo keeps it; `None` after a magnitude overflow.
+    fn next_dc(&mut self, src: &mut Source<'_>, ci: usize) -> Option<i32> {
+        let diff = self.dc_diff(src, ci)?;
+        self.last_dc[ci] = (self.last_dc[ci] + diff) & 0xffff;
+        Some(self.last_dc[ci])
+    }
+
     /// A DC difference (F.1.4.4.1, Figures F.19-F.24) of scan component `ci`; `None` after
     /// a magnitude overflow.
     fn dc_diff(&mut self, src: &mut Source<'_>, ci: usize) -> Option<i32> {
@@ -487,11 +495,10 @@ impl ArithDecoder {
             let Some(&ci) = membership.get(b) else {
                 return;
             };
-            let Some(diff) = self.dc_diff(src, ci) else {
+            let Some(dc) = self.next_dc(src, ci) else {
                 return;
             };
-            self.last_dc[ci] = (self.last_dc[ci] + diff) & 0xffff;
-            block[0] = self.last_dc[ci] as u16 as i16;
+            block[0] = dc as u16 as i16;
             let tbl = self.scan.ac_tbl[ci] % TABLES;
             let ok = self.ac_band(src, tbl, 1, 63, |k, v| {
                 block[NATURAL_ORDER[k]] = v as i16;
@@ -514,11 +521,10 @@ impl ArithDecoder {
             let Some(&ci) = membership.get(b) else {
                 return;
             };
-            let Some(diff) = self.dc_diff(src, ci) else {
+            let Some(dc) = self.next_dc(src, ci) else {
                 return;
             };
-            self.last_dc[ci] = (self.last_dc[ci] + diff) & 0xffff;
-            block[0] = (self.last_dc[ci] as u32).wrapping_shl(al) as i16;
+            block[0] = (dc as u32).wrapping_shl(al) as i16;
         }
     }
 
