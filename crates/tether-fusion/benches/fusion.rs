@@ -10,7 +10,7 @@
 
 use tether_core::{Cov2, Gaussian2, Point2, Pose2, Stamp, World};
 use tether_fusion::{
-    FusionRule, Gate, Observation, Source, TargetConfig, TargetSelector, Tracker, TrackerConfig,
+    FusionRule, Gate, MotionBounds, Observation, Source, TargetConfig, TargetSelector, Tracker, TrackerConfig,
     complementary_fusion,
 };
 
@@ -86,7 +86,7 @@ fn tick_10_people_30_leg_candidates(bencher: divan::Bencher) {
         })
         .collect();
     let mut tracker = Tracker::new(TrackerConfig::default()).expect("valid");
-    let mut selector = TargetSelector::new(TargetConfig::default());
+    let mut selector = TargetSelector::new(TargetConfig::default(), MotionBounds::default());
     let mut k = 0usize;
     bencher.bench_local(|| {
         let (laser, vision) = &frames[k % frames.len()];
@@ -98,21 +98,14 @@ fn tick_10_people_30_leg_candidates(bencher: divan::Bencher) {
             .iter()
             .map(|f| Observation {
                 source: Source::Fused,
-                estimate: f.estimate,
-                may_spawn: true,
-                bearing: None,
+                ..Observation::laser(f.estimate, true, true)
             })
             .chain(
                 laser
                     .iter()
                     .enumerate()
                     .filter(|(i, _)| !fused.iter().any(|f| f.laser == *i))
-                    .map(|(_, l)| Observation {
-                        source: Source::Laser,
-                        estimate: *l,
-                        may_spawn: true,
-                        bearing: None,
-                    }),
+                    .map(|(_, l)| Observation::laser(*l, true, true)),
             )
             .collect();
         tracker.process(stamp, &obs);

@@ -268,6 +268,20 @@ impl CvFilter {
         true
     }
 
+    /// Limits the speed estimate to `max_speed_mps` (the direction is kept), returns
+    /// whether it had to. A filter pulled faster than any person walks by an
+    /// unlucky association would otherwise carry its track away.
+    pub fn clamp_speed(&mut self, max_speed_mps: f64) -> bool {
+        let speed = self.x[2].hypot(self.x[3]);
+        if speed <= max_speed_mps || !speed.is_finite() {
+            return false;
+        }
+        let k = max_speed_mps / speed;
+        self.x[2] *= k;
+        self.x[3] *= k;
+        true
+    }
+
     /// True when every entry is finite.
     pub fn is_finite(&self) -> bool {
         self.x.iter().all(|v| v.is_finite()) && self.p.iter().flatten().all(|v| v.is_finite())

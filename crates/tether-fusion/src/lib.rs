@@ -7,6 +7,7 @@
 //! - [`assign`]: global nearest neighbour assignment (Hungarian method).
 //! - [`kalman`]: the constant-velocity Kalman filter of one person.
 //! - [`tracker`]: person tracks over time, confirmation and deletion.
+//! - [`clutter`]: static clutter learned over time (bushes, posts, furniture legs).
 //! - [`target`]: the target of interest, locked through crossings and occlusions.
 //! - [`mot`]: CLEAR MOT metrics for evaluating tracking against ground truth.
 //!
@@ -14,6 +15,7 @@
 
 pub mod assign;
 pub mod ci;
+pub mod clutter;
 pub mod complementary;
 pub mod gate;
 pub mod kalman;
@@ -31,8 +33,9 @@ pub use complementary::{FusedPerson, FusionRule, complementary_fusion};
 pub use gate::{CHI2_2DOF_95, CHI2_2DOF_99, CHI2_2DOF_999, Gate, mahalanobis_sq};
 pub use kalman::CvFilter;
 pub use mot::{ClearMot, MotSummary};
-pub use target::{TargetConfig, TargetSelector, TargetState, TargetStats};
+pub use clutter::{ClutterConfig, ClutterMap};
+pub use target::{LossReason, Refusal, TargetConfig, TargetSelector, TargetState, TargetStats, View};
 pub use tracker::{
-    BatchResult, Bearing, Observation, Source, Track, Tracker, TrackerConfig, TrackerStats,
-    UpdateRule,
+    Anchor, BatchResult, Bearing, MotionBounds, Observation, Source, Track, Tracker,
+    TrackerConfig, TrackerStats, UpdateRule,
 };

@@ -8,6 +8,12 @@
 //! camera frame's people, or laser-vision pairs fused per frame), in time order. Input
 //! that cannot be used is rejected and counted, never allowed to corrupt a track:
 //! batches older than the tracker's clock, non-finite or absurd observations.
+//!
+//! Motion is bounded by what people do (SPEC 11, [`MotionBounds`]): an observation that
+//! a track could only explain by an impossible jump does not update it, and the region
+//! a coasting track may take observations from stops growing. A track's estimated
+//! speed never exceeds the bound. Weak observations (leg candidates the classifier
+//! nearly accepted) only keep confirmed tracks alive: they never start or confirm one.
 
 use serde::{Deserialize, Serialize};
 use tether_core::{Gaussian2, Point2, Stamp, Vector2, World};
@@ -59,6 +65,117 @@ pub struct Observation {
     /// when the track has recent laser support (the complementary use of the two
     /// sensors: range from the laser, bearing from both).
     pub bearing: Option<Bearing>,
+    /// For laser observations: made of a pair of legs (the laser's own evidence that
+    /// this is a person rather than a lone post).
+    pub leg_pair: bool,
+    /// A weak observation (a cluster the leg classifier nearly accepted): it may keep a
+    /// confirmed track alive, but never starts or confirms one.
+    pub weak: bool,
+}
+
+impl Observation {
+    /// A laser person: a leg pair, or a lone leg that may start a track if
+    /// `lone_leg_spawns`.
+    pub fn laser(estimate: Gaussian2<World>, leg_pair: bool, lone_leg_spawns: bool) -> Self {
+        Observation {
+            source: Source::Laser,
+            estimate,
+            may_spawn: leg_pair || lone_leg_spawns,
+            bearing: None,
+            leg_pair,
+            weak: false,
+        }
+    }
+
+    /// A weak laser observation (see [`Observation::weak`]).
+    pub fn weak_laser(estimate: Gaussian2<World>) -> Self {
+        Observation {
+            weak: true,
+            ..Observation::laser(estimate, false, false)
+        }
+    }
+
+    /// A camera person, with its bearing for tracks the laser supports.
+    pub fn vision(estimate: Gaussian2<World>, may_spawn: bool, bearing: Option<Bearing>) -> Self {
+        Observation {
+            source: Source::Vision,
+            estimate,
+            may_spawn,
+            bearing,
+            leg_pair: false,
+            weak: false,
+        }
+    }
+}
+
+/// What people can do (SPEC 11): walking up to about 2 m/s, accelerations of a few
+/// m/s^2. Used to refuse observations a track could only reach by an impossible jump
+/// and to bound where a lost person can be.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MotionBounds {
+    /// Highest speed of a person, m/s.
+    pub max_speed_mps: f64,
+    /// Highest sustained acceleration of a person, m/s^2.
+    pub max_accel_mps2: f64,
+    /// The region a coasting track takes observations from grows by at most this
+    /// beyond its estimate's own uncertainty, m: a track silent for long is more
+    /// likely lost than far away.
+    pub max_coast_growth_m: f64,
+}
+
+impl Default for MotionBounds {
+    fn default() -> Self {
+        MotionBounds {
+            max_speed_mps: 2.0,
+            max_accel_mps2: 2.0,
+            max_coast_growth_m: 1.0,
+        }
+    }
+}
+
+impl MotionBounds {
+    /// Whether a person last known at `last` (position and velocity, the velocity's
+    /// standard deviation `sigma_v_mps`) can be at `p` after `dt_s`, within `margin_m`
+    /// of uncertainty. The reachable set of a body whose speed is at most `V` and whose
+    /// acceleration is at most `A` lies in both discs
+    ///
+    /// `|p - (p0 + v0 dt)| <= A dt^2 / 2 + 3 sigma_v dt`  and  `|p - p0| <= V dt`,
+    ///
+    /// each widened by `margin_m`; `max_coast_growth_m` caps the first disc's growth.
+    pub fn reachable(
+        &self,
+        last: Point2<World>,
+        velocity: Vector2<World>,
+        sigma_v_mps: f64,
+        dt_s: f64,
+        margin_m: f64,
+        p: Point2<World>,
+    ) -> bool {
+        let dt = dt_s.max(0.0);
+        let drift = (0.5 * self.max_accel_mps2 * dt * dt + 3.0 * sigma_v_mps * dt)
+            .min(self.max_coast_growth_m);
+        let predicted = last + velocity * dt;
+        p.distance_m(predicted) <= margin_m + drift
+            && p.distance_m(last) <= margin_m + self.max_speed_mps * dt
+    }
+
+    fn validate(&self) -> Result<(), TrackerConfigError> {
+        for (field, value) in [
+            ("motion.max_speed_mps", self.max_speed_mps),
+            ("motion.max_accel_mps2", self.max_accel_mps2),
+            ("motion.max_coast_growth_m", self.max_coast_growth_m),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(TrackerConfigError {
+                    field,
+                    value,
+                    why: "must be a positive number",
+                });
+            }
+        }
+        Ok(())
+    }
 }
 
 /// How an observation updates a track.
@@ -108,6 +225,8 @@ pub struct TrackerConfig {
     /// drags that track onto the other person; the laser, which resolves their legs,
     /// updates them alone until they part.
     pub vision_min_separation_m: f64,
+    /// What people can do: the physical gate of every track.
+    pub motion: MotionBounds,
 }
 
 impl Default for TrackerConfig {
@@ -125,6 +244,7 @@ impl Default for TrackerConfig {
             vision_update: UpdateRule::CovarianceIntersection,
             laser_support_s: 0.5,
             vision_min_separation_m: 0.5,
+            motion: MotionBounds::default(),
         }
     }
 }
@@ -174,6 +294,7 @@ impl TrackerConfig {
                 });
             }
         }
+        self.motion.validate()?;
         if self.confirm_hits == 0 {
             return Err(TrackerConfigError {
                 field: "confirm_hits",
@@ -204,6 +325,42 @@ pub struct Track {
     pub last_laser: Option<Stamp>,
     /// Last update by a vision (or fused) observation.
     pub last_vision: Option<Stamp>,
+    /// The track's estimate right after its last update: its last good estimate, from
+    /// which a coasting or lost person's whereabouts are bounded.
+    pub anchor: Anchor,
+    /// Where the track started.
+    pub birth_position: Point2<World>,
+    /// Farthest the track's updated estimate has been from where it started, m: a
+    /// walking person goes places, a post does not.
+    pub walked_m: f64,
+    /// Updates by a pair of legs.
+    pub pair_hits: u32,
+}
+
+/// A track's state right after an update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Anchor {
+    /// When.
+    pub stamp: Stamp,
+    /// Position estimate.
+    pub position: Gaussian2<World>,
+    /// Velocity, m/s.
+    pub velocity: Vector2<World>,
+    /// Largest standard deviation of the velocity, m/s.
+    pub velocity_sigma_mps: f64,
+}
+
+impl Anchor {
+    fn of(filter: &CvFilter, stamp: Stamp) -> Self {
+        Anchor {
+            stamp,
+            position: filter.position(),
+            velocity: filter.velocity(),
+            velocity_sigma_mps: filter
+                .velocity_cov()
+                .map_or(0.0, |c| c.principal_axes().0.max(0.0).sqrt()),
+        }
+    }
 }
 
 impl Track {
@@ -222,6 +379,23 @@ impl Track {
         let recent = |t: Option<Stamp>| t.is_some_and(|t| now.secs_since(t) <= window_s);
         recent(self.last_laser) && recent(self.last_vision)
     }
+
+    /// Whether this track can explain an observation at `z` taken at `now` without an
+    /// impossible jump from its last good estimate ([`MotionBounds::reachable`], with
+    /// three standard deviations of the anchor's and the observation's positions as the
+    /// margin).
+    pub fn can_reach(&self, z: &Gaussian2<World>, now: Stamp, bounds: &MotionBounds) -> bool {
+        let sd = |c: &tether_core::Cov2| c.principal_axes().0.max(0.0).sqrt();
+        let a = &self.anchor;
+        bounds.reachable(
+            a.position.mean,
+            a.velocity,
+            a.velocity_sigma_mps,
+            now.secs_since(a.stamp),
+            3.0 * (sd(&a.position.cov) + sd(&z.cov)),
+            z.mean,
+        )
+    }
 }
 
 /// Counters of input the tracker refused.
@@ -239,6 +413,14 @@ pub struct TrackerStats {
     pub tracks_started: u64,
     /// Tracks dropped.
     pub tracks_dropped: u64,
+    /// Observations inside a track's statistical gate that it could only reach by an
+    /// impossible jump (speed or acceleration beyond [`MotionBounds`]).
+    pub implausible_jumps: u64,
+    /// Updates that would have left a track faster than the speed bound (its velocity
+    /// was clamped).
+    pub speed_clamps: u64,
+    /// Weak observations that kept a confirmed track alive.
+    pub weak_updates: u64,
 }
 
 /// The multi-person tracker.
@@ -339,6 +521,8 @@ impl Tracker {
 
         // Gated costs: tracks x observations.
         let gate = self.config.gate.threshold;
+        let bounds = self.config.motion;
+        let mut implausible = 0;
         let cost: Vec<Vec<Option<f64>>> = self
             .tracks
             .iter()
@@ -347,16 +531,29 @@ impl Tracker {
                     .iter()
                     .zip(&usable)
                     .map(|(o, &ok)| {
+                        if !ok || (o.weak && !t.confirmed) {
+                            return None;
+                        }
                         // Gate on the Mahalanobis distance; assign on the negative log
                         // likelihood d^2 + ln det S, so that an uncertain track does not
                         // win an observation that a certain track explains better.
                         let (s, y) = t.filter.innovation(&o.estimate);
                         let d2 = s.mahalanobis_sq(y[0], y[1]);
-                        (ok && d2 < gate).then(|| d2 + s.det().ln().max(LN_DET_FLOOR))
+                        if d2 >= gate {
+                            return None;
+                        }
+                        // The physical gate: no impossible jump from the last good
+                        // estimate, however uncertain the coasting filter has become.
+                        if !t.can_reach(&o.estimate, stamp, &bounds) {
+                            implausible += 1;
+                            return None;
+                        }
+                        Some(d2 + s.det().ln().max(LN_DET_FLOOR))
                     })
                     .collect()
             })
             .collect();
+        self.stats.implausible_jumps += implausible;
         // A camera observation that two tracks explain about equally well is left out:
         // its range is poor, so people standing on one viewing ray (one hiding the
         // other, a crossing) both gate with it, and giving it to the wrong one drags that
@@ -430,29 +627,42 @@ impl Tracker {
                 self.stats.rejected_observations += 1;
                 continue;
             }
-            t.hits += 1;
+            if t.filter.clamp_speed(bounds.max_speed_mps) {
+                self.stats.speed_clamps += 1;
+            }
             t.last_update = stamp;
+            t.anchor = Anchor::of(&t.filter, stamp);
             if matches!(o.source, Source::Laser | Source::Fused) {
                 t.last_laser = Some(stamp);
             }
             if matches!(o.source, Source::Vision | Source::Fused) {
                 t.last_vision = Some(stamp);
             }
+            track_of[oi] = Some(t.id);
+            self.stats.associated += 1;
+            if o.weak {
+                self.stats.weak_updates += 1;
+                continue;
+            }
+            t.hits += 1;
+            t.pair_hits += u32::from(o.leg_pair);
+            t.walked_m = t.walked_m.max(t.anchor.position.mean.distance_m(t.birth_position));
             if t.hits >= self.config.confirm_hits {
                 t.confirmed = true;
             }
-            track_of[oi] = Some(t.id);
-            self.stats.associated += 1;
         }
         // New tracks from observations no track could explain.
         for (oi, o) in observations.iter().enumerate() {
-            if track_of[oi].is_some() || !usable[oi] || !o.may_spawn {
+            if track_of[oi].is_some() || !usable[oi] || !o.may_spawn || o.weak {
                 continue;
             }
-            let near_existing = self
-                .tracks
-                .iter()
-                .any(|t| t.filter.mahalanobis_sq(&o.estimate) < gate);
+            // Near a track that could have made it: that track's business, not a new
+            // person's (an uncertain coasting track does not keep people from starting
+            // tracks beyond where it could be).
+            let near_existing = self.tracks.iter().any(|t| {
+                t.filter.mahalanobis_sq(&o.estimate) < gate
+                    && t.can_reach(&o.estimate, stamp, &bounds)
+            });
             if near_existing {
                 continue;
             }
@@ -463,15 +673,20 @@ impl Tracker {
                 Source::Vision => (None, Some(stamp)),
                 Source::Fused => (Some(stamp), Some(stamp)),
             };
+            let filter = CvFilter::new(&o.estimate, self.config.initial_speed_sigma_mps);
             self.tracks.push(Track {
                 id,
-                filter: CvFilter::new(&o.estimate, self.config.initial_speed_sigma_mps),
+                filter,
                 confirmed: self.config.confirm_hits <= 1,
                 hits: 1,
                 born: stamp,
                 last_update: stamp,
                 last_laser,
                 last_vision,
+                anchor: Anchor::of(&filter, stamp),
+                birth_position: o.estimate.mean,
+                walked_m: 0.0,
+                pair_hits: u32::from(o.leg_pair),
             });
             self.stats.tracks_started += 1;
             track_of[oi] = Some(id);
@@ -512,6 +727,8 @@ mod tests {
             estimate: Gaussian2::new(Point2::new(x, y), Cov2::isotropic(0.05).unwrap()).unwrap(),
             may_spawn: true,
             bearing: None,
+            leg_pair: source != Source::Vision,
+            weak: false,
         }
     }
 

@@ -9,7 +9,9 @@ use crate::arc::{ArcTestConfig, arc_test};
 use crate::classifier::{CompiledClassifier, LegClassifier};
 use crate::features::{Candidate, FeatureScratch, ScanView, add_context, segment_features};
 use crate::fit::centroid;
-use crate::people::{Leg, PairScratch, PairingConfig, PersonObservation, pair_legs};
+use crate::people::{
+    Leg, PairScratch, PairingConfig, PersonKind, PersonObservation, lone_leg_estimate, pair_legs,
+};
 use crate::preprocess::{BeamTable, PreprocessStats, ScanPoint, preprocess_into};
 use crate::segment::{Breakpoint, ClusterScratch, Segment, cluster_into};
 
@@ -44,6 +46,11 @@ pub struct DetectorConfig {
     pub arc: ArcTestConfig,
     /// Pairing and covariance.
     pub pairing: PairingConfig,
+    /// Candidates whose classifier margin falls short of the decision by less than this
+    /// are reported as weak legs (learned detector only; 0: none): not people, but
+    /// enough to keep a person already tracked there (default 0.2 of the margin's
+    /// [-1, 1] range).
+    pub weak_margin: f64,
 }
 
 impl Default for DetectorConfig {
@@ -54,6 +61,7 @@ impl Default for DetectorConfig {
             max_width_m: 0.5,
             arc: ArcTestConfig::default(),
             pairing: PairingConfig::default(),
+            weak_margin: 0.2,
         }
     }
 }
@@ -68,6 +76,12 @@ impl DetectorConfig {
             return Err(ConfigError(format!(
                 "min_points must be >= 3 (three points define an arc), got {}",
                 self.min_points
+            )));
+        }
+        if !(self.weak_margin.is_finite() && (0.0..=2.0).contains(&self.weak_margin)) {
+            return Err(ConfigError(format!(
+                "weak_margin must be in [0, 2], got {}",
+                self.weak_margin
             )));
         }
         if !(self.max_width_m.is_finite() && self.max_width_m > 0.0) {
@@ -98,6 +112,11 @@ pub struct Detection {
     pub legs: Vec<Leg>,
     /// Person observations built from them.
     pub people: Vec<PersonObservation>,
+    /// Candidates the classifier nearly accepted (see [`DetectorConfig::weak_margin`]).
+    pub weak_legs: Vec<Leg>,
+    /// Each weak leg as a lone-leg person hypothesis (`OneLeg` indexes `weak_legs`):
+    /// evidence for a person already tracked there, never a new person.
+    pub weak_people: Vec<PersonObservation>,
     /// Counts.
     pub stats: DetectionStats,
 }
@@ -193,35 +212,54 @@ impl LegDetector {
     /// Like [`LegDetector::detect`], reusing `out`'s buffers.
     pub fn detect_into(&mut self, scan: &LaserScan, out: &mut Detection) {
         out.legs.clear();
+        out.weak_legs.clear();
+        out.weak_people.clear();
         let learned = self.classifier.is_some();
         out.stats = self.find_candidates(scan, learned);
+        let weak_floor = self.compiled.decision_margin() - self.config.weak_margin;
         for c in &self.candidates {
             let pts = &self.clustered[c.segment.start..c.segment.end];
-            let leg = match &self.classifier {
-                None => arc_test(pts, &self.config.arc).ok().map(|arc| Leg {
-                    centre_in_laser: arc.centre_in_laser,
-                    radius_m: arc.radius_m,
-                    centroid_in_laser: c.centroid_in_laser,
-                    score: (1.0 - arc.spread_m / self.config.arc.delta_m).clamp(0.0, 1.0),
-                    first_beam: pts[0].beam,
-                    last_beam: pts[pts.len() - 1].beam,
-                    n_points: pts.len(),
-                }),
-                Some(_) => self.compiled.margin_if_leg(&c.features).map(|margin| {
-                    let (centre_in_laser, radius_m) =
-                        learned_centre(c.centroid_in_laser, c.features[WIDTH], &self.config);
-                    Leg {
-                        centre_in_laser,
-                        radius_m,
-                        centroid_in_laser: c.centroid_in_laser,
-                        score: 0.5 * (margin + 1.0),
-                        first_beam: pts[0].beam,
-                        last_beam: pts[pts.len() - 1].beam,
-                        n_points: pts.len(),
-                    }
-                }),
+            let leg = |centre_in_laser, radius_m, score| Leg {
+                centre_in_laser,
+                radius_m,
+                centroid_in_laser: c.centroid_in_laser,
+                score,
+                first_beam: pts[0].beam,
+                last_beam: pts[pts.len() - 1].beam,
+                n_points: pts.len(),
             };
-            out.legs.extend(leg);
+            match &self.classifier {
+                None => out.legs.extend(arc_test(pts, &self.config.arc).ok().map(|arc| {
+                    let score = (1.0 - arc.spread_m / self.config.arc.delta_m).clamp(0.0, 1.0);
+                    leg(arc.centre_in_laser, arc.radius_m, score)
+                })),
+                Some(_) => {
+                    let Some(margin) = (self.config.weak_margin > 0.0)
+                        .then(|| self.compiled.margin_if_at_least(&c.features, weak_floor))
+                        .unwrap_or_else(|| self.compiled.margin_if_leg(&c.features))
+                    else {
+                        continue;
+                    };
+                    let (centre, radius_m) =
+                        learned_centre(c.centroid_in_laser, c.features[WIDTH], &self.config);
+                    let found = leg(centre, radius_m, 0.5 * (margin + 1.0));
+                    if margin >= self.compiled.decision_margin() {
+                        out.legs.push(found);
+                    } else if let Some(estimate) = lone_leg_estimate(
+                        &found,
+                        scan.angle_increment_rad,
+                        &self.noise,
+                        &self.config.pairing,
+                    ) {
+                        out.weak_people.push(PersonObservation {
+                            estimate,
+                            kind: PersonKind::OneLeg(out.weak_legs.len()),
+                            score: found.score * self.config.pairing.single_leg_score_factor,
+                        });
+                        out.weak_legs.push(found);
+                    }
+                }
+            }
         }
         pair_legs(
             &out.legs,

@@ -205,11 +205,7 @@ pub fn pair_legs(
         if scratch.used[i] {
             continue;
         }
-        let a = leg.centre_in_laser;
-        let pa = polar_cov(a, noise, sigma_theta);
-        let s2 = config.single_leg_sigma_m * config.single_leg_sigma_m;
-        let cov = Cov2::new(pa.0 + s2, pa.1, pa.2 + s2);
-        if let Some(estimate) = cov.ok().and_then(|c| Gaussian2::new(a, c).ok()) {
+        if let Some(estimate) = lone_leg_estimate(leg, angle_increment_rad, noise, config) {
             out.push(PersonObservation {
                 estimate,
                 kind: PersonKind::OneLeg(i),
@@ -217,6 +213,21 @@ pub fn pair_legs(
             });
         }
     }
+}
+
+/// The person hypothesis of a lone leg at `a` (SPEC 4.5): `P = P_a + s^2 I` with `P_a`
+/// the polar noise of the leg centre and `s = single_leg_sigma_m`.
+pub fn lone_leg_estimate(
+    leg: &Leg,
+    angle_increment_rad: f64,
+    noise: &RangeNoiseModel,
+    config: &PairingConfig,
+) -> Option<Gaussian2<Laser>> {
+    let a = leg.centre_in_laser;
+    let pa = polar_cov(a, noise, 0.5 * angle_increment_rad.abs());
+    let s2 = config.single_leg_sigma_m * config.single_leg_sigma_m;
+    let cov = Cov2::new(pa.0 + s2, pa.1, pa.2 + s2);
+    cov.ok().and_then(|c| Gaussian2::new(a, c).ok())
 }
 
 #[cfg(test)]

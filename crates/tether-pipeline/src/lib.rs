@@ -28,8 +28,8 @@ use tether_core::{
     Vector2, World,
 };
 use tether_fusion::{
-    Bearing, FusionRule, Gate, Observation, Source, TargetConfig, TargetSelector, TargetState,
-    Tracker, TrackerConfig, complementary_fusion,
+    Bearing, ClutterConfig, ClutterMap, FusionRule, Gate, Observation, Refusal, TargetConfig,
+    TargetSelector, TargetState, Tracker, TrackerConfig, View, complementary_fusion,
 };
 use tether_laser::{DetectorConfig, DetectorKind, LegClassifier, LegDetector, PersonKind};
 
@@ -119,6 +119,8 @@ pub struct PipelineConfig {
     pub tracker: TrackerConfig,
     /// Target of interest.
     pub target: TargetConfig,
+    /// Static clutter learned over time (leg-like places nobody walks through).
+    pub clutter: ClutterConfig,
     /// The virtual spring.
     pub follower: SpringConfig,
     /// Steer along the target's trail even when the straight line to them is clear
@@ -165,6 +167,9 @@ pub struct LaserPerson {
     pub estimate: Gaussian2<Laser>,
     /// Made of two legs (only those start tracks; a lone leg only updates them).
     pub two_legs: bool,
+    /// A weak candidate (the classifier nearly accepted it): it only keeps a confirmed
+    /// track alive.
+    pub weak: bool,
 }
 
 /// What kind of input a tick processed.
@@ -226,6 +231,9 @@ pub struct Tick {
     pub command: Twist,
     /// Why the robot is held, if it is.
     pub stop: Option<StopReason>,
+    /// While the target is lost: the tracks refused as the target at this tick, and
+    /// why.
+    pub refusals: Vec<(u64, Refusal)>,
 }
 
 /// Counters of refused or odd input.
@@ -239,6 +247,8 @@ pub struct PipelineStats {
     pub bad_odometry: u64,
     /// Scans with more malformed beams than good ones (treated as no data).
     pub unusable_scans: u64,
+    /// Laser person observations dropped because they stand in learned static clutter.
+    pub clutter_observations: u64,
 }
 
 /// The pipeline.
@@ -260,6 +270,15 @@ pub struct Pipeline {
     trails: follow::Trails,
     motion: MotionState,
     heights: std::collections::BTreeMap<u64, vision::LearnedHeight>,
+    /// Static clutter in the world (scenery) and in the laser's frame (the robot's own
+    /// parts, which move with it).
+    clutter_world: ClutterMap<World>,
+    clutter_laser: ClutterMap<Laser>,
+    /// The field of view of the last scan: first and last beam directions, rad, and
+    /// the longest range, m.
+    laser_view: Option<(f64, f64, f64)>,
+    /// Seconds between the last scan and the one before it.
+    scan_gap_s: f64,
     stats: PipelineStats,
 }
 
@@ -301,8 +320,17 @@ impl Pipeline {
         if !(config.fusion.use_laser && config.fusion.use_vision) {
             target.require_both_sensors = false;
         }
+        target.validate().map_err(|e| config_err("target", e))?;
+        let clutter_world =
+            ClutterMap::new(config.clutter.clone()).map_err(|e| config_err("clutter", e))?;
+        let clutter_laser =
+            ClutterMap::new(config.clutter.clone()).map_err(|e| config_err("clutter", e))?;
         Ok(Pipeline {
-            selector: TargetSelector::new(target),
+            selector: TargetSelector::new(target, config.tracker.motion),
+            clutter_world,
+            clutter_laser,
+            laser_view: None,
+            scan_gap_s: 0.0,
             detector,
             tracker,
             spring,
@@ -375,8 +403,16 @@ impl Pipeline {
             .map(|p| LaserPerson {
                 estimate: p.estimate,
                 two_legs: matches!(p.kind, PersonKind::TwoLegs(_)),
+                weak: false,
             })
+            .chain(detection.weak_people.iter().map(|p| LaserPerson {
+                estimate: p.estimate,
+                two_legs: false,
+                weak: true,
+            }))
             .collect();
+        let (first, last) = (scan.angle_min_rad, scan.angle_max_rad());
+        self.laser_view = Some((first.min(last), first.max(last), scan.range_max_m));
         let robot_from_laser = self.config.laser.robot_from_laser();
         let obstacles: Vec<Point2<Robot>> =
             scan.points().map(|(_, p)| robot_from_laser * p).collect();
@@ -395,30 +431,51 @@ impl Pipeline {
         if !self.accept(stamp, world_from_robot) {
             return self.idle_tick(stamp, TickInput::Scan);
         }
+        self.scan_gap_s = self.last_scan.map_or(0.0, |t| stamp.secs_since(t));
         self.last_scan = Some(stamp);
         let world_from_laser = world_from_robot * self.config.laser.robot_from_laser();
         self.obstacle_points.clear();
         self.obstacle_points.extend_from_slice(obstacles_in_robot);
-        let people: Vec<(Gaussian2<World>, bool)> = people
+        // People standing in learned static clutter are clutter: they neither start nor
+        // feed tracks (a coasting track walking past a bush must not take it).
+        let world: Vec<Gaussian2<World>> = people
             .iter()
-            .map(|p| (p.estimate.transformed(world_from_laser), p.two_legs))
+            .map(|p| p.estimate.transformed(world_from_laser))
             .collect();
-        let laser_people: Vec<Gaussian2<World>> = people.iter().map(|p| p.0).collect();
-        let mut track_of = vec![None; people.len()];
-        if self.config.fusion.use_laser && self.config.fusion.mode == FusionMode::Tracker {
-            let observations: Vec<Observation> = people
-                .iter()
-                .map(|(estimate, pair)| Observation {
-                    source: Source::Laser,
-                    estimate: *estimate,
-                    may_spawn: *pair || self.config.fusion.lone_legs_spawn_tracks,
-                    bearing: None,
-                })
-                .collect();
-            track_of = self.tracker.process(stamp, &observations).track_of;
+        let mut used = Vec::with_capacity(people.len());
+        for (p, g) in people.iter().zip(&world) {
+            let clutter = self.clutter_world.is_static(g.mean, stamp)
+                || self.clutter_laser.is_static(p.estimate.mean, stamp);
+            self.stats.clutter_observations += u64::from(clutter);
+            used.push(!clutter);
+        }
+        let tracking = self.config.fusion.use_laser && self.config.fusion.mode == FusionMode::Tracker;
+        let lone_spawns = self.config.fusion.lone_legs_spawn_tracks;
+        let observations: Vec<Observation> = people
+            .iter()
+            .zip(&world)
+            .zip(&used)
+            .filter(|(_, used)| **used)
+            .map(|((p, g), _)| match p.weak {
+                true => Observation::weak_laser(*g),
+                false => Observation::laser(*g, p.two_legs, lone_spawns),
+            })
+            .collect();
+        let track_of = if tracking {
+            self.tracker.process(stamp, &observations).track_of
         } else {
             self.tracker.advance(stamp);
-        }
+            vec![None; observations.len()]
+        };
+        self.learn_clutter(stamp, people, &world, &used, &track_of);
+        // The people this scan reports (and carries to the next camera frame): the
+        // strong observations that were used.
+        let (laser_people, track_of): (Vec<Gaussian2<World>>, Vec<Option<u64>>) = observations
+            .iter()
+            .zip(&track_of)
+            .filter(|(o, _)| !o.weak)
+            .map(|(o, id)| (o.estimate, *id))
+            .unzip();
         let motion = |id: Option<u64>| {
             let t = self.tracker.track(id?)?;
             Some((t.velocity(), t.filter.velocity_cov()?))
@@ -434,6 +491,47 @@ impl Pipeline {
         let mut tick = self.finish(stamp, TickInput::Scan, world_from_robot);
         tick.laser_people = laser_people;
         tick
+    }
+
+    /// Teaches the clutter maps this scan's people, except those a walking person (or
+    /// the target) explains: the track they updated, or one within half a metre.
+    fn learn_clutter(
+        &mut self,
+        stamp: Stamp,
+        people: &[LaserPerson],
+        world: &[Gaussian2<World>],
+        used: &[bool],
+        track_of_used: &[Option<u64>],
+    ) {
+        if !self.config.clutter.enabled {
+            return;
+        }
+        let target = match self.selector.state() {
+            TargetState::Locked { track } | TargetState::Lost { track, .. } => Some(track),
+            TargetState::Searching => None,
+        };
+        let min_walked_m = self.config.target.min_walked_m;
+        let protected: Vec<(u64, Point2<World>)> = self
+            .tracker
+            .tracks()
+            .iter()
+            .filter(|t| Some(t.id) == target || (t.confirmed && t.walked_m >= min_walked_m))
+            .map(|t| (t.id, t.position().mean))
+            .collect();
+        let mut track_of = track_of_used.iter();
+        let (mut in_world, mut in_laser) = (Vec::new(), Vec::new());
+        for ((p, g), &was_used) in people.iter().zip(world).zip(used) {
+            let updated = if was_used { track_of.next().copied().flatten() } else { None };
+            let explained = protected
+                .iter()
+                .any(|(id, q)| updated == Some(*id) || q.distance_m(g.mean) < 0.5);
+            if !explained {
+                in_world.push(g.mean);
+                in_laser.push(p.estimate.mean);
+            }
+        }
+        self.clutter_world.observe(stamp, &in_world);
+        self.clutter_laser.observe(stamp, &in_laser);
     }
 
     /// One camera frame's upper-body boxes, with the robot's pose at the frame's stamp:
@@ -567,11 +665,12 @@ impl Pipeline {
                         .iter()
                         .zip(&bearings)
                         .zip(people_in_robot)
-                        .map(|((v, b), p)| Observation {
-                            source: Source::Vision,
-                            estimate: *v,
-                            may_spawn: fusion.vision_spawns_tracks || !fusion.use_laser,
-                            bearing: (fusion.use_laser && !p.own_height).then_some(*b),
+                        .map(|((v, b), p)| {
+                            Observation::vision(
+                                *v,
+                                fusion.vision_spawns_tracks || !fusion.use_laser,
+                                (fusion.use_laser && !p.own_height).then_some(*b),
+                            )
                         })
                         .collect();
                     let track_of = self.tracker.process(stamp, &observations).track_of;
@@ -645,6 +744,7 @@ impl Pipeline {
             target: self.target_view(),
             command: self.command,
             stop: None,
+            refusals: Vec::new(),
         }
     }
 
@@ -714,12 +814,37 @@ impl Pipeline {
                     && q.range_m() <= max_range
                     && q.bearing_rad().abs() <= half_fov
             };
-            self.selector.update_with_view(
-                stamp,
-                self.tracker.tracks(),
+            let laser_from_world =
+                (world_from_robot * self.config.laser.robot_from_laser()).inverse();
+            let (first, last, reach) = self.laser_view.unwrap_or((
+                self.config.laser.geometry.angle_min_rad(),
+                self.config.laser.geometry.angle_max_rad(),
+                self.config.laser.range_max_m,
+            ));
+            let laser_sees = move |p: Point2<World>| {
+                let q = laser_from_world * p;
+                q.range_m() <= reach && (first..=last).contains(&q.bearing_rad())
+            };
+            let (world_map, laser_map) = (&self.clutter_world, &self.clutter_laser);
+            let in_clutter = move |p: Point2<World>| {
+                world_map.is_static(p, stamp) || laser_map.is_static(laser_from_world * p, stamp)
+            };
+            let lost_after_s = self.selector.config().lost_after_s;
+            let sensor_gap = match (input, self.last_scan) {
+                (_, None) => false,
+                (TickInput::Scan, Some(_)) => self.scan_gap_s > lost_after_s,
+                (_, Some(t)) => stamp.secs_since(t) > lost_after_s,
+            };
+            let view = View {
                 world_from_robot,
-                &camera_sees,
-            );
+                camera_sees: &camera_sees,
+                laser_sees: &laser_sees,
+                in_clutter: &in_clutter,
+                laser_in_use: self.config.fusion.use_laser,
+                sensor_gap,
+            };
+            self.selector
+                .update_with_view(stamp, self.tracker.tracks(), &view);
         }
         let target = self.target_view();
 
@@ -874,6 +999,7 @@ impl Pipeline {
             target,
             command,
             stop,
+            refusals: self.selector.refusals().to_vec(),
         }
     }
 }
