@@ -802,7 +802,7 @@ mod tests {
         // 2 m/s^2 from standing: 1.2 m, plus 0.3 m of velocity and 0.6 m of margins).
         let far = track(9, 4.6, 0.0, 1100, true);
         assert!(
-            s.update(at(1100), &[far.clone()], Pose2::IDENTITY)
+            s.update(at(1100), std::slice::from_ref(&far), Pose2::IDENTITY)
                 .locked_track()
                 .is_none()
         );
