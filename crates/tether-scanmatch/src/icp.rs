@@ -1,0 +1,344 @@
+//! Point-to-line ICP (Censi, "An ICP variant using a point-to-line metric", ICRA 2008)
+//! solved by Gauss-Newton in SE(2), with trimming, Huber weights, a covariance from the
+//! Hessian and degeneracy handled by solution remapping.
+
+use tether_core::{Point2, Pose2, Robot};
+
+use crate::linalg::{Mat3, ZERO3, symmetric_eigen3};
+use crate::reference::{NeighbourSearch, Reference};
+
+/// Settings of one scan-to-keyframe match.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IcpConfig {
+    /// Most Gauss-Newton iterations (each re-finds the correspondences).
+    pub max_iterations: u32,
+    /// Converged when a step moves less than this, m...
+    pub translation_tolerance_m: f64,
+    /// ...and turns less than this, rad.
+    pub rotation_tolerance_rad: f64,
+    /// A point whose nearest reference return is farther than this has no match, m.
+    pub max_correspondence_m: f64,
+    /// Neighbouring reference returns farther apart than this are not one surface, m.
+    pub max_segment_m: f64,
+    /// Share of the matched points with the largest residuals left out of each step
+    /// (trimmed least squares: a moving person or a new object must not pull).
+    pub trim_fraction: f64,
+    /// Huber threshold on the point-to-line residual, m: larger residuals are weighted
+    /// by `huber_m / |r|`.
+    pub huber_m: f64,
+    /// Fewer matched points than this and the match has failed.
+    pub min_matches: usize,
+    /// Length that turns a rotation into a distance when the Hessian is judged
+    /// (`yaw * rotation_scale_m`), m: about the distance of the scene.
+    pub rotation_scale_m: f64,
+    /// A direction of the normalised Hessian (per unit weight, rotation scaled) whose
+    /// eigenvalue is below this is degenerate: the scene does not constrain the motion
+    /// along it (a corridor along its axis). Dimensionless: 1 would be a direction that
+    /// every residual measures fully.
+    pub degeneracy_min_eigenvalue: f64,
+}
+
+impl Default for IcpConfig {
+    fn default() -> Self {
+        IcpConfig {
+            max_iterations: 25,
+            translation_tolerance_m: 1e-4,
+            rotation_tolerance_rad: 1e-4,
+            max_correspondence_m: 0.3,
+            max_segment_m: 0.25,
+            trim_fraction: 0.15,
+            huber_m: 0.03,
+            min_matches: 30,
+            rotation_scale_m: 1.0,
+            degeneracy_min_eigenvalue: 0.02,
+        }
+    }
+}
+
+/// Why a match gave no estimate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MatchFailure {
+    /// The reference or the scan has too few points.
+    TooFewPoints,
+    /// Too few points found a reference surface within reach.
+    TooFewMatches,
+    /// The estimate is not a finite number (never expected; guarded).
+    NotFinite,
+}
+
+/// The outcome of matching a scan against a keyframe.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MatchResult {
+    /// The scan's robot frame in the keyframe's robot frame.
+    pub keyframe_from_robot: Pose2<Robot, Robot>,
+    /// Covariance of `(x, y, yaw)` of `keyframe_from_robot`: `sigma^2 H^-1` in the
+    /// constrained directions (`sigma^2` the weighted residual variance), the prior's
+    /// variance along degenerate ones.
+    pub covariance: Mat3,
+    /// Points that found a reference surface in the last iteration.
+    pub matched: usize,
+    /// Of those, the points used after trimming.
+    pub used: usize,
+    /// Points offered to the match.
+    pub candidates: usize,
+    /// Mean absolute point-to-line residual of the used points, m.
+    pub mean_residual_m: f64,
+    /// Iterations run.
+    pub iterations: u32,
+    /// The last step was within the tolerances.
+    pub converged: bool,
+    /// Eigenvalues of the normalised Hessian, ascending (see
+    /// [`IcpConfig::degeneracy_min_eigenvalue`]).
+    pub eigenvalues: [f64; 3],
+    /// Unit eigenvectors over `(x, y, yaw * rotation_scale_m)`, with `eigenvalues`.
+    pub eigenvectors: [[f64; 3]; 3],
+    /// How many directions were degenerate (taken from the guess, not the scan).
+    pub degenerate_directions: usize,
+}
+
+/// Reusable buffers of [`match_scan`], so that matching does not allocate.
+#[derive(Debug, Clone, Default)]
+pub struct IcpScratch {
+    rows: Vec<[f64; 4]>,
+    abs_residuals: Vec<f64>,
+}
+
+/// Matches `points` (the new scan, its robot frame) against `reference` (the keyframe),
+/// starting from `guess` (`keyframe_from_robot`), with `prior_covariance` (the guess's
+/// uncertainty, used along degenerate directions).
+///
+/// Each iteration, for every point `q` at the current estimate `T = (t, yaw)`:
+/// 1. find its nearest reference return `p_j` and, of `p_{j-1}` and `p_{j+1}`, the one
+///    closer to `q`; the segment between them (if it is a surface) gives a unit normal
+///    `n` (PL-ICP: the point is matched to the line through its two nearest returns);
+/// 2. residual `r = n . (R q + t - p_j)`, Jacobian over `(x, y, yaw)`
+///    `J = [n_x, n_y, n . perp(R q)]` with `perp(v) = (-v_y, v_x)`;
+/// 3. the worst `trim_fraction` of `|r|` are dropped, the rest weighted by Huber;
+/// 4. Gauss-Newton: `H = sum w J^T J`, `g = sum w J^T r`, step `d = -H^-1 g`, taken only
+///    along eigenvectors of `H` whose normalised eigenvalue passes the degeneracy
+///    threshold; along the others the estimate keeps the guess (solution remapping,
+///    Zhang, Kaess and Singh, ICRA 2016).
+pub fn match_scan(
+    reference: &Reference,
+    points: &[Point2<Robot>],
+    guess: Pose2<Robot, Robot>,
+    prior_covariance: &Mat3,
+    config: &IcpConfig,
+    search: NeighbourSearch,
+    scratch: &mut IcpScratch,
+) -> Result<MatchResult, MatchFailure> {
+    let min_points = config.min_matches.max(3);
+    if reference.len() < 2 || points.len() < min_points {
+        return Err(MatchFailure::TooFewPoints);
+    }
+    let laser_from_robot = reference.laser_from_robot();
+    let scale = config.rotation_scale_m.max(1e-6);
+    let mut estimate = guess;
+    let mut converged = false;
+    let mut iterations = 0;
+    let mut stats = Stats::default();
+    for _ in 0..config.max_iterations.max(1) {
+        iterations += 1;
+        let laser_from_scan = laser_from_robot * estimate;
+        let (s, c) = estimate.yaw.sin_cos();
+        scratch.rows.clear();
+        for &q in points {
+            let rq = (c * q.x - s * q.y, s * q.x + c * q.y);
+            let qr = Point2::<Robot>::new(rq.0 + estimate.x, rq.1 + estimate.y);
+            let ql = laser_from_scan * q;
+            let Some(near) = reference.nearest_by(search, ql, config.max_correspondence_m)
+            else {
+                continue;
+            };
+            let j = near.index;
+            let refs = reference.points();
+            // The neighbour closer to q decides the segment; fall back to the other.
+            let before = j.checked_sub(1).and_then(|i| {
+                reference
+                    .segment_normal(i)
+                    .map(|n| (n, dist_sq(refs[i], qr)))
+            });
+            let after = reference
+                .segment_normal(j)
+                .and_then(|n| refs.get(j + 1).map(|&p| (n, dist_sq(p, qr))));
+            let normal = match (before, after) {
+                (Some(b), Some(a)) => {
+                    if b.1 <= a.1 {
+                        b.0
+                    } else {
+                        a.0
+                    }
+                }
+                (Some(b), None) => b.0,
+                (None, Some(a)) => a.0,
+                (None, None) => continue,
+            };
+            let p = refs[j];
+            let r = normal.0 * (qr.x - p.x) + normal.1 * (qr.y - p.y);
+            let j_yaw = normal.0 * -rq.1 + normal.1 * rq.0;
+            scratch.rows.push([normal.0, normal.1, j_yaw / scale, r]);
+        }
+        let matched = scratch.rows.len();
+        if matched < min_points {
+            return Err(MatchFailure::TooFewMatches);
+        }
+        // Trimming: keep residuals up to the (1 - trim) quantile.
+        scratch.abs_residuals.clear();
+        scratch
+            .abs_residuals
+            .extend(scratch.rows.iter().map(|row| row[3].abs()));
+        let keep = ((matched as f64) * (1.0 - config.trim_fraction.clamp(0.0, 0.9))).ceil()
+            as usize;
+        let keep = keep.clamp(min_points.min(matched), matched);
+        let threshold = if keep < matched {
+            let (_, &mut t, _) = scratch
+                .abs_residuals
+                .select_nth_unstable_by(keep - 1, f64::total_cmp);
+            t
+        } else {
+            f64::INFINITY
+        };
+        let mut h = ZERO3;
+        let mut g = [0.0; 3];
+        let mut weight_sum = 0.0;
+        let mut weighted_sq = 0.0;
+        let mut abs_sum = 0.0;
+        let mut used = 0usize;
+        for row in &scratch.rows {
+            let r = row[3];
+            let ar = r.abs();
+            if ar > threshold {
+                continue;
+            }
+            let w = if ar <= config.huber_m {
+                1.0
+            } else {
+                config.huber_m / ar
+            };
+            for i in 0..3 {
+                for k in i..3 {
+                    h[i][k] += w * row[i] * row[k];
+                }
+                g[i] += w * row[i] * r;
+            }
+            weight_sum += w;
+            weighted_sq += w * r * r;
+            abs_sum += ar;
+            used += 1;
+        }
+        for i in 0..3 {
+            for k in 0..i {
+                h[i][k] = h[k][i];
+            }
+        }
+        let normalised = h.map(|row| row.map(|v| v / weight_sum.max(1e-12)));
+        let (values, vectors) = symmetric_eigen3(&normalised);
+        // Step along the constrained eigenvectors only: d = -sum_k (v_k . g) / l_k v_k,
+        // with l_k the eigenvalue of H (not normalised).
+        let mut step = [0.0; 3];
+        let mut degenerate = 0;
+        for k in 0..3 {
+            if values[k] < config.degeneracy_min_eigenvalue {
+                degenerate += 1;
+                continue;
+            }
+            let v = vectors[k];
+            let vg = v[0] * g[0] + v[1] * g[1] + v[2] * g[2];
+            let lambda = values[k] * weight_sum;
+            for i in 0..3 {
+                step[i] -= vg / lambda * v[i];
+            }
+        }
+        let step_yaw = step[2] / scale;
+        estimate = Pose2::new(
+            estimate.x + step[0],
+            estimate.y + step[1],
+            estimate.yaw + step_yaw,
+        );
+        stats = Stats {
+            matched,
+            used,
+            weight_sum,
+            weighted_sq,
+            abs_sum,
+            values,
+            vectors,
+            degenerate,
+        };
+        if step[0].hypot(step[1]) < config.translation_tolerance_m
+            && step_yaw.abs() < config.rotation_tolerance_rad
+        {
+            converged = true;
+            break;
+        }
+    }
+    if !estimate.is_finite() {
+        return Err(MatchFailure::NotFinite);
+    }
+    let covariance = covariance(&stats, prior_covariance, config);
+    Ok(MatchResult {
+        keyframe_from_robot: estimate.normalized(),
+        covariance,
+        matched: stats.matched,
+        used: stats.used,
+        candidates: points.len(),
+        mean_residual_m: stats.abs_sum / stats.used.max(1) as f64,
+        iterations,
+        converged,
+        eigenvalues: stats.values,
+        eigenvectors: stats.vectors,
+        degenerate_directions: stats.degenerate,
+    })
+}
+
+#[derive(Debug, Clone, Default)]
+struct Stats {
+    matched: usize,
+    used: usize,
+    weight_sum: f64,
+    weighted_sq: f64,
+    abs_sum: f64,
+    values: [f64; 3],
+    vectors: [[f64; 3]; 3],
+    degenerate: usize,
+}
+
+fn dist_sq(a: Point2<Robot>, b: Point2<Robot>) -> f64 {
+    let (dx, dy) = (a.x - b.x, a.y - b.y);
+    dx * dx + dy * dy
+}
+
+/// `Sigma = sum_k c_k v_k v_k^T` over the eigenvectors of the Hessian (in the scaled
+/// parameters `z = (x, y, yaw * L)`): `c_k = sigma^2 / lambda_k` where the scan
+/// constrains the motion, with `sigma^2 = sum w r^2 / (sum w - 3)` the residual variance
+/// (Bengtsson and Baerveldt's Hessian estimate); `c_k = v_k^T P_z v_k` (the prior's
+/// variance) along degenerate directions. Mapped back to `(x, y, yaw)` by
+/// `D Sigma_z D`, `D = diag(1, 1, 1/L)`.
+///
+/// The Hessian estimate assumes independent residuals and right correspondences; it is
+/// optimistic for real scans (a known limitation of ICP covariances, Censi ICRA 2007).
+fn covariance(stats: &Stats, prior: &Mat3, config: &IcpConfig) -> Mat3 {
+    let scale = config.rotation_scale_m.max(1e-6);
+    let d = [1.0, 1.0, 1.0 / scale];
+    let prior_z: Mat3 =
+        std::array::from_fn(|i| std::array::from_fn(|k| prior[i][k] / (d[i] * d[k])));
+    let dof = (stats.weight_sum - 3.0).max(1.0);
+    // Residuals are never exactly zero in a real sensor; keep a floor of 1 mm.
+    let sigma_sq = (stats.weighted_sq / dof).max(1e-6);
+    let mut cov_z = ZERO3;
+    for k in 0..3 {
+        let v = stats.vectors[k];
+        let c = if stats.values[k] >= config.degeneracy_min_eigenvalue {
+            sigma_sq / (stats.values[k] * stats.weight_sum)
+        } else {
+            let pv: [f64; 3] = std::array::from_fn(|i| (0..3).map(|j| prior_z[i][j] * v[j]).sum());
+            (0..3).map(|i| v[i] * pv[i]).sum()
+        };
+        for i in 0..3 {
+            for j in 0..3 {
+                cov_z[i][j] += c * v[i] * v[j];
+            }
+        }
+    }
+    std::array::from_fn(|i| std::array::from_fn(|k| cov_z[i][k] * d[i] * d[k]))
+}

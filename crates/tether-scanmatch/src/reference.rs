@@ -1,0 +1,387 @@
+//! A reference scan (the keyframe) searchable by beam direction: nearest points without a
+//! k-d tree, and the line segments between neighbouring returns.
+
+use std::f64::consts::TAU;
+
+use tether_core::{Laser, Point2, Pose2, Robot};
+
+use crate::points::ScanPoints;
+
+/// How the nearest reference point of a query point is found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum NeighbourSearch {
+    /// Walk outwards from the query's beam direction and stop as soon as no farther beam
+    /// can hold a closer point ([`Reference::nearest`]). Exact, and a few beams per query.
+    #[default]
+    AngularWindow,
+    /// Try every reference point ([`Reference::nearest_brute_force`]): the slow, obvious
+    /// reference the fast search is tested against.
+    BruteForce,
+}
+
+/// Bins per radian of the direction look-up table (about 6 per URG-04LX beam).
+const BINS_PER_RAD: f64 = 1000.0;
+
+/// A keyframe scan prepared for matching: its returns in its own robot frame and in its
+/// laser frame, their beam directions, and the unit normal of the segment from each
+/// return to the next one when the two are close enough to lie on one surface.
+#[derive(Debug, Clone)]
+pub struct Reference {
+    laser_from_robot: Pose2<Laser, Robot>,
+    bearings_rad: Vec<f64>,
+    in_laser: Vec<Point2<Laser>>,
+    in_robot: Vec<Point2<Robot>>,
+    /// Normal (robot frame) of the segment `k -> k + 1`, or NaN when the two returns are
+    /// farther apart than the segment limit (a jump edge, not a surface).
+    next_normal: Vec<(f64, f64)>,
+    /// `bin_first[b]`: the first return whose direction is at or after the start of bin
+    /// `b`.
+    bin_first: Vec<u32>,
+    bin_origin_rad: f64,
+    /// Middle of the directions: a query's direction is taken within half a turn of it.
+    centre_rad: f64,
+}
+
+impl Default for Reference {
+    fn default() -> Self {
+        Reference {
+            laser_from_robot: Pose2::IDENTITY,
+            bearings_rad: Vec::new(),
+            in_laser: Vec::new(),
+            in_robot: Vec::new(),
+            next_normal: Vec::new(),
+            bin_first: Vec::new(),
+            bin_origin_rad: 0.0,
+            centre_rad: 0.0,
+        }
+    }
+}
+
+/// The result of a nearest-point search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Nearest {
+    /// Index of the reference return.
+    pub index: usize,
+    /// Squared distance to it, m^2.
+    pub distance_sq_m2: f64,
+}
+
+/// `atan2(y, x)` to within 1.2e-5 rad, without a library call: Hastings' odd polynomial for
+/// atan on [-1, 1] (Abramowitz and Stegun 4.4.49; |error| <= 1.2e-5 as measured here) and the octant
+/// identities. Only used to choose where a search starts, so its error never changes a
+/// result (the search is exact whatever its start).
+#[inline]
+pub(crate) fn fast_atan2(y: f64, x: f64) -> f64 {
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let ax = x.abs();
+    let ay = y.abs();
+    if ax == 0.0 && ay == 0.0 {
+        return 0.0;
+    }
+    let swap = ay > ax;
+    let z = if swap { ax / ay } else { ay / ax };
+    let z2 = z * z;
+    let mut a = z
+        * (0.999_866_0
+            + z2 * (-0.330_299_5 + z2 * (0.180_141_0 + z2 * (-0.085_133_0 + z2 * 0.020_835_1))));
+    if swap {
+        a = FRAC_PI_2 - a;
+    }
+    if x < 0.0 {
+        a = PI - a;
+    }
+    if y < 0.0 { -a } else { a }
+}
+
+/// A lower bound of `sin(d)` for `d >= 0` that never needs a library call: `d - d^3/6`
+/// (the Taylor series of sine alternates, so its first two terms stay below it), held at
+/// its value at 1.4 rad beyond (where `d - d^3/6` stops growing), which is below
+/// `sin(d)` up to pi/2 and below 1 after.
+#[inline]
+fn sin_lower_bound(d: f64) -> f64 {
+    let d = d.min(1.4);
+    d - d * d * d / 6.0
+}
+
+impl Reference {
+    /// Prepares the returns of `scan` for which `keep(i)` is true. Neighbouring kept
+    /// returns farther apart than `max_segment_m` are not joined into a segment.
+    pub fn build(scan: &ScanPoints, max_segment_m: f64, keep: impl Fn(usize) -> bool) -> Self {
+        let mut r = Reference::default();
+        r.rebuild(scan, max_segment_m, keep);
+        r
+    }
+
+    /// Like [`Reference::build`], reusing the buffers.
+    pub fn rebuild(&mut self, scan: &ScanPoints, max_segment_m: f64, keep: impl Fn(usize) -> bool) {
+        let laser_from_robot = scan.robot_from_laser().inverse();
+        self.laser_from_robot = laser_from_robot;
+        self.bearings_rad.clear();
+        self.in_laser.clear();
+        self.in_robot.clear();
+        self.next_normal.clear();
+        self.bin_first.clear();
+        for (i, (&b, &p)) in scan.bearings_rad().iter().zip(scan.points()).enumerate() {
+            if keep(i) {
+                self.bearings_rad.push(b);
+                self.in_robot.push(p);
+                self.in_laser.push(laser_from_robot * p);
+            }
+        }
+        let n = self.in_robot.len();
+        let max_sq = max_segment_m * max_segment_m;
+        for k in 0..n {
+            let normal = if k + 1 < n {
+                let d = self.in_robot[k + 1] - self.in_robot[k];
+                let len_sq = d.x * d.x + d.y * d.y;
+                if len_sq <= max_sq && len_sq > 1e-12 {
+                    let len = len_sq.sqrt();
+                    (-d.y / len, d.x / len)
+                } else {
+                    (f64::NAN, f64::NAN)
+                }
+            } else {
+                (f64::NAN, f64::NAN)
+            };
+            self.next_normal.push(normal);
+        }
+        if n == 0 {
+            return;
+        }
+        self.bin_origin_rad = self.bearings_rad[0];
+        self.centre_rad = 0.5 * (self.bearings_rad[0] + self.bearings_rad[n - 1]);
+        let span = self.bearings_rad[n - 1] - self.bin_origin_rad;
+        let bins = (span * BINS_PER_RAD).floor() as usize + 2;
+        let mut k = 0usize;
+        for b in 0..bins {
+            let start = self.bin_origin_rad + b as f64 / BINS_PER_RAD;
+            while k < n && self.bearings_rad[k] < start {
+                k += 1;
+            }
+            self.bin_first.push(k as u32);
+        }
+    }
+
+    /// Number of returns.
+    pub fn len(&self) -> usize {
+        self.in_robot.len()
+    }
+
+    /// True without returns.
+    pub fn is_empty(&self) -> bool {
+        self.in_robot.is_empty()
+    }
+
+    /// The keyframe's laser frame from its robot frame.
+    pub fn laser_from_robot(&self) -> Pose2<Laser, Robot> {
+        self.laser_from_robot
+    }
+
+    /// The returns in the keyframe's robot frame.
+    pub fn points(&self) -> &[Point2<Robot>] {
+        &self.in_robot
+    }
+
+    /// Unit normal (robot frame) of the segment from return `k` to return `k + 1`, or
+    /// `None` when they do not form a surface.
+    pub fn segment_normal(&self, k: usize) -> Option<(f64, f64)> {
+        self.next_normal.get(k).copied().filter(|n| n.0.is_finite())
+    }
+
+    /// First index whose direction is at or after `bearing_rad`.
+    fn lower_bound(&self, bearing_rad: f64) -> usize {
+        let n = self.bearings_rad.len();
+        let rel = (bearing_rad - self.bin_origin_rad) * BINS_PER_RAD;
+        if !(rel >= 0.0) {
+            return 0;
+        }
+        let bin = rel as usize;
+        let Some(&first) = self.bin_first.get(bin) else {
+            return n;
+        };
+        let mut k = first as usize;
+        while k < n && self.bearings_rad[k] < bearing_rad {
+            k += 1;
+        }
+        k
+    }
+
+    /// The nearest return to `q` (keyframe laser frame) within `max_distance_m`, found by
+    /// direction.
+    ///
+    /// A return on the beam at direction `b` lies on the ray from the scanner at `b`; the
+    /// distance from `q` (range `r`, direction `a`) to any point of that ray is
+    /// `r sin|b - a|` when `|b - a| <= pi/2` and at least `r` beyond. Walking the beams
+    /// outwards from `a` on both sides, that bound only grows, so each side stops at the
+    /// first beam whose bound exceeds the best distance found: the result is exactly the
+    /// nearest return (the same as [`Reference::nearest_brute_force`]), in a handful of
+    /// beams when the nearest is close.
+    pub fn nearest(&self, q: Point2<Laser>, max_distance_m: f64) -> Option<Nearest> {
+        let n = self.bearings_rad.len();
+        if n == 0 {
+            return None;
+        }
+        let r = (q.x * q.x + q.y * q.y).sqrt();
+        let a = fast_atan2(q.y, q.x) - self.centre_rad;
+        let a = self.centre_rad + a - TAU * (a / TAU).round();
+        // Margin for the approximate direction (1.2e-5 rad) and rounding.
+        let slack = 2e-5;
+        let mut best_sq = max_distance_m * max_distance_m;
+        let mut best: Option<usize> = None;
+        let start = self.lower_bound(a);
+        // Directions differ by at most a turn; a beam `d` ahead on one side is `TAU - d`
+        // behind on the other, so on each side no remaining beam is closer in angle than
+        // `TAU` minus that side's largest difference.
+        let up_floor = TAU - (self.bearings_rad[n - 1] - a + slack);
+        let down_floor = TAU - (a - self.bearings_rad[0] + slack);
+        for k in start..n {
+            let d = (self.bearings_rad[k] - a - slack).min(up_floor).max(0.0);
+            let lb = r * sin_lower_bound(d);
+            if lb * lb >= best_sq {
+                break;
+            }
+            let p = self.in_laser[k];
+            let (dx, dy) = (p.x - q.x, p.y - q.y);
+            let dsq = dx * dx + dy * dy;
+            if dsq < best_sq {
+                best_sq = dsq;
+                best = Some(k);
+            }
+        }
+        for k in (0..start).rev() {
+            let d = (a - self.bearings_rad[k] - slack).min(down_floor).max(0.0);
+            let lb = r * sin_lower_bound(d);
+            if lb * lb >= best_sq {
+                break;
+            }
+            let p = self.in_laser[k];
+            let (dx, dy) = (p.x - q.x, p.y - q.y);
+            let dsq = dx * dx + dy * dy;
+            if dsq < best_sq {
+                best_sq = dsq;
+                best = Some(k);
+            }
+        }
+        best.map(|index| Nearest {
+            index,
+            distance_sq_m2: best_sq,
+        })
+    }
+
+    /// The nearest return to `q` within `max_distance_m`, by trying every return.
+    pub fn nearest_brute_force(&self, q: Point2<Laser>, max_distance_m: f64) -> Option<Nearest> {
+        let mut best_sq = max_distance_m * max_distance_m;
+        let mut best = None;
+        for (k, p) in self.in_laser.iter().enumerate() {
+            let (dx, dy) = (p.x - q.x, p.y - q.y);
+            let dsq = dx * dx + dy * dy;
+            if dsq < best_sq {
+                best_sq = dsq;
+                best = Some(k);
+            }
+        }
+        best.map(|index| Nearest {
+            index,
+            distance_sq_m2: best_sq,
+        })
+    }
+
+    /// The nearest return by the chosen method.
+    #[inline]
+    pub fn nearest_by(
+        &self,
+        search: NeighbourSearch,
+        q: Point2<Laser>,
+        max_distance_m: f64,
+    ) -> Option<Nearest> {
+        match search {
+            NeighbourSearch::AngularWindow => self.nearest(q, max_distance_m),
+            NeighbourSearch::BruteForce => self.nearest_brute_force(q, max_distance_m),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn fast_atan2_is_within_its_bound_everywhere() {
+        for i in 0..10_000 {
+            let t = i as f64 / 10_000.0 * TAU;
+            for r in [1e-3, 1.0, 7.0] {
+                let (y, x) = (r * t.sin(), r * t.cos());
+                let e = tether_core::wrap_angle_rad(fast_atan2(y, x) - y.atan2(x));
+                assert!(e.abs() < 1.2e-5, "{t}: {e}");
+            }
+        }
+    }
+
+    #[test]
+    fn sine_bound_stays_below_sine() {
+        for i in 0..3000 {
+            let d = i as f64 * 1e-3;
+            let s = if d < std::f64::consts::FRAC_PI_2 {
+                d.sin()
+            } else {
+                1.0
+            };
+            assert!(sin_lower_bound(d) <= s + 1e-15, "{d}");
+        }
+    }
+
+    fn scan_of(ranges: &[f64], mount: Pose2<Robot, Laser>) -> ScanPoints {
+        let n = ranges.len();
+        let angles: Vec<f64> = (0..n)
+            .map(|i| -2.0862 + i as f64 * 4.1785 / (n - 1) as f64)
+            .collect();
+        ScanPoints::from_polar(&angles, ranges, mount).unwrap()
+    }
+
+    proptest! {
+        /// The direction search finds exactly the point brute force finds, for any
+        /// scan (ranges from 2 cm to 6 m, with gaps), any mount and any query.
+        #[test]
+        fn angular_search_equals_brute_force(
+            ranges in prop::collection::vec(prop_oneof![3 => 0.02f64..6.0, 1 => Just(f64::INFINITY)], 2..200),
+            mount in (-0.3f64..0.3, -0.3f64..0.3, -3.0f64..3.0),
+            queries in prop::collection::vec((-7.0f64..7.0, -7.0f64..7.0), 1..40),
+            max_distance_m in 0.01f64..3.0,
+        ) {
+            let mount = Pose2::new(mount.0, mount.1, mount.2);
+            let reference = Reference::build(&scan_of(&ranges, mount), 0.2, |_| true);
+            for (x, y) in queries {
+                let q = Point2::new(x, y);
+                let fast = reference.nearest(q, max_distance_m);
+                let slow = reference.nearest_brute_force(q, max_distance_m);
+                match (fast, slow) {
+                    (Some(f), Some(s)) => prop_assert!(
+                        f.index == s.index || (f.distance_sq_m2 - s.distance_sq_m2).abs() < 1e-12,
+                        "{f:?} vs {s:?}"
+                    ),
+                    (None, None) => {}
+                    other => prop_assert!(false, "{other:?}"),
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn segments_join_neighbours_on_one_surface_only() {
+        // A wall at x = 1 for beams 0..5, then a jump to 3 m.
+        let angles: Vec<f64> = (0..8).map(|i| -0.2 + 0.05 * i as f64).collect();
+        let ranges: Vec<f64> = angles
+            .iter()
+            .enumerate()
+            .map(|(i, a)| if i < 5 { 1.0 / a.cos() } else { 3.0 })
+            .collect();
+        let s = ScanPoints::from_polar(&angles, &ranges, Pose2::IDENTITY).unwrap();
+        let r = Reference::build(&s, 0.2, |_| true);
+        let (nx, ny) = r.segment_normal(0).unwrap();
+        assert!(nx.abs() > 0.999 && ny.abs() < 1e-9);
+        assert!(r.segment_normal(4).is_none(), "jump edge");
+        assert!(r.segment_normal(7).is_none(), "last return");
+    }
+}

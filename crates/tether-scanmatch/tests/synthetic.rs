@@ -1,0 +1,230 @@
+//! Matching on ray-cast scenes with a known motion: the room is recovered to a centimetre
+//! and half a degree, the corridor is flagged degenerate, people in exclusion zones do
+//! not pull, and the fast neighbour search gives the brute-force result.
+
+#![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
+
+use proptest::prelude::*;
+use tether_core::{LaserModel, Point2, Pose2, Robot, Stamp, World};
+use tether_scanmatch::synthetic::Scene;
+use tether_scanmatch::{
+    ExclusionZone, IcpConfig, IcpScratch, MotionPrior, NeighbourSearch, Quality, Reference,
+    ScanMatcher, ScanMatcherConfig, match_scan,
+};
+
+const SIGMA_M: f64 = 0.01;
+
+fn stamp(i: i64) -> Stamp {
+    Stamp::from_ns(i * 100_000_000)
+}
+
+/// Matches a scan at `b` against one at `a` (both world_from_robot), from a guess of no
+/// motion, and returns the estimated and true `a_from_b`.
+fn match_pair(
+    scene: &Scene,
+    a: Pose2<World, Robot>,
+    b: Pose2<World, Robot>,
+    search: NeighbourSearch,
+) -> (tether_scanmatch::MatchResult, Pose2<Robot, Robot>) {
+    let model = LaserModel::urg_04lx();
+    let first = scene.urg_points(&model, a, SIGMA_M, 1);
+    let second = scene.urg_points(&model, b, SIGMA_M, 2);
+    let config = IcpConfig::default();
+    let reference = Reference::build(&first, config.max_segment_m, |_| true);
+    let prior = [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01]];
+    let r = match_scan(
+        &reference,
+        second.points(),
+        Pose2::IDENTITY,
+        &prior,
+        &config,
+        search,
+        &mut IcpScratch::default(),
+    )
+    .unwrap();
+    (r, a.inverse() * b)
+}
+
+#[test]
+fn room_motion_is_recovered_within_a_centimetre_and_half_a_degree() {
+    let scene = Scene::room();
+    let a = Pose2::new(0.0, 0.0, 0.3);
+    for (dx, dy, dyaw) in [
+        (0.10, 0.0, 0.0),
+        (0.15, -0.05, 0.08),
+        (-0.05, 0.12, -0.15),
+        (0.0, 0.0, 0.2),
+        (0.2, 0.1, 0.1),
+    ] {
+        let b = a * Pose2::<Robot, Robot>::new(dx, dy, dyaw);
+        let (r, truth) = match_pair(&scene, a, b, NeighbourSearch::AngularWindow);
+        let e = truth.inverse() * r.keyframe_from_robot;
+        assert!(
+            e.x.hypot(e.y) < 0.01 && e.yaw.abs() < 0.5f64.to_radians(),
+            "motion ({dx}, {dy}, {dyaw}): error {e:?}, {r:?}"
+        );
+        assert_eq!(r.degenerate_directions, 0, "{r:?}");
+        assert!(r.converged);
+        // The covariance is positive and small.
+        assert!(r.covariance[0][0] > 0.0 && r.covariance[0][0].sqrt() < 0.01);
+        assert!(r.covariance[2][2] > 0.0 && r.covariance[2][2].sqrt() < 0.01);
+    }
+}
+
+#[test]
+fn corridor_is_flagged_degenerate_and_keeps_the_prior_along_it() {
+    let scene = Scene::corridor();
+    let a = Pose2::new(0.0, 0.0, 0.0);
+    let b = a * Pose2::<Robot, Robot>::new(0.2, 0.05, 0.03);
+    let (r, truth) = match_pair(&scene, a, b, NeighbourSearch::AngularWindow);
+    assert_eq!(r.degenerate_directions, 1, "{r:?}");
+    // The unconstrained direction is the corridor's axis (x).
+    assert!(r.eigenvectors[0][0].abs() > 0.95, "{:?}", r.eigenvectors);
+    // Across the corridor and in yaw the scan decides; along it the guess (0) stays.
+    assert!((r.keyframe_from_robot.y - truth.y).abs() < 0.01, "{r:?}");
+    assert!((r.keyframe_from_robot.yaw - truth.yaw).abs() < 0.5f64.to_radians());
+    assert!(r.keyframe_from_robot.x.abs() < 0.02, "{r:?}");
+    // Its variance along the corridor is the prior's, not the scan's.
+    assert!((r.covariance[0][0] - 0.01).abs() < 0.002, "{:?}", r.covariance);
+    assert!(r.covariance[1][1] < 1e-4);
+
+    // The room is not degenerate from the same motion.
+    let (room, _) = match_pair(&Scene::room(), a, b, NeighbourSearch::AngularWindow);
+    assert_eq!(room.degenerate_directions, 0);
+    assert!(room.eigenvalues[0] > 5.0 * IcpConfig::default().degeneracy_min_eigenvalue);
+}
+
+/// A room with a crowd that walks along with the robot: without exclusion the crowd
+/// drags the estimate; with zones around them the estimate is right.
+#[test]
+fn points_in_exclusion_zones_are_ignored() {
+    let model = LaserModel::urg_04lx();
+    let base = Scene::room();
+    let world_from_a = Pose2::<World, Robot>::new(0.0, 0.0, 0.0);
+    let truth = Pose2::<Robot, Robot>::new(0.12, 0.0, 0.0);
+    let world_from_b = world_from_a * truth;
+    // Walkers: a dense crowd of leg pairs ahead, moving with the robot plus 0.3 m
+    // sideways (so they are not static for the matcher).
+    let people_a: Vec<Point2<World>> = (0..12)
+        .map(|i| Point2::new(0.8 + 0.1 * (i % 4) as f64, -0.9 + 0.6 * (i / 4) as f64))
+        .collect();
+    let people_b: Vec<Point2<World>> = people_a
+        .iter()
+        .map(|p| Point2::new(p.x + 0.12, p.y + 0.3))
+        .collect();
+    let with_people = |people: &[Point2<World>]| {
+        let mut s = base.clone();
+        for &p in people {
+            // A short wall segment facing the robot: a body-sized flat target.
+            s.walls.push((Point2::new(p.x, p.y - 0.15), Point2::new(p.x, p.y + 0.15)));
+        }
+        s
+    };
+    let scan_a = with_people(&people_a).urg_points(&model, world_from_a, SIGMA_M, 3);
+    let scan_b = with_people(&people_b).urg_points(&model, world_from_b, SIGMA_M, 4);
+    let zones = |people: &[Point2<World>], world_from_robot: Pose2<World, Robot>| {
+        people
+            .iter()
+            .map(|&p| ExclusionZone {
+                center: world_from_robot.inverse() * p,
+                radius_m: 0.35,
+            })
+            .collect::<Vec<_>>()
+    };
+    let run = |exclude: bool| {
+        let mut m = ScanMatcher::new(ScanMatcherConfig::default());
+        let za = if exclude { zones(&people_a, world_from_a) } else { vec![] };
+        let zb = if exclude { zones(&people_b, world_from_b) } else { vec![] };
+        m.update(stamp(0), &scan_a, MotionPrior::Stationary, &za);
+        m.update(stamp(1), &scan_b, MotionPrior::Stationary, &zb)
+    };
+    let excluded = run(true);
+    assert!(excluded.excluded_points > 50, "{excluded:?}");
+    let e = truth.inverse() * excluded.robot_from_robot;
+    assert!(e.x.hypot(e.y) < 0.01, "with exclusion: {excluded:?}");
+    let dragged = run(false);
+    let e_dragged = truth.inverse() * dragged.robot_from_robot;
+    assert!(
+        e_dragged.x.hypot(e_dragged.y) > 2.0 * e.x.hypot(e.y),
+        "the crowd should have pulled without exclusion: {dragged:?} vs {excluded:?}"
+    );
+}
+
+#[test]
+fn a_drive_through_the_room_accumulates_little_drift() {
+    let model = LaserModel::urg_04lx();
+    let scene = Scene::room();
+    let mut m = ScanMatcher::new(ScanMatcherConfig::default());
+    let start = Pose2::<World, Robot>::new(-1.5, 0.0, 0.0);
+    let step = Pose2::<Robot, Robot>::new(0.05, 0.0, 0.02);
+    let mut truth = start;
+    let mut distance_m = 0.0;
+    let mut last = None;
+    for i in 0..100 {
+        let scan = scene.urg_points(&model, truth, SIGMA_M, 100 + i as u64);
+        let e = m.update(stamp(i), &scan, MotionPrior::ConstantVelocity, &[]);
+        assert!(!matches!(e.quality, Quality::PriorOnly(_)), "{i}: {e:?}");
+        last = Some(e);
+        truth = truth * step;
+        distance_m += 0.05;
+    }
+    let e = last.unwrap();
+    let true_last = start.inverse() * (truth * step.inverse());
+    let est = Pose2::<Robot, Robot>::new(e.world_from_robot.x, e.world_from_robot.y, e.world_from_robot.yaw);
+    let err = true_last.inverse() * est;
+    let drift = err.x.hypot(err.y) / (distance_m - 0.05);
+    assert!(drift < 0.01, "drift {drift}: {err:?}");
+    assert!(m.counts().keyframes >= 10, "{:?}", m.counts());
+}
+
+#[test]
+fn bad_input_is_reported_not_panicked_on() {
+    let model = LaserModel::urg_04lx();
+    let scene = Scene::room();
+    let scan = scene.urg_points(&model, Pose2::IDENTITY, SIGMA_M, 1);
+    let mut m = ScanMatcher::new(ScanMatcherConfig::default());
+    assert_eq!(
+        m.update(stamp(5), &scan, MotionPrior::ConstantVelocity, &[]).quality,
+        Quality::First
+    );
+    let e = m.update(stamp(5), &scan, MotionPrior::ConstantVelocity, &[]);
+    assert_eq!(
+        e.quality,
+        Quality::PriorOnly(tether_scanmatch::Failure::StampNotIncreasing)
+    );
+    // An empty scan: the prior carries the pose, and the next good scan matches again.
+    let empty = tether_scanmatch::ScanPoints::default();
+    let e = m.update(stamp(6), &empty, MotionPrior::Velocity { v_mps: 1.0, w_radps: 0.0 }, &[]);
+    assert_eq!(e.quality, Quality::PriorOnly(tether_scanmatch::Failure::TooFewPoints));
+    assert!((e.world_from_robot.x - 0.1).abs() < 1e-9);
+    // Everything excluded.
+    let all = [ExclusionZone { center: Point2::new(0.0, 0.0), radius_m: 100.0 }];
+    let e = m.update(stamp(7), &scan, MotionPrior::Stationary, &all);
+    assert!(matches!(e.quality, Quality::PriorOnly(_)));
+    // A gap of 10 s resets the constant-velocity prior.
+    let e = m.update(stamp(107), &scan, MotionPrior::ConstantVelocity, &[]);
+    assert!(e.prior_reset);
+    assert_eq!(m.counts().stamps_not_increasing, 1);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+    /// The whole match with the direction search equals the match with brute-force
+    /// nearest neighbours, for random motions in the room.
+    #[test]
+    fn fast_search_matches_brute_force(
+        dx in -0.2f64..0.2, dy in -0.2f64..0.2, dyaw in -0.2f64..0.2,
+        x in -1.0f64..1.0, y in -1.0f64..1.0, yaw in -3.1f64..3.1,
+    ) {
+        let scene = Scene::room();
+        let a = Pose2::new(x, y, yaw);
+        let b = a * Pose2::<Robot, Robot>::new(dx, dy, dyaw);
+        let (fast, _) = match_pair(&scene, a, b, NeighbourSearch::AngularWindow);
+        let (slow, _) = match_pair(&scene, a, b, NeighbourSearch::BruteForce);
+        prop_assert_eq!(fast.matched, slow.matched);
+        prop_assert_eq!(fast.iterations, slow.iterations);
+        let (f, s) = (fast.keyframe_from_robot, slow.keyframe_from_robot);
+        prop_assert!((f.x - s.x).abs() < 1e-9 && (f.y - s.y).abs() < 1e-9 && (f.yaw - s.yaw).abs() < 1e-9,
+            "{:?} vs {:?}", f, s);
+    }
+}
