@@ -5,7 +5,7 @@
 use tether_core::{Point2, Pose2, Robot};
 
 use crate::linalg::{Mat3, ZERO3, symmetric_eigen3};
-use crate::reference::{NeighbourSearch, Reference};
+use crate::reference::{LineFit, NeighbourSearch, Reference};
 
 /// Settings of one scan-to-keyframe match.
 #[derive(Debug, Clone, PartialEq)]
@@ -18,8 +18,8 @@ pub struct IcpConfig {
     pub rotation_tolerance_rad: f64,
     /// A point whose nearest reference return is farther than this has no match, m.
     pub max_correspondence_m: f64,
-    /// Neighbouring reference returns farther apart than this are not one surface, m.
-    pub max_segment_m: f64,
+    /// How the keyframe's surface lines are fitted.
+    pub lines: LineFit,
     /// Share of the matched points with the largest residuals left out of each step
     /// (trimmed least squares: a moving person or a new object must not pull).
     pub trim_fraction: f64,
@@ -45,7 +45,7 @@ impl Default for IcpConfig {
             translation_tolerance_m: 1e-4,
             rotation_tolerance_rad: 1e-4,
             max_correspondence_m: 0.3,
-            max_segment_m: 0.25,
+            lines: LineFit::default(),
             trim_fraction: 0.15,
             huber_m: 0.03,
             min_matches: 30,
@@ -108,10 +108,11 @@ pub struct IcpScratch {
 /// uncertainty, used along degenerate directions).
 ///
 /// Each iteration, for every point `q` at the current estimate `T = (t, yaw)`:
-/// 1. find its nearest reference return `p_j` and, of `p_{j-1}` and `p_{j+1}`, the one
-///    closer to `q`; the segment between them (if it is a surface) gives a unit normal
-///    `n` (PL-ICP: the point is matched to the line through its two nearest returns);
-/// 2. residual `r = n . (R q + t - p_j)`, Jacobian over `(x, y, yaw)`
+/// 1. find its nearest reference return `p_j` (exactly, by direction: see
+///    [`Reference::nearest`]); the line of the surface there (unit normal `n`, point
+///    `a`, fitted to the returns around `p_j`: see [`Reference`]) is what it is matched
+///    to (PL-ICP: the point is matched to the line through its nearest returns);
+/// 2. residual `r = n . (R q + t - a)`, Jacobian over `(x, y, yaw)`
 ///    `J = [n_x, n_y, n . perp(R q)]` with `perp(v) = (-v_y, v_x)`;
 /// 3. the worst `trim_fraction` of `|r|` are dropped, the rest weighted by Huber;
 /// 4. Gauss-Newton: `H = sum w J^T J`, `g = sum w J^T r`, step `d = -H^-1 g`, taken only
@@ -150,30 +151,11 @@ pub fn match_scan(
             else {
                 continue;
             };
-            let j = near.index;
-            let refs = reference.points();
-            // The neighbour closer to q decides the segment; fall back to the other.
-            let before = j.checked_sub(1).and_then(|i| {
-                reference
-                    .segment_normal(i)
-                    .map(|n| (n, dist_sq(refs[i], qr)))
-            });
-            let after = reference
-                .segment_normal(j)
-                .and_then(|n| refs.get(j + 1).map(|&p| (n, dist_sq(p, qr))));
-            let normal = match (before, after) {
-                (Some(b), Some(a)) => {
-                    if b.1 <= a.1 {
-                        b.0
-                    } else {
-                        a.0
-                    }
-                }
-                (Some(b), None) => b.0,
-                (None, Some(a)) => a.0,
-                (None, None) => continue,
+            let Some(line) = reference.line(near.index) else {
+                continue;
             };
-            let p = refs[j];
+            let normal = line.normal;
+            let p = line.anchor;
             let r = normal.0 * (qr.x - p.x) + normal.1 * (qr.y - p.y);
             let j_yaw = normal.0 * -rq.1 + normal.1 * rq.0;
             scratch.rows.push([normal.0, normal.1, j_yaw / scale, r]);
@@ -301,11 +283,6 @@ struct Stats {
     values: [f64; 3],
     vectors: [[f64; 3]; 3],
     degenerate: usize,
-}
-
-fn dist_sq(a: Point2<Robot>, b: Point2<Robot>) -> f64 {
-    let (dx, dy) = (a.x - b.x, a.y - b.y);
-    dx * dx + dy * dy
 }
 
 /// `Sigma = sum_k c_k v_k v_k^T` over the eigenvectors of the Hessian (in the scaled

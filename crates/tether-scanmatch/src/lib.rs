@@ -32,4 +32,4 @@ pub use matcher::{
     ScanMatcherConfig, arc,
 };
 pub use points::{ScanPoints, ScanPointsError};
-pub use reference::{Nearest, NeighbourSearch, Reference};
+pub use reference::{Line, LineFit, Nearest, NeighbourSearch, Reference};

@@ -444,7 +444,7 @@ impl ScanMatcher {
         self.counts.keyframes += 1;
         let keep = &self.keep;
         self.keyframe
-            .rebuild(scan, self.config.icp.max_segment_m, |i| keep[i]);
+            .rebuild(scan, &self.config.icp.lines, |i| keep[i]);
         let velocity = self.state.as_ref().map_or((0.0, 0.0, 0.0), |s| s.velocity);
         self.state = Some(State {
             last_stamp: stamp,

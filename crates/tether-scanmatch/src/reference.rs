@@ -22,24 +22,70 @@ pub enum NeighbourSearch {
 /// Bins per radian of the direction look-up table (about 6 per URG-04LX beam).
 const BINS_PER_RAD: f64 = 1000.0;
 
+/// How the reference's surfaces are estimated around each return.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LineFit {
+    /// Neighbouring returns farther apart than this are on different surfaces (a jump
+    /// edge), m.
+    pub max_gap_m: f64,
+    /// Half the length of surface around a return that its line is fitted to, m.
+    pub half_span_m: f64,
+    /// A fit is a line only when the spread across it is at most this share of the
+    /// spread along it (ratio of the eigenvalues of the points' covariance).
+    pub max_flatness: f64,
+}
+
+impl Default for LineFit {
+    fn default() -> Self {
+        LineFit {
+            max_gap_m: 0.2,
+            half_span_m: 0.1,
+            max_flatness: 0.1,
+        }
+    }
+}
+
+/// The line of the reference surface at one return: unit normal and a point on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Line {
+    /// Unit normal, robot frame.
+    pub normal: (f64, f64),
+    /// A point of the line (the centroid of the fitted returns), robot frame.
+    pub anchor: Point2<Robot>,
+}
+
 /// A keyframe scan prepared for matching: its returns in its own robot frame and in its
-/// laser frame, their beam directions, and the unit normal of the segment from each
-/// return to the next one when the two are close enough to lie on one surface.
+/// laser frame, their beam directions, and at each return the line of the surface it
+/// lies on.
+///
+/// PL-ICP (Censi, ICRA 2008) matches a point to the segment between its two nearest
+/// reference returns. With the URG-04LX that segment is noise near the scanner: beams
+/// are 6 mm apart at 1 m and ranges scatter by about 1 cm (SPEC 2.1), so the line
+/// through two neighbours points anywhere. Here the line at return `k` is fitted (total
+/// least squares: the principal axis of the points' covariance) to the returns of the
+/// same surface within [`LineFit::half_span_m`] of it on either side — the same
+/// point-to-line model, with a line that noise does not turn. Sums over returns are kept
+/// as prefix sums, so every fit costs the same whatever its width.
 #[derive(Debug, Clone)]
 pub struct Reference {
     laser_from_robot: Pose2<Laser, Robot>,
     bearings_rad: Vec<f64>,
     in_laser: Vec<Point2<Laser>>,
     in_robot: Vec<Point2<Robot>>,
-    /// Normal (robot frame) of the segment `k -> k + 1`, or NaN when the two returns are
-    /// farther apart than the segment limit (a jump edge, not a surface).
-    next_normal: Vec<(f64, f64)>,
+    ranges_m: Vec<f64>,
+    /// `(n_x, n_y, anchor_x, anchor_y)` of the line at each return, NaN when the
+    /// neighbourhood is not a line.
+    lines: Vec<[f64; 4]>,
     /// `bin_first[b]`: the first return whose direction is at or after the start of bin
     /// `b`.
     bin_first: Vec<u32>,
     bin_origin_rad: f64,
     /// Middle of the directions: a query's direction is taken within half a turn of it.
     centre_rad: f64,
+    /// Scratch: first and last index of each return's surface run, prefix sums.
+    run_start: Vec<u32>,
+    run_end: Vec<u32>,
+    prefix: Vec<[f64; 5]>,
 }
 
 impl Default for Reference {
@@ -49,10 +95,14 @@ impl Default for Reference {
             bearings_rad: Vec::new(),
             in_laser: Vec::new(),
             in_robot: Vec::new(),
-            next_normal: Vec::new(),
+            ranges_m: Vec::new(),
+            lines: Vec::new(),
             bin_first: Vec::new(),
             bin_origin_rad: 0.0,
             centre_rad: 0.0,
+            run_start: Vec::new(),
+            run_end: Vec::new(),
+            prefix: Vec::new(),
         }
     }
 }
@@ -104,47 +154,40 @@ fn sin_lower_bound(d: f64) -> f64 {
 }
 
 impl Reference {
-    /// Prepares the returns of `scan` for which `keep(i)` is true. Neighbouring kept
-    /// returns farther apart than `max_segment_m` are not joined into a segment.
-    pub fn build(scan: &ScanPoints, max_segment_m: f64, keep: impl Fn(usize) -> bool) -> Self {
+    /// Prepares the returns of `scan` for which `keep(i)` is true, fitting lines as
+    /// `fit` says.
+    pub fn build(scan: &ScanPoints, fit: &LineFit, keep: impl Fn(usize) -> bool) -> Self {
         let mut r = Reference::default();
-        r.rebuild(scan, max_segment_m, keep);
+        r.rebuild(scan, fit, keep);
         r
     }
 
     /// Like [`Reference::build`], reusing the buffers.
-    pub fn rebuild(&mut self, scan: &ScanPoints, max_segment_m: f64, keep: impl Fn(usize) -> bool) {
+    pub fn rebuild(&mut self, scan: &ScanPoints, fit: &LineFit, keep: impl Fn(usize) -> bool) {
         let laser_from_robot = scan.robot_from_laser().inverse();
         self.laser_from_robot = laser_from_robot;
         self.bearings_rad.clear();
         self.in_laser.clear();
         self.in_robot.clear();
-        self.next_normal.clear();
+        self.ranges_m.clear();
+        self.lines.clear();
         self.bin_first.clear();
-        for (i, (&b, &p)) in scan.bearings_rad().iter().zip(scan.points()).enumerate() {
+        for (i, ((&b, &p), &r)) in scan
+            .bearings_rad()
+            .iter()
+            .zip(scan.points())
+            .zip(scan.ranges_m())
+            .enumerate()
+        {
             if keep(i) {
                 self.bearings_rad.push(b);
                 self.in_robot.push(p);
                 self.in_laser.push(laser_from_robot * p);
+                self.ranges_m.push(r);
             }
         }
         let n = self.in_robot.len();
-        let max_sq = max_segment_m * max_segment_m;
-        for k in 0..n {
-            let normal = if k + 1 < n {
-                let d = self.in_robot[k + 1] - self.in_robot[k];
-                let len_sq = d.x * d.x + d.y * d.y;
-                if len_sq <= max_sq && len_sq > 1e-12 {
-                    let len = len_sq.sqrt();
-                    (-d.y / len, d.x / len)
-                } else {
-                    (f64::NAN, f64::NAN)
-                }
-            } else {
-                (f64::NAN, f64::NAN)
-            };
-            self.next_normal.push(normal);
-        }
+        self.fit_lines(fit);
         if n == 0 {
             return;
         }
@@ -159,6 +202,85 @@ impl Reference {
                 k += 1;
             }
             self.bin_first.push(k as u32);
+        }
+    }
+
+    /// Fits the line at every return to its surface neighbours (see [`Reference`]).
+    ///
+    /// The neighbourhood of return `k` (range `r_k`) is `m = ceil(half_span / (r_k db))`
+    /// returns on each side (`db` the beam spacing there: the returns a surface facing
+    /// the scanner puts within `half_span`), clipped to `k`'s surface run. Its mean
+    /// `mu` and covariance `C` come from prefix sums of `x, y, x^2, xy, y^2`; the line's
+    /// direction is the principal axis `phi = atan2(2 C_xy, C_xx - C_yy) / 2` and its
+    /// normal `(-sin phi, cos phi)`; it is a line when
+    /// `lambda_min <= max_flatness * lambda_max`.
+    fn fit_lines(&mut self, fit: &LineFit) {
+        let n = self.in_robot.len();
+        self.run_start.clear();
+        self.run_end.clear();
+        self.prefix.clear();
+        let gap_sq = fit.max_gap_m * fit.max_gap_m;
+        let mut start = 0u32;
+        let mut acc = [0.0f64; 5];
+        self.prefix.push(acc);
+        for k in 0..n {
+            if k > 0 {
+                let d = self.in_robot[k] - self.in_robot[k - 1];
+                if d.x * d.x + d.y * d.y > gap_sq {
+                    start = k as u32;
+                }
+            }
+            self.run_start.push(start);
+            let p = self.in_robot[k];
+            acc[0] += p.x;
+            acc[1] += p.y;
+            acc[2] += p.x * p.x;
+            acc[3] += p.x * p.y;
+            acc[4] += p.y * p.y;
+            self.prefix.push(acc);
+        }
+        // Run ends, walking back.
+        self.run_end.resize(n, 0);
+        let mut end = n.saturating_sub(1) as u32;
+        for k in (0..n).rev() {
+            self.run_end[k] = end;
+            if k > 0 && self.run_start[k] == k as u32 {
+                end = k as u32 - 1;
+            }
+        }
+        for k in 0..n {
+            let spacing = if n > 1 {
+                let kk = k.min(n - 2);
+                (self.bearings_rad[kk + 1] - self.bearings_rad[kk]).abs()
+            } else {
+                1.0
+            };
+            let m = (fit.half_span_m / (self.ranges_m[k] * spacing).max(1e-6)).ceil();
+            let m = m.clamp(1.0, 64.0) as usize;
+            let lo = k.saturating_sub(m).max(self.run_start[k] as usize);
+            let hi = (k + m).min(self.run_end[k] as usize);
+            let line = if hi - lo + 1 >= 3 {
+                let count = (hi + 1 - lo) as f64;
+                let s: [f64; 5] =
+                    std::array::from_fn(|i| self.prefix[hi + 1][i] - self.prefix[lo][i]);
+                let (mx, my) = (s[0] / count, s[1] / count);
+                let cxx = s[2] / count - mx * mx;
+                let cxy = s[3] / count - mx * my;
+                let cyy = s[4] / count - my * my;
+                let half_trace = 0.5 * (cxx + cyy);
+                let root = (0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy).sqrt();
+                let (l_max, l_min) = (half_trace + root, (half_trace - root).max(0.0));
+                if l_max > 0.0 && l_min <= fit.max_flatness * l_max {
+                    let phi = 0.5 * (2.0 * cxy).atan2(cxx - cyy);
+                    let (sp, cp) = phi.sin_cos();
+                    [-sp, cp, mx, my]
+                } else {
+                    [f64::NAN; 4]
+                }
+            } else {
+                [f64::NAN; 4]
+            };
+            self.lines.push(line);
         }
     }
 
@@ -182,10 +304,14 @@ impl Reference {
         &self.in_robot
     }
 
-    /// Unit normal (robot frame) of the segment from return `k` to return `k + 1`, or
-    /// `None` when they do not form a surface.
-    pub fn segment_normal(&self, k: usize) -> Option<(f64, f64)> {
-        self.next_normal.get(k).copied().filter(|n| n.0.is_finite())
+    /// The surface line at return `k`, or `None` where the returns around it are not a
+    /// line (a small post, a corner, a lone return).
+    #[inline]
+    pub fn line(&self, k: usize) -> Option<Line> {
+        self.lines.get(k).filter(|l| l[0].is_finite()).map(|l| Line {
+            normal: (l[0], l[1]),
+            anchor: Point2::new(l[2], l[3]),
+        })
     }
 
     /// First index whose direction is at or after `bearing_rad`.
@@ -351,7 +477,7 @@ mod tests {
             max_distance_m in 0.01f64..3.0,
         ) {
             let mount = Pose2::new(mount.0, mount.1, mount.2);
-            let reference = Reference::build(&scan_of(&ranges, mount), 0.2, |_| true);
+            let reference = Reference::build(&scan_of(&ranges, mount), &LineFit::default(), |_| true);
             for (x, y) in queries {
                 let q = Point2::new(x, y);
                 let fast = reference.nearest(q, max_distance_m);
@@ -369,19 +495,26 @@ mod tests {
     }
 
     #[test]
-    fn segments_join_neighbours_on_one_surface_only() {
-        // A wall at x = 1 for beams 0..5, then a jump to 3 m.
-        let angles: Vec<f64> = (0..8).map(|i| -0.2 + 0.05 * i as f64).collect();
+    fn lines_follow_surfaces_and_stop_at_jump_edges() {
+        // A wall at x = 1 for beams 0..40, then a jump to 3 m.
+        let angles: Vec<f64> = (0..60).map(|i| -0.3 + 0.01 * i as f64).collect();
         let ranges: Vec<f64> = angles
             .iter()
             .enumerate()
-            .map(|(i, a)| if i < 5 { 1.0 / a.cos() } else { 3.0 })
+            .map(|(i, a)| if i < 40 { 1.0 / a.cos() } else { 3.0 })
             .collect();
         let s = ScanPoints::from_polar(&angles, &ranges, Pose2::IDENTITY).unwrap();
-        let r = Reference::build(&s, 0.2, |_| true);
-        let (nx, ny) = r.segment_normal(0).unwrap();
-        assert!(nx.abs() > 0.999 && ny.abs() < 1e-9);
-        assert!(r.segment_normal(4).is_none(), "jump edge");
-        assert!(r.segment_normal(7).is_none(), "last return");
+        let r = Reference::build(&s, &LineFit::default(), |_| true);
+        for k in [0, 20, 39] {
+            let l = r.line(k).unwrap();
+            assert!(l.normal.0.abs() > 0.9999 && l.normal.1.abs() < 1e-6, "{k}: {l:?}");
+            assert!((l.anchor.x - 1.0).abs() < 1e-9, "{k}: {l:?}");
+        }
+        // Beyond the edge, the 3 m arc is fitted on its own.
+        let l = r.line(45).unwrap();
+        assert!((l.anchor.x.hypot(l.anchor.y) - 3.0).abs() < 0.01, "{l:?}");
+        // A single return is no line.
+        let one = ScanPoints::from_polar(&[0.0], &[1.0], Pose2::IDENTITY).unwrap();
+        assert!(Reference::build(&one, &LineFit::default(), |_| true).line(0).is_none());
     }
 }

@@ -30,7 +30,7 @@ fn match_pair(
     let first = scene.urg_points(&model, a, SIGMA_M, 1);
     let second = scene.urg_points(&model, b, SIGMA_M, 2);
     let config = IcpConfig::default();
-    let reference = Reference::build(&first, config.max_segment_m, |_| true);
+    let reference = Reference::build(&first, &config.lines, |_| true);
     let prior = [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01]];
     let r = match_scan(
         &reference,
@@ -103,14 +103,14 @@ fn points_in_exclusion_zones_are_ignored() {
     let world_from_a = Pose2::<World, Robot>::new(0.0, 0.0, 0.0);
     let truth = Pose2::<Robot, Robot>::new(0.12, 0.0, 0.0);
     let world_from_b = world_from_a * truth;
-    // Walkers: a dense crowd of leg pairs ahead, moving with the robot plus 0.3 m
-    // sideways (so they are not static for the matcher).
-    let people_a: Vec<Point2<World>> = (0..12)
-        .map(|i| Point2::new(0.8 + 0.1 * (i % 4) as f64, -0.9 + 0.6 * (i / 4) as f64))
+    // Four people ahead walking with the robot: to the matcher they say "no motion".
+    let people_a: Vec<Point2<World>> = [(1.2, -0.9), (1.5, -0.3), (1.3, 0.4), (1.6, 1.0)]
+        .iter()
+        .map(|&(x, y)| Point2::new(x, y))
         .collect();
     let people_b: Vec<Point2<World>> = people_a
         .iter()
-        .map(|p| Point2::new(p.x + 0.12, p.y + 0.3))
+        .map(|p| Point2::new(p.x + 0.12, p.y))
         .collect();
     let with_people = |people: &[Point2<World>]| {
         let mut s = base.clone();
