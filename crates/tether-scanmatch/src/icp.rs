@@ -46,11 +46,11 @@ impl Default for IcpConfig {
             rotation_tolerance_rad: 1e-4,
             max_correspondence_m: 0.3,
             lines: LineFit::default(),
-            trim_fraction: 0.15,
+            trim_fraction: 0.05,
             huber_m: 0.03,
             min_matches: 30,
             rotation_scale_m: 1.0,
-            degeneracy_min_eigenvalue: 0.02,
+            degeneracy_min_eigenvalue: 0.005,
         }
     }
 }
@@ -77,7 +77,8 @@ pub struct MatchResult {
     pub covariance: Mat3,
     /// Points that found a reference surface in the last iteration.
     pub matched: usize,
-    /// Of those, the points used after trimming.
+    /// Residual rows used after trimming (one per point matched to a line, two per
+    /// point matched to a point).
     pub used: usize,
     /// Points offered to the match.
     pub candidates: usize,
@@ -113,7 +114,9 @@ pub struct IcpScratch {
 ///    `a`, fitted to the returns around `p_j`: see [`Reference`]) is what it is matched
 ///    to (PL-ICP: the point is matched to the line through its nearest returns);
 /// 2. residual `r = n . (R q + t - a)`, Jacobian over `(x, y, yaw)`
-///    `J = [n_x, n_y, n . perp(R q)]` with `perp(v) = (-v_y, v_x)`;
+///    `J = [n_x, n_y, n . perp(R q)]` with `perp(v) = (-v_y, v_x)`; where the reference
+///    has no line (a chair or table leg, a corner) the point is matched to `p_j` itself
+///    by two such rows with `n = (1, 0)` and `(0, 1)`;
 /// 3. the worst `trim_fraction` of `|r|` are dropped, the rest weighted by Huber;
 /// 4. Gauss-Newton: `H = sum w J^T J`, `g = sum w J^T r`, step `d = -H^-1 g`, taken only
 ///    along eigenvectors of `H` whose normalised eigenvalue passes the degeneracy
@@ -143,6 +146,7 @@ pub fn match_scan(
         let laser_from_scan = laser_from_robot * estimate;
         let (s, c) = estimate.yaw.sin_cos();
         scratch.rows.clear();
+        let mut matched = 0usize;
         for &q in points {
             let rq = (c * q.x - s * q.y, s * q.x + c * q.y);
             let qr = Point2::<Robot>::new(rq.0 + estimate.x, rq.1 + estimate.y);
@@ -151,16 +155,25 @@ pub fn match_scan(
             else {
                 continue;
             };
-            let Some(line) = reference.line(near.index) else {
-                continue;
-            };
-            let normal = line.normal;
-            let p = line.anchor;
-            let r = normal.0 * (qr.x - p.x) + normal.1 * (qr.y - p.y);
-            let j_yaw = normal.0 * -rq.1 + normal.1 * rq.0;
-            scratch.rows.push([normal.0, normal.1, j_yaw / scale, r]);
+            matched += 1;
+            match reference.line(near.index) {
+                Some(line) => {
+                    let (nx, ny) = line.normal;
+                    let p = line.anchor;
+                    let r = nx * (qr.x - p.x) + ny * (qr.y - p.y);
+                    let j_yaw = nx * -rq.1 + ny * rq.0;
+                    scratch.rows.push([nx, ny, j_yaw / scale, r]);
+                }
+                None => {
+                    // No line there (a chair leg, a corner): point to point, as two
+                    // rows with normals x and y.
+                    let p = reference.points()[near.index];
+                    scratch.rows.push([1.0, 0.0, -rq.1 / scale, qr.x - p.x]);
+                    scratch.rows.push([0.0, 1.0, rq.0 / scale, qr.y - p.y]);
+                }
+            }
         }
-        let matched = scratch.rows.len();
+        let rows = scratch.rows.len();
         if matched < min_points {
             return Err(MatchFailure::TooFewMatches);
         }
@@ -169,10 +182,10 @@ pub fn match_scan(
         scratch
             .abs_residuals
             .extend(scratch.rows.iter().map(|row| row[3].abs()));
-        let keep = ((matched as f64) * (1.0 - config.trim_fraction.clamp(0.0, 0.9))).ceil()
-            as usize;
-        let keep = keep.clamp(min_points.min(matched), matched);
-        let threshold = if keep < matched {
+        let keep =
+            ((rows as f64) * (1.0 - config.trim_fraction.clamp(0.0, 0.9))).ceil() as usize;
+        let keep = keep.clamp(min_points.min(rows), rows);
+        let threshold = if keep < rows {
             let (_, &mut t, _) = scratch
                 .abs_residuals
                 .select_nth_unstable_by(keep - 1, f64::total_cmp);

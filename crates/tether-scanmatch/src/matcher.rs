@@ -149,6 +149,10 @@ pub struct Estimate {
     pub excluded_points: usize,
     /// Mean absolute point-to-line residual, m (0 without a match).
     pub mean_residual_m: f64,
+    /// Smallest eigenvalue of the match's normalised Hessian (how well the worst
+    /// direction is constrained; see [`IcpConfig::degeneracy_min_eigenvalue`]); 0
+    /// without a match.
+    pub min_eigenvalue: f64,
     /// Gauss-Newton iterations.
     pub iterations: u32,
     /// The match converged within the iteration limit.
@@ -283,6 +287,7 @@ impl ScanMatcher {
                 matched_points: 0,
                 excluded_points,
                 mean_residual_m: 0.0,
+                min_eigenvalue: 0.0,
                 iterations: 0,
                 converged: true,
                 quality: Quality::First,
@@ -302,6 +307,7 @@ impl ScanMatcher {
                 matched_points: 0,
                 excluded_points,
                 mean_residual_m: 0.0,
+                min_eigenvalue: 0.0,
                 iterations: 0,
                 converged: false,
                 quality: Quality::PriorOnly(Failure::StampNotIncreasing),
@@ -407,6 +413,7 @@ impl ScanMatcher {
             matched_points: result.as_ref().map_or(0, |r| r.matched),
             excluded_points,
             mean_residual_m: result.as_ref().map_or(0.0, |r| r.mean_residual_m),
+            min_eigenvalue: result.as_ref().map_or(0.0, |r| r.eigenvalues[0]),
             iterations: result.as_ref().map_or(0, |r| r.iterations),
             converged: result.as_ref().is_some_and(|r| r.converged),
             quality,
