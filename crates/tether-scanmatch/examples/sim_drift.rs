@@ -1,7 +1,7 @@
 //! Drift of scan-matching odometry on a simulated scenario, for tuning:
 //! `cargo run --release -p tether-scanmatch --example sim_drift -- office [seed] [key=value...]`
 //! with keys `kf_m`, `kf_rad`, `overlap`, `huber`, `trim`, `span`, `flat`, `degen`,
-//! `corr`, `spacing`, `prior` (`cv` constant velocity or `cmd` commanded velocity),
+//! `corr`, `spacing`, `tol`, `reuse`, `prior` (`cv` constant velocity or `cmd` commanded velocity),
 //! `exclude` (0/1).
 
 #![allow(clippy::unwrap_used, reason = "a tuning tool: fail loudly")]
@@ -34,6 +34,14 @@ fn main() {
             "degen" => config.icp.degeneracy_min_eigenvalue = x,
             "corr" => config.icp.max_correspondence_m = x,
             "spacing" => config.min_point_spacing_m = x,
+            "tol" => {
+                config.icp.translation_tolerance_m = x;
+                config.icp.rotation_tolerance_rad = x;
+            }
+            "reuse" => {
+                config.icp.reuse_correspondences_below_m = x;
+                config.icp.reuse_correspondences_below_rad = x;
+            }
             "prior" => commanded = v == "cmd",
             "exclude" => exclude = v == "1",
             _ => eprintln!("unknown key {k}"),

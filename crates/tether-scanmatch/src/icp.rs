@@ -2,7 +2,7 @@
 //! solved by Gauss-Newton in SE(2), with trimming, Huber weights, a covariance from the
 //! Hessian and degeneracy handled by solution remapping.
 
-use tether_core::{Point2, Pose2, Robot};
+use tether_core::{Laser, Point2, Pose2, Robot};
 
 use crate::linalg::{Mat3, ZERO3, symmetric_eigen3};
 use crate::reference::{LineFit, NeighbourSearch, Reference};
@@ -26,6 +26,12 @@ pub struct IcpConfig {
     /// Huber threshold on the point-to-line residual, m: larger residuals are weighted
     /// by `huber_m / |r|`.
     pub huber_m: f64,
+    /// After a step shorter than this (and turning less than
+    /// `reuse_correspondences_below_rad`) the next iteration keeps the nearest returns
+    /// instead of searching again: they no longer change, m. 0 searches every time.
+    pub reuse_correspondences_below_m: f64,
+    /// See `reuse_correspondences_below_m`, rad.
+    pub reuse_correspondences_below_rad: f64,
     /// Fewer matched points than this and the match has failed.
     pub min_matches: usize,
     /// Length that turns a rotation into a distance when the Hessian is judged
@@ -42,12 +48,14 @@ impl Default for IcpConfig {
     fn default() -> Self {
         IcpConfig {
             max_iterations: 25,
-            translation_tolerance_m: 1e-4,
-            rotation_tolerance_rad: 1e-4,
+            translation_tolerance_m: 5e-4,
+            rotation_tolerance_rad: 5e-4,
             max_correspondence_m: 0.3,
             lines: LineFit::default(),
             trim_fraction: 0.05,
             huber_m: 0.03,
+            reuse_correspondences_below_m: 0.02,
+            reuse_correspondences_below_rad: 0.02,
             min_matches: 30,
             rotation_scale_m: 1.0,
             degeneracy_min_eigenvalue: 0.005,
@@ -97,11 +105,18 @@ pub struct MatchResult {
     pub degenerate_directions: usize,
 }
 
+/// Bins of the residual histogram that trimming reads its quantile from.
+const TRIM_BINS: usize = 512;
+
 /// Reusable buffers of [`match_scan`], so that matching does not allocate.
 #[derive(Debug, Clone, Default)]
 pub struct IcpScratch {
     rows: Vec<[f64; 4]>,
-    abs_residuals: Vec<f64>,
+    /// Per point: the reference index its search found last iteration.
+    hints: Vec<usize>,
+    /// Per point: its reference return (`u32::MAX`: none) from the last search.
+    matches: Vec<u32>,
+    histogram: Vec<u32>,
 }
 
 /// Matches `points` (the new scan, its robot frame) against `reference` (the keyframe),
@@ -137,39 +152,74 @@ pub fn match_scan(
     }
     let laser_from_robot = reference.laser_from_robot();
     let scale = config.rotation_scale_m.max(1e-6);
+    let inv_scale = 1.0 / scale;
     let mut estimate = guess;
     let mut converged = false;
     let mut iterations = 0;
     let mut stats = Stats::default();
+    let mut last_step = (f64::INFINITY, f64::INFINITY);
+    scratch.hints.clear();
     for _ in 0..config.max_iterations.max(1) {
         iterations += 1;
         let laser_from_scan = laser_from_robot * estimate;
+        // Sines and cosines once per iteration, not once per point.
         let (s, c) = estimate.yaw.sin_cos();
+        let (ls, lc) = laser_from_scan.yaw.sin_cos();
+        // Once the steps are small the nearest returns no longer change: keep them.
+        let fresh = iterations == 1
+            || last_step.0 >= config.reuse_correspondences_below_m
+            || last_step.1 >= config.reuse_correspondences_below_rad;
+        if fresh {
+            scratch.matches.clear();
+        }
         scratch.rows.clear();
         let mut matched = 0usize;
-        for &q in points {
+        let mut previous = 0usize;
+        for (i, &q) in points.iter().enumerate() {
             let rq = (c * q.x - s * q.y, s * q.x + c * q.y);
             let qr = Point2::<Robot>::new(rq.0 + estimate.x, rq.1 + estimate.y);
-            let ql = laser_from_scan * q;
-            let Some(near) = reference.nearest_by(search, ql, config.max_correspondence_m)
-            else {
-                continue;
+            let index = if fresh {
+                let ql = Point2::<Laser>::new(
+                    lc * q.x - ls * q.y + laser_from_scan.x,
+                    ls * q.x + lc * q.y + laser_from_scan.y,
+                );
+                // Where this point's direction fell last time, or where the previous
+                // point's fell: points come in beam order.
+                let hint = scratch.hints.get(i).copied().unwrap_or(previous);
+                let found =
+                    reference.nearest_by(search, ql, config.max_correspondence_m, Some(hint));
+                let next_hint = found.map_or(hint, |n| n.index);
+                if let Some(slot) = scratch.hints.get_mut(i) {
+                    *slot = next_hint;
+                } else {
+                    scratch.hints.push(next_hint);
+                }
+                previous = next_hint;
+                let index = found.map_or(u32::MAX, |n| n.index as u32);
+                scratch.matches.push(index);
+                index
+            } else {
+                scratch.matches.get(i).copied().unwrap_or(u32::MAX)
             };
+            if index == u32::MAX {
+                continue;
+            }
+            let near_index = index as usize;
             matched += 1;
-            match reference.line(near.index) {
+            match reference.line(near_index) {
                 Some(line) => {
                     let (nx, ny) = line.normal;
                     let p = line.anchor;
                     let r = nx * (qr.x - p.x) + ny * (qr.y - p.y);
                     let j_yaw = nx * -rq.1 + ny * rq.0;
-                    scratch.rows.push([nx, ny, j_yaw / scale, r]);
+                    scratch.rows.push([nx, ny, j_yaw * inv_scale, r]);
                 }
                 None => {
                     // No line there (a chair leg, a corner): point to point, as two
                     // rows with normals x and y.
-                    let p = reference.points()[near.index];
-                    scratch.rows.push([1.0, 0.0, -rq.1 / scale, qr.x - p.x]);
-                    scratch.rows.push([0.0, 1.0, rq.0 / scale, qr.y - p.y]);
+                    let p = reference.points()[near_index];
+                    scratch.rows.push([1.0, 0.0, -rq.1 * inv_scale, qr.x - p.x]);
+                    scratch.rows.push([0.0, 1.0, rq.0 * inv_scale, qr.y - p.y]);
                 }
             }
         }
@@ -177,19 +227,35 @@ pub fn match_scan(
         if matched < min_points {
             return Err(MatchFailure::TooFewMatches);
         }
-        // Trimming: keep residuals up to the (1 - trim) quantile.
-        scratch.abs_residuals.clear();
-        scratch
-            .abs_residuals
-            .extend(scratch.rows.iter().map(|row| row[3].abs()));
+        // Trimming: keep residuals up to the (1 - trim) quantile, read off a histogram
+        // of |r| (bins of max_correspondence / TRIM_BINS; a residual is never
+        // trimmed for less than a bin's width).
         let keep =
             ((rows as f64) * (1.0 - config.trim_fraction.clamp(0.0, 0.9))).ceil() as usize;
         let keep = keep.clamp(min_points.min(rows), rows);
         let threshold = if keep < rows {
-            let (_, &mut t, _) = scratch
-                .abs_residuals
-                .select_nth_unstable_by(keep - 1, f64::total_cmp);
-            t
+            let top = config.max_correspondence_m.max(1e-6);
+            let per_bin = TRIM_BINS as f64 / top;
+            scratch.histogram.clear();
+            scratch.histogram.resize(TRIM_BINS + 1, 0);
+            for row in &scratch.rows {
+                let b = ((row[3].abs() * per_bin) as usize).min(TRIM_BINS);
+                scratch.histogram[b] += 1;
+            }
+            let mut count = 0usize;
+            let mut threshold = f64::INFINITY;
+            for (b, &c) in scratch.histogram.iter().enumerate() {
+                count += c as usize;
+                if count >= keep {
+                    threshold = if b == TRIM_BINS {
+                        f64::INFINITY
+                    } else {
+                        (b + 1) as f64 / per_bin
+                    };
+                    break;
+                }
+            }
+            threshold
         } else {
             f64::INFINITY
         };
@@ -260,8 +326,9 @@ pub fn match_scan(
             vectors,
             degenerate,
         };
-        if step[0].hypot(step[1]) < config.translation_tolerance_m
-            && step_yaw.abs() < config.rotation_tolerance_rad
+        last_step = ((step[0] * step[0] + step[1] * step[1]).sqrt(), step_yaw.abs());
+        if last_step.0 < config.translation_tolerance_m
+            && last_step.1 < config.rotation_tolerance_rad
         {
             converged = true;
             break;

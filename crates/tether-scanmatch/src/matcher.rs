@@ -42,7 +42,7 @@ impl Default for ScanMatcherConfig {
             keyframe_translation_m: 0.3,
             keyframe_rotation_rad: 0.2,
             keyframe_min_overlap: 0.6,
-            min_point_spacing_m: 0.0,
+            min_point_spacing_m: 0.02,
             prior_sigma_m_per_s: 0.3,
             prior_sigma_rad_per_s: 0.3,
             max_prior_gap_s: 1.0,

@@ -1,7 +1,7 @@
 //! A reference scan (the keyframe) searchable by beam direction: nearest points without a
 //! k-d tree, and the line segments between neighbouring returns.
 
-use std::f64::consts::TAU;
+use std::f64::consts::{PI, TAU};
 
 use tether_core::{Laser, Point2, Pose2, Robot};
 
@@ -71,6 +71,8 @@ pub struct Reference {
     laser_from_robot: Pose2<Laser, Robot>,
     bearings_rad: Vec<f64>,
     in_laser: Vec<Point2<Laser>>,
+    /// Unit vector of each return's beam, laser frame.
+    beam_dirs: Vec<(f64, f64)>,
     in_robot: Vec<Point2<Robot>>,
     ranges_m: Vec<f64>,
     /// `(n_x, n_y, anchor_x, anchor_y)` of the line at each return, NaN when the
@@ -82,6 +84,10 @@ pub struct Reference {
     bin_origin_rad: f64,
     /// Middle of the directions: a query's direction is taken within half a turn of it.
     centre_rad: f64,
+    /// The directions span less than 3 pi / 2, so that every beam more than a right
+    /// angle from a query inside the span is at least the query's range from it (see
+    /// [`Reference::nearest_from`]).
+    hint_ok: bool,
     /// Scratch: first and last index of each return's surface run, prefix sums.
     run_start: Vec<u32>,
     run_end: Vec<u32>,
@@ -94,12 +100,14 @@ impl Default for Reference {
             laser_from_robot: Pose2::IDENTITY,
             bearings_rad: Vec::new(),
             in_laser: Vec::new(),
+            beam_dirs: Vec::new(),
             in_robot: Vec::new(),
             ranges_m: Vec::new(),
             lines: Vec::new(),
             bin_first: Vec::new(),
             bin_origin_rad: 0.0,
             centre_rad: 0.0,
+            hint_ok: false,
             run_start: Vec::new(),
             run_end: Vec::new(),
             prefix: Vec::new(),
@@ -168,10 +176,12 @@ impl Reference {
         self.laser_from_robot = laser_from_robot;
         self.bearings_rad.clear();
         self.in_laser.clear();
+        self.beam_dirs.clear();
         self.in_robot.clear();
         self.ranges_m.clear();
         self.lines.clear();
         self.bin_first.clear();
+        let (ls, lc) = laser_from_robot.yaw.sin_cos();
         for (i, ((&b, &p), &r)) in scan
             .bearings_rad()
             .iter()
@@ -182,8 +192,20 @@ impl Reference {
             if keep(i) {
                 self.bearings_rad.push(b);
                 self.in_robot.push(p);
-                self.in_laser.push(laser_from_robot * p);
+                self.in_laser.push(Point2::new(
+                    lc * p.x - ls * p.y + laser_from_robot.x,
+                    ls * p.x + lc * p.y + laser_from_robot.y,
+                ));
                 self.ranges_m.push(r);
+                // The beam's direction is the return's, seen from the scanner.
+                let ql = self.in_laser[self.in_laser.len() - 1];
+                let norm = (ql.x * ql.x + ql.y * ql.y).sqrt();
+                self.beam_dirs.push(if norm > 0.0 {
+                    (ql.x / norm, ql.y / norm)
+                } else {
+                    let (sb, cb) = b.sin_cos();
+                    (cb, sb)
+                });
             }
         }
         let n = self.in_robot.len();
@@ -191,6 +213,7 @@ impl Reference {
         if n == 0 {
             return;
         }
+        self.hint_ok = self.bearings_rad[n - 1] - self.bearings_rad[0] < 1.5 * PI - 1e-3;
         self.bin_origin_rad = self.bearings_rad[0];
         self.centre_rad = 0.5 * (self.bearings_rad[0] + self.bearings_rad[n - 1]);
         let span = self.bearings_rad[n - 1] - self.bin_origin_rad;
@@ -211,8 +234,8 @@ impl Reference {
     /// returns on each side (`db` the beam spacing there: the returns a surface facing
     /// the scanner puts within `half_span`), clipped to `k`'s surface run. Its mean
     /// `mu` and covariance `C` come from prefix sums of `x, y, x^2, xy, y^2`; the line's
-    /// direction is the principal axis `phi = atan2(2 C_xy, C_xx - C_yy) / 2` and its
-    /// normal `(-sin phi, cos phi)`; it is a line when
+    /// normal is the eigenvector of `C`'s smaller eigenvalue `lambda_min` (it solves
+    /// `(C - lambda_min I) n = 0`); it is a line when
     /// `lambda_min <= max_flatness * lambda_max`.
     fn fit_lines(&mut self, fit: &LineFit) {
         let n = self.in_robot.len();
@@ -271,9 +294,16 @@ impl Reference {
                 let root = (0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy).sqrt();
                 let (l_max, l_min) = (half_trace + root, (half_trace - root).max(0.0));
                 if l_max > 0.0 && l_min <= fit.max_flatness * l_max {
-                    let phi = 0.5 * (2.0 * cxy).atan2(cxx - cyy);
-                    let (sp, cp) = phi.sin_cos();
-                    [-sp, cp, mx, my]
+                    // The eigenvector of lambda_min, from whichever row of
+                    // `C - lambda_min I` is the larger (the better conditioned).
+                    let (a, b) = (cxx - l_min, cyy - l_min);
+                    let (nx, ny) = if a >= b { (-cxy, a) } else { (b, -cxy) };
+                    let norm = (nx * nx + ny * ny).sqrt();
+                    if norm > 0.0 {
+                        [nx / norm, ny / norm, mx, my]
+                    } else {
+                        [f64::NAN; 4]
+                    }
                 } else {
                     [f64::NAN; 4]
                 }
@@ -394,6 +424,129 @@ impl Reference {
         })
     }
 
+    /// [`Reference::nearest`], starting from a guess `hint` of where `q`'s direction
+    /// falls among the beams (the answer for a nearby point: the previous point of the
+    /// same scan, or this point in the previous iteration). Same result, cheaper: no
+    /// trigonometry, no square root.
+    ///
+    /// With `u_k` the unit vector of beam `k`, `q x u_k` is `r sin(d)` (`d` the angle
+    /// from `q` to the beam) and `q . u_k` is `r cos(d)`. From the hint, the position
+    /// of `q` among the beams is found by the sign of the cross product; then each side
+    /// is walked as in [`Reference::nearest`] with the bound `(q x u_k)^2` while
+    /// `q . u_k > 0` and `r^2` beyond a right angle, which holds when the beams span
+    /// less than 3 pi / 2 (the URG-04LX's 240 deg do). When the span is wider, `q` lies
+    /// outside the beams, or the hint is far off, it falls back to
+    /// [`Reference::nearest`].
+    pub fn nearest_from(
+        &self,
+        q: Point2<Laser>,
+        max_distance_m: f64,
+        hint: usize,
+    ) -> Option<Nearest> {
+        let n = self.in_laser.len();
+        if !self.hint_ok || n == 0 {
+            return self.nearest(q, max_distance_m);
+        }
+        let cross = |k: usize| {
+            let u = self.beam_dirs[k];
+            u.0 * q.y - u.1 * q.x
+        };
+        let dot = |k: usize| {
+            let u = self.beam_dirs[k];
+            u.0 * q.x + u.1 * q.y
+        };
+        // Find `start`: the first beam not clockwise of q.
+        let mut k = hint.min(n - 1);
+        let mut steps = 0;
+        if dot(k) <= 0.0 {
+            return self.nearest(q, max_distance_m);
+        }
+        let start = if cross(k) > 0.0 {
+            // q is counter-clockwise of beam k: move up.
+            loop {
+                k += 1;
+                steps += 1;
+                if k == n {
+                    // q is past the last beam.
+                    return self.nearest(q, max_distance_m);
+                }
+                if dot(k) <= 0.0 || steps > 16 {
+                    return self.nearest(q, max_distance_m);
+                }
+                if cross(k) <= 0.0 {
+                    break k;
+                }
+            }
+        } else {
+            // q is on or clockwise of beam k: move down while the previous beam is too.
+            loop {
+                if k == 0 {
+                    // q is before the first beam.
+                    if cross(0) < 0.0 {
+                        return self.nearest(q, max_distance_m);
+                    }
+                    break 0;
+                }
+                if dot(k - 1) <= 0.0 || steps > 16 {
+                    return self.nearest(q, max_distance_m);
+                }
+                if cross(k - 1) > 0.0 {
+                    break k;
+                }
+                k -= 1;
+                steps += 1;
+            }
+        };
+        let r_sq = q.x * q.x + q.y * q.y;
+        let mut best_sq = max_distance_m * max_distance_m;
+        let mut best: Option<usize> = None;
+        for k in start..n {
+            if !self.visit(q, k, r_sq, &mut best_sq, &mut best) {
+                break;
+            }
+        }
+        for k in (0..start).rev() {
+            if !self.visit(q, k, r_sq, &mut best_sq, &mut best) {
+                break;
+            }
+        }
+        best.map(|index| Nearest {
+            index,
+            distance_sq_m2: best_sq,
+        })
+    }
+
+    /// One step of [`Reference::nearest_from`]'s walk: false when beam `k` (and so every
+    /// beam beyond it on this side) cannot hold a return closer than `best_sq`.
+    #[inline(always)]
+    fn visit(
+        &self,
+        q: Point2<Laser>,
+        k: usize,
+        r_sq: f64,
+        best_sq: &mut f64,
+        best: &mut Option<usize>,
+    ) -> bool {
+        let u = self.beam_dirs[k];
+        let c = u.0 * q.y - u.1 * q.x;
+        let lb_sq = if u.0 * q.x + u.1 * q.y > 0.0 {
+            c * c
+        } else {
+            r_sq
+        };
+        if lb_sq >= *best_sq {
+            return false;
+        }
+        let p = self.in_laser[k];
+        let (dx, dy) = (p.x - q.x, p.y - q.y);
+        let dsq = dx * dx + dy * dy;
+        if dsq < *best_sq {
+            *best_sq = dsq;
+            *best = Some(k);
+        }
+        true
+    }
+
     /// The nearest return to `q` within `max_distance_m`, by trying every return.
     pub fn nearest_brute_force(&self, q: Point2<Laser>, max_distance_m: f64) -> Option<Nearest> {
         let mut best_sq = max_distance_m * max_distance_m;
@@ -412,16 +565,21 @@ impl Reference {
         })
     }
 
-    /// The nearest return by the chosen method.
+    /// The nearest return by the chosen method (`hint` as in
+    /// [`Reference::nearest_from`]; brute force ignores it).
     #[inline]
     pub fn nearest_by(
         &self,
         search: NeighbourSearch,
         q: Point2<Laser>,
         max_distance_m: f64,
+        hint: Option<usize>,
     ) -> Option<Nearest> {
         match search {
-            NeighbourSearch::AngularWindow => self.nearest(q, max_distance_m),
+            NeighbourSearch::AngularWindow => match hint {
+                Some(h) => self.nearest_from(q, max_distance_m, h),
+                None => self.nearest(q, max_distance_m),
+            },
             NeighbourSearch::BruteForce => self.nearest_brute_force(q, max_distance_m),
         }
     }
@@ -478,17 +636,19 @@ mod tests {
         ) {
             let mount = Pose2::new(mount.0, mount.1, mount.2);
             let reference = Reference::build(&scan_of(&ranges, mount), &LineFit::default(), |_| true);
-            for (x, y) in queries {
+            for (i, (x, y)) in queries.into_iter().enumerate() {
                 let q = Point2::new(x, y);
-                let fast = reference.nearest(q, max_distance_m);
                 let slow = reference.nearest_brute_force(q, max_distance_m);
-                match (fast, slow) {
-                    (Some(f), Some(s)) => prop_assert!(
-                        f.index == s.index || (f.distance_sq_m2 - s.distance_sq_m2).abs() < 1e-12,
-                        "{f:?} vs {s:?}"
-                    ),
-                    (None, None) => {}
-                    other => prop_assert!(false, "{other:?}"),
+                let hint = (i * 37) % reference.len().max(1);
+                for fast in [reference.nearest(q, max_distance_m), reference.nearest_from(q, max_distance_m, hint)] {
+                    match (fast, slow) {
+                        (Some(f), Some(s)) => prop_assert!(
+                            f.index == s.index || (f.distance_sq_m2 - s.distance_sq_m2).abs() < 1e-12,
+                            "{f:?} vs {s:?}"
+                        ),
+                        (None, None) => {}
+                        other => prop_assert!(false, "{other:?}"),
+                    }
                 }
             }
         }
