@@ -53,7 +53,8 @@ fn main() {
     let prior = [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01]];
     let mut scratch = IcpScratch::default();
     let guess = Pose2::new(0.07, 0.0, 2.5f64.to_radians());
-    let n = 2000;
+    // `DRIVE_ONLY=1` skips the single-match timing (for a profiler).
+    let n = if std::env::var("DRIVE_ONLY").is_ok() { 1 } else { 2000 };
     let t = cpu_s(wall);
     let mut r = None;
     for _ in 0..n {
@@ -95,7 +96,7 @@ fn main() {
     let t = cpu_s(wall);
     let mut iterations = 0u64;
     let mut keyframes = 0u64;
-    let rounds = 50;
+    let rounds = if n == 1 { 200 } else { 50 };
     for round in 0..rounds {
         matcher.reset();
         for (i, scan) in scans.iter().enumerate() {

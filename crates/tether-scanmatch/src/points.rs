@@ -64,6 +64,8 @@ pub enum ScanPointsError {
 pub struct ScanPoints {
     robot_from_laser: Pose2<Robot, Laser>,
     bearings_rad: Vec<f64>,
+    /// `(cos, sin)` of each bearing.
+    directions: Vec<(f64, f64)>,
     ranges_m: Vec<f64>,
     points: Vec<Point2<Robot>>,
     dropped: usize,
@@ -74,6 +76,7 @@ impl Default for ScanPoints {
         ScanPoints {
             robot_from_laser: Pose2::IDENTITY,
             bearings_rad: Vec::new(),
+            directions: Vec::new(),
             ranges_m: Vec::new(),
             points: Vec::new(),
             dropped: 0,
@@ -178,6 +181,7 @@ impl ScanPoints {
     fn clear(&mut self, robot_from_laser: Pose2<Robot, Laser>) {
         self.robot_from_laser = robot_from_laser;
         self.bearings_rad.clear();
+        self.directions.clear();
         self.ranges_m.clear();
         self.points.clear();
         self.dropped = 0;
@@ -188,8 +192,10 @@ impl ScanPoints {
             self.dropped += 1;
             return;
         }
-        let in_laser = Point2::<Laser>::from_polar(range_m, bearing_rad);
+        let (s, c) = bearing_rad.sin_cos();
+        let in_laser = Point2::<Laser>::new(range_m * c, range_m * s);
         self.bearings_rad.push(bearing_rad);
+        self.directions.push((c, s));
         self.ranges_m.push(range_m);
         self.points.push(self.robot_from_laser * in_laser);
     }
@@ -207,6 +213,11 @@ impl ScanPoints {
     /// The direction of each return's beam in the laser frame, rad, increasing.
     pub fn bearings_rad(&self) -> &[f64] {
         &self.bearings_rad
+    }
+
+    /// The unit vector `(cos, sin)` of each return's beam, laser frame.
+    pub fn directions(&self) -> &[(f64, f64)] {
+        &self.directions
     }
 
     /// The range of each return, m.

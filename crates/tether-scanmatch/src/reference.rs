@@ -19,8 +19,8 @@ pub enum NeighbourSearch {
     BruteForce,
 }
 
-/// Bins per radian of the direction look-up table (about 6 per URG-04LX beam).
-const BINS_PER_RAD: f64 = 1000.0;
+/// Bins per radian of the direction look-up table (about one per URG-04LX beam).
+const BINS_PER_RAD: f64 = 200.0;
 
 /// How the reference's surfaces are estimated around each return.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -182,11 +182,12 @@ impl Reference {
         self.lines.clear();
         self.bin_first.clear();
         let (ls, lc) = laser_from_robot.yaw.sin_cos();
-        for (i, ((&b, &p), &r)) in scan
+        for (i, (((&b, &p), &r), &u)) in scan
             .bearings_rad()
             .iter()
             .zip(scan.points())
             .zip(scan.ranges_m())
+            .zip(scan.directions())
             .enumerate()
         {
             if keep(i) {
@@ -197,15 +198,7 @@ impl Reference {
                     ls * p.x + lc * p.y + laser_from_robot.y,
                 ));
                 self.ranges_m.push(r);
-                // The beam's direction is the return's, seen from the scanner.
-                let ql = self.in_laser[self.in_laser.len() - 1];
-                let norm = (ql.x * ql.x + ql.y * ql.y).sqrt();
-                self.beam_dirs.push(if norm > 0.0 {
-                    (ql.x / norm, ql.y / norm)
-                } else {
-                    let (sb, cb) = b.sin_cos();
-                    (cb, sb)
-                });
+                self.beam_dirs.push(u);
             }
         }
         let n = self.in_robot.len();
@@ -278,18 +271,19 @@ impl Reference {
             } else {
                 1.0
             };
-            let m = (fit.half_span_m / (self.ranges_m[k] * spacing).max(1e-6)).ceil();
-            let m = m.clamp(1.0, 64.0) as usize;
+            // ceil, as floor + 1 (no library call; one more return at most).
+            let m = fit.half_span_m / (self.ranges_m[k] * spacing).max(1e-6);
+            let m = (m.clamp(0.0, 63.0) as usize) + 1;
             let lo = k.saturating_sub(m).max(self.run_start[k] as usize);
             let hi = (k + m).min(self.run_end[k] as usize);
             let line = if hi - lo + 1 >= 3 {
-                let count = (hi + 1 - lo) as f64;
+                let inv_count = 1.0 / (hi + 1 - lo) as f64;
                 let s: [f64; 5] =
                     std::array::from_fn(|i| self.prefix[hi + 1][i] - self.prefix[lo][i]);
-                let (mx, my) = (s[0] / count, s[1] / count);
-                let cxx = s[2] / count - mx * mx;
-                let cxy = s[3] / count - mx * my;
-                let cyy = s[4] / count - my * my;
+                let (mx, my) = (s[0] * inv_count, s[1] * inv_count);
+                let cxx = s[2] * inv_count - mx * mx;
+                let cxy = s[3] * inv_count - mx * my;
+                let cyy = s[4] * inv_count - my * my;
                 let half_trace = 0.5 * (cxx + cyy);
                 let root = (0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy).sqrt();
                 let (l_max, l_min) = (half_trace + root, (half_trace - root).max(0.0));
@@ -298,9 +292,10 @@ impl Reference {
                     // `C - lambda_min I` is the larger (the better conditioned).
                     let (a, b) = (cxx - l_min, cyy - l_min);
                     let (nx, ny) = if a >= b { (-cxy, a) } else { (b, -cxy) };
-                    let norm = (nx * nx + ny * ny).sqrt();
-                    if norm > 0.0 {
-                        [nx / norm, ny / norm, mx, my]
+                    let norm_sq = nx * nx + ny * ny;
+                    if norm_sq > 0.0 {
+                        let inv = 1.0 / norm_sq.sqrt();
+                        [nx * inv, ny * inv, mx, my]
                     } else {
                         [f64::NAN; 4]
                     }
