@@ -21,8 +21,8 @@ use divan::{Bencher, black_box};
 use tether_core::{LaserModel, Pose2, Robot, Stamp, World};
 use tether_scanmatch::synthetic::Scene;
 use tether_scanmatch::{
-    IcpConfig, IcpScratch, MotionPrior, NeighbourSearch, Reference, ScanMatcher,
-    ScanMatcherConfig, ScanPoints, match_scan,
+    IcpConfig, IcpScratch, MotionPrior, NeighbourSearch, Reference, ScanMatcher, ScanMatcherConfig,
+    ScanPoints, match_scan,
 };
 
 fn main() {
@@ -100,7 +100,7 @@ fn update_while_driving(bencher: Bencher) {
     let mut matcher = ScanMatcher::new(ScanMatcherConfig::default());
     let mut i = 0usize;
     bencher.bench_local(|| {
-        if i % scans.len() == 0 {
+        if i.is_multiple_of(scans.len()) {
             matcher.reset();
         }
         let e = matcher.update(

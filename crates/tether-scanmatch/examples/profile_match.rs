@@ -5,12 +5,12 @@
 
 use std::time::Instant;
 
+use tether_core::Stamp;
 use tether_core::{LaserModel, Pose2, Robot, World};
 use tether_scanmatch::synthetic::Scene;
-use tether_core::Stamp;
 use tether_scanmatch::{
-    IcpConfig, IcpScratch, MotionPrior, NeighbourSearch, Reference, ScanMatcher,
-    ScanMatcherConfig, match_scan,
+    IcpConfig, IcpScratch, MotionPrior, NeighbourSearch, Reference, ScanMatcher, ScanMatcherConfig,
+    match_scan,
 };
 
 /// CPU time this thread has run, s (Linux `schedstat`), so that other processes on a
@@ -54,7 +54,11 @@ fn main() {
     let mut scratch = IcpScratch::default();
     let guess = Pose2::new(0.07, 0.0, 2.5f64.to_radians());
     // `DRIVE_ONLY=1` skips the single-match timing (for a profiler).
-    let n = if std::env::var("DRIVE_ONLY").is_ok() { 1 } else { 2000 };
+    let n = if std::env::var("DRIVE_ONLY").is_ok() {
+        1
+    } else {
+        2000
+    };
     let t = cpu_s(wall);
     let mut r = None;
     for _ in 0..n {

@@ -99,12 +99,26 @@ fn main() {
         let e = matcher.update(scan.stamp, &points, prior, &zones);
         let t = s.inverse() * truth;
         let w = e.world_from_robot;
-        let new_err = ((w.x - t.x).hypot(w.y - t.y), tether_core::wrap_angle_rad(w.yaw - t.yaw));
+        let new_err = (
+            (w.x - t.x).hypot(w.y - t.y),
+            tether_core::wrap_angle_rad(w.yaw - t.yaw),
+        );
         if std::env::var("VERBOSE").is_ok() && (new_err.0 - err.0).abs() > 0.02 {
             println!(
                 "t {:.1}: error {:.3} -> {:.3} m; {} pts, matched {}, resid {:.4}, it {}, {:?}, kf {}, eig_min {:.4} speed {:.2} est step {:.3} true v {:.3}",
-                scan.stamp.secs_f64(), err.0, new_err.0, points.len(), e.matched_points,
-                e.mean_residual_m, e.iterations, e.quality, e.new_keyframe, e.min_eigenvalue, event.truth.robot_velocity.v_mps, e.robot_from_robot.x, event.truth.robot_velocity.v_mps * 0.1
+                scan.stamp.secs_f64(),
+                err.0,
+                new_err.0,
+                points.len(),
+                e.matched_points,
+                e.mean_residual_m,
+                e.iterations,
+                e.quality,
+                e.new_keyframe,
+                e.min_eigenvalue,
+                event.truth.robot_velocity.v_mps,
+                e.robot_from_robot.x,
+                event.truth.robot_velocity.v_mps * 0.1
             );
         }
         err = new_err;

@@ -230,8 +230,7 @@ pub fn match_scan(
         // Trimming: keep residuals up to the (1 - trim) quantile, read off a histogram
         // of |r| (bins of max_correspondence / TRIM_BINS; a residual is never
         // trimmed for less than a bin's width).
-        let keep =
-            ((rows as f64) * (1.0 - config.trim_fraction.clamp(0.0, 0.9))).ceil() as usize;
+        let keep = ((rows as f64) * (1.0 - config.trim_fraction.clamp(0.0, 0.9))).ceil() as usize;
         let keep = keep.clamp(min_points.min(rows), rows);
         let threshold = if keep < rows {
             let top = config.max_correspondence_m.max(1e-6);
@@ -287,11 +286,9 @@ pub fn match_scan(
             abs_sum += ar;
             used += 1;
         }
-        for i in 0..3 {
-            for k in 0..i {
-                h[i][k] = h[k][i];
-            }
-        }
+        h[1][0] = h[0][1];
+        h[2][0] = h[0][2];
+        h[2][1] = h[1][2];
         let normalised = h.map(|row| row.map(|v| v / weight_sum.max(1e-12)));
         let (values, vectors) = symmetric_eigen3(&normalised);
         // Step along the constrained eigenvectors only: d = -sum_k (v_k . g) / l_k v_k,
@@ -326,7 +323,10 @@ pub fn match_scan(
             vectors,
             degenerate,
         };
-        last_step = ((step[0] * step[0] + step[1] * step[1]).sqrt(), step_yaw.abs());
+        last_step = (
+            (step[0] * step[0] + step[1] * step[1]).sqrt(),
+            step_yaw.abs(),
+        );
         if last_step.0 < config.translation_tolerance_m
             && last_step.1 < config.rotation_tolerance_rad
         {

@@ -77,18 +77,15 @@ pub fn symmetric_eigen3(m: &Mat3) -> ([f64; 3], [[f64; 3]; 3]) {
             let t = if theta == 0.0 { 1.0 } else { t };
             let c = 1.0 / (t * t + 1.0).sqrt();
             let s = t * c;
-            for k in 0..3 {
-                let akp = a[k][p];
-                let akq = a[k][q];
-                a[k][p] = c * akp - s * akq;
-                a[k][q] = s * akp + c * akq;
+            for row in &mut a {
+                let akp = row[p];
+                let akq = row[q];
+                row[p] = c * akp - s * akq;
+                row[q] = s * akp + c * akq;
             }
-            for k in 0..3 {
-                let apk = a[p][k];
-                let aqk = a[q][k];
-                a[p][k] = c * apk - s * aqk;
-                a[q][k] = s * apk + c * aqk;
-            }
+            let (row_p, row_q) = (a[p], a[q]);
+            a[p] = std::array::from_fn(|k| c * row_p[k] - s * row_q[k]);
+            a[q] = std::array::from_fn(|k| s * row_p[k] + c * row_q[k]);
             for row in &mut v {
                 let vkp = row[p];
                 let vkq = row[q];
@@ -132,7 +129,9 @@ mod tests {
         assert!(values[0] <= values[1] && values[1] <= values[2]);
         for i in 0..3 {
             for j in 0..3 {
-                let r: f64 = (0..3).map(|k| values[k] * vectors[k][i] * vectors[k][j]).sum();
+                let r: f64 = (0..3)
+                    .map(|k| values[k] * vectors[k][i] * vectors[k][j])
+                    .sum();
                 assert!((r - m[i][j]).abs() < 1e-12, "{i}{j}: {r}");
             }
             let norm: f64 = vectors[i].iter().map(|x| x * x).sum();

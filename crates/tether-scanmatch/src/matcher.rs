@@ -372,7 +372,8 @@ impl ScanMatcher {
                     (guess, prior_cov, Quality::PriorOnly(f.into()), None)
                 }
             };
-        let robot_from_robot = (state.keyframe_from_last.inverse() * keyframe_from_now).normalized();
+        let robot_from_robot =
+            (state.keyframe_from_last.inverse() * keyframe_from_now).normalized();
         let world_from_robot = state.world_from_keyframe * keyframe_from_now;
         let (ja, jb) = compose_jacobians(state.world_from_keyframe, keyframe_from_now);
         let world_covariance = add3(
@@ -385,7 +386,8 @@ impl ScanMatcher {
         let moved_far = keyframe_from_now.x.hypot(keyframe_from_now.y)
             > self.config.keyframe_translation_m
             || wrap_angle_rad(keyframe_from_now.yaw).abs() > self.config.keyframe_rotation_rad;
-        let new_keyframe = result.is_none() || moved_far || overlap < self.config.keyframe_min_overlap;
+        let new_keyframe =
+            result.is_none() || moved_far || overlap < self.config.keyframe_min_overlap;
         let velocity = (
             robot_from_robot.x / dt_s,
             robot_from_robot.y / dt_s,

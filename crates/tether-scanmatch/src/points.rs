@@ -1,7 +1,7 @@
 //! The returns of one scan, in the robot frame, ordered by beam direction.
 
-use thiserror::Error;
 use tether_core::{Laser, LaserScan, Point2, Pose2, Robot};
+use thiserror::Error;
 
 /// Why the beams given cannot make a scan to match.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -24,7 +24,9 @@ pub enum ScanPointsError {
     },
     /// The beam angles do not increase strictly (after the scan's own direction is
     /// taken into account), so the scan cannot be searched by direction.
-    #[error("beam angles must increase strictly: beam {index} at {angle_rad} rad follows {previous_rad} rad")]
+    #[error(
+        "beam angles must increase strictly: beam {index} at {angle_rad} rad follows {previous_rad} rad"
+    )]
     NotIncreasing {
         /// Beam index.
         index: usize,

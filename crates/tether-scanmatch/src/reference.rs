@@ -333,10 +333,13 @@ impl Reference {
     /// line (a small post, a corner, a lone return).
     #[inline]
     pub fn line(&self, k: usize) -> Option<Line> {
-        self.lines.get(k).filter(|l| l[0].is_finite()).map(|l| Line {
-            normal: (l[0], l[1]),
-            anchor: Point2::new(l[2], l[3]),
-        })
+        self.lines
+            .get(k)
+            .filter(|l| l[0].is_finite())
+            .map(|l| Line {
+                normal: (l[0], l[1]),
+                anchor: Point2::new(l[2], l[3]),
+            })
     }
 
     /// First index whose direction is at or after `bearing_rad`.
@@ -662,7 +665,10 @@ mod tests {
         let r = Reference::build(&s, &LineFit::default(), |_| true);
         for k in [0, 20, 39] {
             let l = r.line(k).unwrap();
-            assert!(l.normal.0.abs() > 0.9999 && l.normal.1.abs() < 1e-6, "{k}: {l:?}");
+            assert!(
+                l.normal.0.abs() > 0.9999 && l.normal.1.abs() < 1e-6,
+                "{k}: {l:?}"
+            );
             assert!((l.anchor.x - 1.0).abs() < 1e-9, "{k}: {l:?}");
         }
         // Beyond the edge, the 3 m arc is fitted on its own.
@@ -670,6 +676,10 @@ mod tests {
         assert!((l.anchor.x.hypot(l.anchor.y) - 3.0).abs() < 0.01, "{l:?}");
         // A single return is no line.
         let one = ScanPoints::from_polar(&[0.0], &[1.0], Pose2::IDENTITY).unwrap();
-        assert!(Reference::build(&one, &LineFit::default(), |_| true).line(0).is_none());
+        assert!(
+            Reference::build(&one, &LineFit::default(), |_| true)
+                .line(0)
+                .is_none()
+        );
     }
 }

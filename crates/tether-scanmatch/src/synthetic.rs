@@ -55,7 +55,8 @@ impl Scene {
         let mut s = Scene::default();
         s.walls
             .push((Point2::new(-50.0, -1.0), Point2::new(50.0, -1.0)));
-        s.walls.push((Point2::new(-50.0, 1.0), Point2::new(50.0, 1.0)));
+        s.walls
+            .push((Point2::new(-50.0, 1.0), Point2::new(50.0, 1.0)));
         s
     }
 
@@ -111,7 +112,7 @@ impl Scene {
             let (s, c) = (world_from_laser.yaw + a).sin_cos();
             let r = self
                 .cast(world_from_laser.translation(), c, s)
-                .map(|r| r + sigma_m * rng.next())
+                .map(|r| r + sigma_m * rng.normal())
                 .filter(|&r| r >= model.range_min_m && r <= model.range_max_m)
                 .unwrap_or(f64::INFINITY);
             angles.push(a);
@@ -169,7 +170,7 @@ impl Gauss {
     }
 
     /// A standard normal draw.
-    pub fn next(&mut self) -> f64 {
+    pub fn normal(&mut self) -> f64 {
         if let Some(s) = self.spare.take() {
             return s;
         }

@@ -12,8 +12,8 @@
 use std::path::Path;
 
 use tether_core::{Point2, Pose2, RangeNoiseModel};
-use tether_laser::{DetectorConfig, LegClassifier, LegDetector};
 use tether_io::rosbag::read_scans;
+use tether_laser::{DetectorConfig, LegClassifier, LegDetector};
 use tether_scanmatch::{
     ExclusionZone, MotionPrior, Quality, ScanMatcher, ScanMatcherConfig, ScanPoints,
 };

@@ -133,7 +133,11 @@ fn drift_in_every_scenario_and_under_two_percent_in_office_and_outdoors() {
             let d = drive(name, 1, true, commanded);
             println!(
                 "| {name} | {} | {:.1} | {:.3} | {:.2} % | {:.2} | {:.3} | {} | {} | {} | {} |",
-                if commanded { "commanded" } else { "constant velocity" },
+                if commanded {
+                    "commanded"
+                } else {
+                    "constant velocity"
+                },
                 d.distance_m,
                 d.final_error_m,
                 100.0 * d.ratio(),
@@ -146,7 +150,11 @@ fn drift_in_every_scenario_and_under_two_percent_in_office_and_outdoors() {
             );
             if name == "office" || name.contains("outdoor") {
                 assert!(d.distance_m > 5.0, "{name} should drive: {d:?}");
-                assert!(d.ratio() < 0.02, "{name}: drift {:.2} %: {d:?}", 100.0 * d.ratio());
+                assert!(
+                    d.ratio() < 0.02,
+                    "{name}: drift {:.2} %: {d:?}",
+                    100.0 * d.ratio()
+                );
                 assert_eq!(d.failed, 0, "{name}: {d:?}");
             }
             if !commanded && d.ratio() > 0.05 {

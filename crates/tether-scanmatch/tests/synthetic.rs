@@ -85,7 +85,11 @@ fn corridor_is_flagged_degenerate_and_keeps_the_prior_along_it() {
     assert!((r.keyframe_from_robot.yaw - truth.yaw).abs() < 0.5f64.to_radians());
     assert!(r.keyframe_from_robot.x.abs() < 0.02, "{r:?}");
     // Its variance along the corridor is the prior's, not the scan's.
-    assert!((r.covariance[0][0] - 0.01).abs() < 0.002, "{:?}", r.covariance);
+    assert!(
+        (r.covariance[0][0] - 0.01).abs() < 0.002,
+        "{:?}",
+        r.covariance
+    );
     assert!(r.covariance[1][1] < 1e-4);
 
     // The room is not degenerate from the same motion.
@@ -116,7 +120,8 @@ fn points_in_exclusion_zones_are_ignored() {
         let mut s = base.clone();
         for &p in people {
             // A short wall segment facing the robot: a body-sized flat target.
-            s.walls.push((Point2::new(p.x, p.y - 0.15), Point2::new(p.x, p.y + 0.15)));
+            s.walls
+                .push((Point2::new(p.x, p.y - 0.15), Point2::new(p.x, p.y + 0.15)));
         }
         s
     };
@@ -133,8 +138,16 @@ fn points_in_exclusion_zones_are_ignored() {
     };
     let run = |exclude: bool| {
         let mut m = ScanMatcher::new(ScanMatcherConfig::default());
-        let za = if exclude { zones(&people_a, world_from_a) } else { vec![] };
-        let zb = if exclude { zones(&people_b, world_from_b) } else { vec![] };
+        let za = if exclude {
+            zones(&people_a, world_from_a)
+        } else {
+            vec![]
+        };
+        let zb = if exclude {
+            zones(&people_b, world_from_b)
+        } else {
+            vec![]
+        };
         m.update(stamp(0), &scan_a, MotionPrior::Stationary, &za);
         m.update(stamp(1), &scan_b, MotionPrior::Stationary, &zb)
     };
@@ -171,7 +184,11 @@ fn a_drive_through_the_room_accumulates_little_drift() {
     }
     let e = last.unwrap();
     let true_last = start.inverse() * (truth * step.inverse());
-    let est = Pose2::<Robot, Robot>::new(e.world_from_robot.x, e.world_from_robot.y, e.world_from_robot.yaw);
+    let est = Pose2::<Robot, Robot>::new(
+        e.world_from_robot.x,
+        e.world_from_robot.y,
+        e.world_from_robot.yaw,
+    );
     let err = true_last.inverse() * est;
     let drift = err.x.hypot(err.y) / (distance_m - 0.04);
     assert!(drift < 0.01, "drift {drift}: {err:?}");
@@ -185,7 +202,8 @@ fn bad_input_is_reported_not_panicked_on() {
     let scan = scene.urg_points(&model, Pose2::IDENTITY, SIGMA_M, 1);
     let mut m = ScanMatcher::new(ScanMatcherConfig::default());
     assert_eq!(
-        m.update(stamp(5), &scan, MotionPrior::ConstantVelocity, &[]).quality,
+        m.update(stamp(5), &scan, MotionPrior::ConstantVelocity, &[])
+            .quality,
         Quality::First
     );
     let e = m.update(stamp(5), &scan, MotionPrior::ConstantVelocity, &[]);
@@ -195,11 +213,25 @@ fn bad_input_is_reported_not_panicked_on() {
     );
     // An empty scan: the prior carries the pose, and the next good scan matches again.
     let empty = tether_scanmatch::ScanPoints::default();
-    let e = m.update(stamp(6), &empty, MotionPrior::Velocity { v_mps: 1.0, w_radps: 0.0 }, &[]);
-    assert_eq!(e.quality, Quality::PriorOnly(tether_scanmatch::Failure::TooFewPoints));
+    let e = m.update(
+        stamp(6),
+        &empty,
+        MotionPrior::Velocity {
+            v_mps: 1.0,
+            w_radps: 0.0,
+        },
+        &[],
+    );
+    assert_eq!(
+        e.quality,
+        Quality::PriorOnly(tether_scanmatch::Failure::TooFewPoints)
+    );
     assert!((e.world_from_robot.x - 0.1).abs() < 1e-9);
     // Everything excluded.
-    let all = [ExclusionZone { center: Point2::new(0.0, 0.0), radius_m: 100.0 }];
+    let all = [ExclusionZone {
+        center: Point2::new(0.0, 0.0),
+        radius_m: 100.0,
+    }];
     let e = m.update(stamp(7), &scan, MotionPrior::Stationary, &all);
     assert!(matches!(e.quality, Quality::PriorOnly(_)));
     // A gap of 10 s resets the constant-velocity prior.
