@@ -70,9 +70,9 @@ pub struct Line {
 pub struct Reference {
     laser_from_robot: Pose2<Laser, Robot>,
     bearings_rad: Vec<f64>,
-    in_laser: Vec<Point2<Laser>>,
-    /// Unit vector of each return's beam, laser frame.
-    beam_dirs: Vec<(f64, f64)>,
+    /// Per return, what the search reads, side by side (one cache line):
+    /// `(u_x, u_y, p_x, p_y)`, the unit vector of its beam and the return, laser frame.
+    search: Vec<[f64; 4]>,
     in_robot: Vec<Point2<Robot>>,
     ranges_m: Vec<f64>,
     /// `(n_x, n_y, anchor_x, anchor_y)` of the line at each return, NaN when the
@@ -99,8 +99,7 @@ impl Default for Reference {
         Reference {
             laser_from_robot: Pose2::IDENTITY,
             bearings_rad: Vec::new(),
-            in_laser: Vec::new(),
-            beam_dirs: Vec::new(),
+            search: Vec::new(),
             in_robot: Vec::new(),
             ranges_m: Vec::new(),
             lines: Vec::new(),
@@ -175,8 +174,7 @@ impl Reference {
         let laser_from_robot = scan.robot_from_laser().inverse();
         self.laser_from_robot = laser_from_robot;
         self.bearings_rad.clear();
-        self.in_laser.clear();
-        self.beam_dirs.clear();
+        self.search.clear();
         self.in_robot.clear();
         self.ranges_m.clear();
         self.lines.clear();
@@ -193,12 +191,13 @@ impl Reference {
             if keep(i) {
                 self.bearings_rad.push(b);
                 self.in_robot.push(p);
-                self.in_laser.push(Point2::new(
+                self.search.push([
+                    u.0,
+                    u.1,
                     lc * p.x - ls * p.y + laser_from_robot.x,
                     ls * p.x + lc * p.y + laser_from_robot.y,
-                ));
+                ]);
                 self.ranges_m.push(r);
-                self.beam_dirs.push(u);
             }
         }
         let n = self.in_robot.len();
@@ -394,8 +393,8 @@ impl Reference {
             if lb * lb >= best_sq {
                 break;
             }
-            let p = self.in_laser[k];
-            let (dx, dy) = (p.x - q.x, p.y - q.y);
+            let e = &self.search[k];
+            let (dx, dy) = (e[2] - q.x, e[3] - q.y);
             let dsq = dx * dx + dy * dy;
             if dsq < best_sq {
                 best_sq = dsq;
@@ -408,8 +407,8 @@ impl Reference {
             if lb * lb >= best_sq {
                 break;
             }
-            let p = self.in_laser[k];
-            let (dx, dy) = (p.x - q.x, p.y - q.y);
+            let e = &self.search[k];
+            let (dx, dy) = (e[2] - q.x, e[3] - q.y);
             let dsq = dx * dx + dy * dy;
             if dsq < best_sq {
                 best_sq = dsq;
@@ -441,17 +440,17 @@ impl Reference {
         max_distance_m: f64,
         hint: usize,
     ) -> Option<Nearest> {
-        let n = self.in_laser.len();
+        let n = self.search.len();
         if !self.hint_ok || n == 0 {
             return self.nearest(q, max_distance_m);
         }
         let cross = |k: usize| {
-            let u = self.beam_dirs[k];
-            u.0 * q.y - u.1 * q.x
+            let u = &self.search[k];
+            u[0] * q.y - u[1] * q.x
         };
         let dot = |k: usize| {
-            let u = self.beam_dirs[k];
-            u.0 * q.x + u.1 * q.y
+            let u = &self.search[k];
+            u[0] * q.x + u[1] * q.y
         };
         // Find `start`: the first beam not clockwise of q.
         let mut k = hint.min(n - 1);
@@ -525,9 +524,9 @@ impl Reference {
         best_sq: &mut f64,
         best: &mut Option<usize>,
     ) -> bool {
-        let u = self.beam_dirs[k];
-        let c = u.0 * q.y - u.1 * q.x;
-        let lb_sq = if u.0 * q.x + u.1 * q.y > 0.0 {
+        let e = &self.search[k];
+        let c = e[0] * q.y - e[1] * q.x;
+        let lb_sq = if e[0] * q.x + e[1] * q.y > 0.0 {
             c * c
         } else {
             r_sq
@@ -535,8 +534,7 @@ impl Reference {
         if lb_sq >= *best_sq {
             return false;
         }
-        let p = self.in_laser[k];
-        let (dx, dy) = (p.x - q.x, p.y - q.y);
+        let (dx, dy) = (e[2] - q.x, e[3] - q.y);
         let dsq = dx * dx + dy * dy;
         if dsq < *best_sq {
             *best_sq = dsq;
@@ -549,8 +547,8 @@ impl Reference {
     pub fn nearest_brute_force(&self, q: Point2<Laser>, max_distance_m: f64) -> Option<Nearest> {
         let mut best_sq = max_distance_m * max_distance_m;
         let mut best = None;
-        for (k, p) in self.in_laser.iter().enumerate() {
-            let (dx, dy) = (p.x - q.x, p.y - q.y);
+        for (k, e) in self.search.iter().enumerate() {
+            let (dx, dy) = (e[2] - q.x, e[3] - q.y);
             let dsq = dx * dx + dy * dy;
             if dsq < best_sq {
                 best_sq = dsq;
