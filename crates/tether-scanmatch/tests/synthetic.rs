@@ -59,6 +59,12 @@ fn room_motion_is_recovered_within_a_centimetre_and_half_a_degree() {
         let b = a * Pose2::<Robot, Robot>::new(dx, dy, dyaw);
         let (r, truth) = match_pair(&scene, a, b, NeighbourSearch::AngularWindow);
         let e = truth.inverse() * r.keyframe_from_robot;
+        println!(
+            "room, motion ({dx}, {dy}, {dyaw}): error {:.2} mm, {:.3} deg, {} iterations",
+            1e3 * e.x.hypot(e.y),
+            e.yaw.to_degrees(),
+            r.iterations
+        );
         assert!(
             e.x.hypot(e.y) < 0.01 && e.yaw.abs() < 0.5f64.to_radians(),
             "motion ({dx}, {dy}, {dyaw}): error {e:?}, {r:?}"
@@ -157,6 +163,11 @@ fn points_in_exclusion_zones_are_ignored() {
     assert!(e.x.hypot(e.y) < 0.01, "with exclusion: {excluded:?}");
     let dragged = run(false);
     let e_dragged = truth.inverse() * dragged.robot_from_robot;
+    println!(
+        "four walkers ahead: error {:.1} mm with exclusion, {:.1} mm without",
+        1e3 * e.x.hypot(e.y),
+        1e3 * e_dragged.x.hypot(e_dragged.y)
+    );
     assert!(
         e_dragged.x.hypot(e_dragged.y) > 2.0 * e.x.hypot(e.y),
         "the crowd should have pulled without exclusion: {dragged:?} vs {excluded:?}"
