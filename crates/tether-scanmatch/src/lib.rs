@@ -17,6 +17,25 @@
 //!   prior as the initial guess and exclusion zones around tracked people, and
 //!   accumulates `world_from_robot`.
 //! - [`synthetic`]: ray-cast scenes with known motion for tests and benchmarks.
+//!
+//! ```
+//! use tether_core::{LaserModel, Pose2, Robot, Stamp, World};
+//! use tether_scanmatch::synthetic::Scene;
+//! use tether_scanmatch::{MotionPrior, Quality, ScanMatcher, ScanMatcherConfig};
+//!
+//! let model = LaserModel::urg_04lx();
+//! let room = Scene::room();
+//! let start = Pose2::<World, Robot>::new(0.0, 0.0, 0.0);
+//! let moved = start * Pose2::<Robot, Robot>::new(0.1, 0.0, 0.05);
+//! let mut matcher = ScanMatcher::new(ScanMatcherConfig::default());
+//! let first = room.urg_points(&model, start, 0.01, 1);
+//! let second = room.urg_points(&model, moved, 0.01, 2);
+//! matcher.update(Stamp::from_ns(0), &first, MotionPrior::Stationary, &[]);
+//! let e = matcher.update(Stamp::from_ns(100_000_000), &second, MotionPrior::Stationary, &[]);
+//! assert_eq!(e.quality, Quality::Good);
+//! assert!((e.world_from_robot.x - 0.1).abs() < 0.01);
+//! assert!((e.world_from_robot.yaw - 0.05).abs() < 0.01);
+//! ```
 
 pub mod icp;
 pub mod linalg;

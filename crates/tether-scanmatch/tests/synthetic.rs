@@ -249,6 +249,38 @@ fn bad_input_is_reported_not_panicked_on() {
     let e = m.update(stamp(107), &scan, MotionPrior::ConstantVelocity, &[]);
     assert!(e.prior_reset);
     assert_eq!(m.counts().stamps_not_increasing, 1);
+    // After the failures the matcher recovers: the keyframe was renewed.
+    let e = m.update(stamp(108), &scan, MotionPrior::ConstantVelocity, &[]);
+    assert_eq!(e.quality, Quality::Good, "{e:?}");
+    assert!(e.robot_from_robot.x.abs() < 1e-3, "{e:?}");
+    // A bad mount or bad beams are refused when the points are made, not in update.
+    assert!(
+        tether_scanmatch::ScanPoints::from_polar(&[0.0, 7.0], &[1.0, 1.0], Pose2::IDENTITY)
+            .is_err()
+    );
+}
+
+/// The same scans give bit-identical estimates.
+#[test]
+fn estimates_are_deterministic() {
+    let model = LaserModel::urg_04lx();
+    let scene = Scene::room();
+    let run = || {
+        let mut m = ScanMatcher::new(ScanMatcherConfig::default());
+        let mut pose = Pose2::<World, Robot>::new(0.5, -0.5, 0.0);
+        let mut out = Vec::new();
+        for i in 0..20 {
+            let scan = scene.urg_points(&model, pose, SIGMA_M, 50 + i as u64);
+            let e = m.update(stamp(i), &scan, MotionPrior::ConstantVelocity, &[]);
+            out.push(format!(
+                "{:?}",
+                (e.world_from_robot, e.world_covariance, e.quality)
+            ));
+            pose = pose * Pose2::<Robot, Robot>::new(0.06, 0.0, 0.03);
+        }
+        out
+    };
+    assert_eq!(run(), run());
 }
 
 proptest! {
