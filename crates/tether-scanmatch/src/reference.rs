@@ -88,6 +88,8 @@ pub struct Reference {
     /// angle from a query inside the span is at least the query's range from it (see
     /// [`Reference::nearest_from`]).
     hint_ok: bool,
+    /// The directions span more than half a turn.
+    wide: bool,
     /// Scratch: first and last index of each return's surface run, prefix sums.
     run_start: Vec<u32>,
     run_end: Vec<u32>,
@@ -107,6 +109,7 @@ impl Default for Reference {
             bin_origin_rad: 0.0,
             centre_rad: 0.0,
             hint_ok: false,
+            wide: false,
             run_start: Vec::new(),
             run_end: Vec::new(),
             prefix: Vec::new(),
@@ -206,6 +209,7 @@ impl Reference {
             return;
         }
         self.hint_ok = self.bearings_rad[n - 1] - self.bearings_rad[0] < 1.5 * PI - 1e-3;
+        self.wide = self.bearings_rad[n - 1] - self.bearings_rad[0] > PI;
         self.bin_origin_rad = self.bearings_rad[0];
         self.centre_rad = 0.5 * (self.bearings_rad[0] + self.bearings_rad[n - 1]);
         let span = self.bearings_rad[n - 1] - self.bin_origin_rad;
@@ -427,12 +431,14 @@ impl Reference {
     /// trigonometry, no square root.
     ///
     /// With `u_k` the unit vector of beam `k`, `q x u_k` is `r sin(d)` (`d` the angle
-    /// from `q` to the beam) and `q . u_k` is `r cos(d)`. From the hint, the position
-    /// of `q` among the beams is found by the sign of the cross product; then each side
-    /// is walked as in [`Reference::nearest`] with the bound `(q x u_k)^2` while
-    /// `q . u_k > 0` and `r^2` beyond a right angle, which holds when the beams span
-    /// less than 3 pi / 2 (the URG-04LX's 240 deg do). When the span is wider, `q` lies
-    /// outside the beams, or the hint is far off, it falls back to
+    /// from `q` to the beam) and `q . u_k` is `r cos(d)`. From the hint the beams are
+    /// walked both ways; on each side, once the walk has passed `q`'s direction (the sign
+    /// of the cross product says so), it stops as in [`Reference::nearest`] at the first
+    /// beam whose bound, `(q x u_k)^2` within a right angle and `r^2` beyond, exceeds the
+    /// best squared distance. The bound beyond a right angle holds when the beams span
+    /// less than 3 pi / 2 (the URG-04LX's 240 deg do) and, when they span more than half
+    /// a turn, `q` lies within them (else a walk could go the long way round). Otherwise,
+    /// or when the hint is more than a right angle or 16 beams from `q`, it falls back to
     /// [`Reference::nearest`].
     pub fn nearest_from(
         &self,
@@ -444,103 +450,79 @@ impl Reference {
         if !self.hint_ok || n == 0 {
             return self.nearest(q, max_distance_m);
         }
-        let cross = |k: usize| {
-            let u = &self.search[k];
-            u[0] * q.y - u[1] * q.x
-        };
-        let dot = |k: usize| {
-            let u = &self.search[k];
-            u[0] * q.x + u[1] * q.y
-        };
-        // Find `start`: the first beam not clockwise of q.
-        let mut k = hint.min(n - 1);
-        let mut steps = 0;
-        if dot(k) <= 0.0 {
+        if self.wide {
+            // Beams over more than half a turn: q must lie within them (clockwise of the
+            // last and counter-clockwise of the first is the gap between them), or a
+            // walk could take the long way round.
+            let (f, l) = (&self.search[0], &self.search[n - 1]);
+            if f[0] * q.y - f[1] * q.x < 0.0 && l[0] * q.y - l[1] * q.x > 0.0 {
+                return self.nearest(q, max_distance_m);
+            }
+        }
+        let h = hint.min(n - 1);
+        let e = &self.search[h];
+        if e[0] * q.x + e[1] * q.y <= 0.0 {
+            // The hint is more than a right angle away.
             return self.nearest(q, max_distance_m);
         }
-        let start = if cross(k) > 0.0 {
-            // q is counter-clockwise of beam k: move up.
-            loop {
-                k += 1;
-                steps += 1;
-                if k == n {
-                    // q is past the last beam.
-                    return self.nearest(q, max_distance_m);
-                }
-                if dot(k) <= 0.0 || steps > 16 {
-                    return self.nearest(q, max_distance_m);
-                }
-                if cross(k) <= 0.0 {
-                    break k;
-                }
-            }
-        } else {
-            // q is on or clockwise of beam k: move down while the previous beam is too.
-            loop {
-                if k == 0 {
-                    // q is before the first beam.
-                    if cross(0) < 0.0 {
-                        return self.nearest(q, max_distance_m);
-                    }
-                    break 0;
-                }
-                if dot(k - 1) <= 0.0 || steps > 16 {
-                    return self.nearest(q, max_distance_m);
-                }
-                if cross(k - 1) > 0.0 {
-                    break k;
-                }
-                k -= 1;
-                steps += 1;
-            }
-        };
         let r_sq = q.x * q.x + q.y * q.y;
         let mut best_sq = max_distance_m * max_distance_m;
         let mut best: Option<usize> = None;
-        for k in start..n {
-            if !self.visit(q, k, r_sq, &mut best_sq, &mut best) {
-                break;
+        // Counter-clockwise from the hint. Until the walk has passed q's direction
+        // (`q x u <= 0`, or a right angle beyond) the bound does not grow: visit.
+        let mut before = 0;
+        for k in h..n {
+            let e = &self.search[k];
+            let c = e[0] * q.y - e[1] * q.x;
+            let d = e[0] * q.x + e[1] * q.y;
+            let passed = c <= 0.0 || d <= 0.0;
+            if passed {
+                let lb_sq = if d > 0.0 { c * c } else { r_sq };
+                if lb_sq >= best_sq {
+                    break;
+                }
+            } else {
+                before += 1;
+                if before > 16 {
+                    return self.nearest(q, max_distance_m);
+                }
+            }
+            let (dx, dy) = (e[2] - q.x, e[3] - q.y);
+            let dsq = dx * dx + dy * dy;
+            if dsq < best_sq {
+                best_sq = dsq;
+                best = Some(k);
             }
         }
-        for k in (0..start).rev() {
-            if !self.visit(q, k, r_sq, &mut best_sq, &mut best) {
-                break;
+        // Clockwise from just below the hint, likewise.
+        let mut before = 0;
+        for k in (0..h).rev() {
+            let e = &self.search[k];
+            let c = e[0] * q.y - e[1] * q.x;
+            let d = e[0] * q.x + e[1] * q.y;
+            let passed = c > 0.0 || d <= 0.0;
+            if passed {
+                let lb_sq = if d > 0.0 { c * c } else { r_sq };
+                if lb_sq >= best_sq {
+                    break;
+                }
+            } else {
+                before += 1;
+                if before > 16 {
+                    return self.nearest(q, max_distance_m);
+                }
+            }
+            let (dx, dy) = (e[2] - q.x, e[3] - q.y);
+            let dsq = dx * dx + dy * dy;
+            if dsq < best_sq {
+                best_sq = dsq;
+                best = Some(k);
             }
         }
         best.map(|index| Nearest {
             index,
             distance_sq_m2: best_sq,
         })
-    }
-
-    /// One step of [`Reference::nearest_from`]'s walk: false when beam `k` (and so every
-    /// beam beyond it on this side) cannot hold a return closer than `best_sq`.
-    #[inline(always)]
-    fn visit(
-        &self,
-        q: Point2<Laser>,
-        k: usize,
-        r_sq: f64,
-        best_sq: &mut f64,
-        best: &mut Option<usize>,
-    ) -> bool {
-        let e = &self.search[k];
-        let c = e[0] * q.y - e[1] * q.x;
-        let lb_sq = if e[0] * q.x + e[1] * q.y > 0.0 {
-            c * c
-        } else {
-            r_sq
-        };
-        if lb_sq >= *best_sq {
-            return false;
-        }
-        let (dx, dy) = (e[2] - q.x, e[3] - q.y);
-        let dsq = dx * dx + dy * dy;
-        if dsq < *best_sq {
-            *best_sq = dsq;
-            *best = Some(k);
-        }
-        true
     }
 
     /// The nearest return to `q` within `max_distance_m`, by trying every return.
@@ -645,6 +627,34 @@ mod tests {
                         (None, None) => {}
                         other => prop_assert!(false, "{other:?}"),
                     }
+                }
+            }
+        }
+    }
+
+    proptest! {
+        /// Queries near the returns (where matching asks), from any hint.
+        #[test]
+        fn hinted_search_near_returns_equals_brute_force(
+            ranges in prop::collection::vec(prop_oneof![4 => 0.3f64..5.6, 1 => Just(f64::INFINITY)], 10..700),
+            offsets in prop::collection::vec((0usize..10_000, -0.05f64..0.05, -0.05f64..0.05, 0usize..10_000), 1..60),
+        ) {
+            let s = scan_of(&ranges, Pose2::new(0.1, 0.0, 0.0));
+            prop_assume!(s.len() > 2);
+            let reference = Reference::build(&s, &LineFit::default(), |_| true);
+            for (i, dx, dy, h) in offsets {
+                let p = reference.search[i % reference.len()];
+                let q = Point2::new(p[2] + dx, p[3] + dy);
+                let hint = (i % reference.len()).saturating_sub(h % 5) + h % 3;
+                let fast = reference.nearest_from(q, 0.3, hint);
+                let slow = reference.nearest_brute_force(q, 0.3);
+                match (fast, slow) {
+                    (Some(f), Some(s)) => prop_assert!(
+                        f.index == s.index || (f.distance_sq_m2 - s.distance_sq_m2).abs() < 1e-12,
+                        "{f:?} vs {s:?}"
+                    ),
+                    (None, None) => {}
+                    other => prop_assert!(false, "{other:?}"),
                 }
             }
         }
