@@ -304,3 +304,67 @@ proptest! {
             "{:?} vs {:?}", f, s);
     }
 }
+
+/// How honest the covariance is: the normalised estimation error squared
+/// `e^T Sigma^-1 e` over 200 noisy room matches, whose mean is 3 for a consistent 3-DOF
+/// estimate. The Hessian estimate ignores the error of the keyframe's own lines, so it
+/// is optimistic; the test bounds by how much, so that a regression shows.
+#[test]
+fn covariance_is_within_a_known_factor_of_the_errors() {
+    let scene = Scene::room();
+    let model = LaserModel::urg_04lx();
+    let config = IcpConfig::default();
+    let prior = [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01]];
+    let mut nees_sum = 0.0;
+    let runs = 200;
+    for seed in 0..runs {
+        let a = Pose2::<World, Robot>::new(0.0, 0.0, 0.01 * seed as f64);
+        let b = a * Pose2::<Robot, Robot>::new(0.1, 0.02, 0.03);
+        let first = scene.urg_points(&model, a, SIGMA_M, 1000 + 2 * seed);
+        let second = scene.urg_points(&model, b, SIGMA_M, 1001 + 2 * seed);
+        let reference = Reference::build(&first, &config.lines, |_| true);
+        let r = match_scan(
+            &reference,
+            second.points(),
+            Pose2::IDENTITY,
+            &prior,
+            &config,
+            NeighbourSearch::AngularWindow,
+            &mut IcpScratch::default(),
+        )
+        .unwrap();
+        let e = (a.inverse() * b).inverse() * r.keyframe_from_robot;
+        let e = [e.x, e.y, e.yaw];
+        // Sigma^-1 e by Cramer's rule (3x3).
+        let m = r.covariance;
+        let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+        assert!(det > 0.0, "{m:?}");
+        let inv = [
+            [
+                m[1][1] * m[2][2] - m[1][2] * m[2][1],
+                m[0][2] * m[2][1] - m[0][1] * m[2][2],
+                m[0][1] * m[1][2] - m[0][2] * m[1][1],
+            ],
+            [
+                m[1][2] * m[2][0] - m[1][0] * m[2][2],
+                m[0][0] * m[2][2] - m[0][2] * m[2][0],
+                m[0][2] * m[1][0] - m[0][0] * m[1][2],
+            ],
+            [
+                m[1][0] * m[2][1] - m[1][1] * m[2][0],
+                m[0][1] * m[2][0] - m[0][0] * m[2][1],
+                m[0][0] * m[1][1] - m[0][1] * m[1][0],
+            ],
+        ];
+        let nees: f64 = (0..3)
+            .map(|i| (0..3).map(|j| e[i] * inv[i][j] * e[j]).sum::<f64>())
+            .sum::<f64>()
+            / det;
+        nees_sum += nees;
+    }
+    let mean = nees_sum / runs as f64;
+    println!("room matches: mean NEES {mean:.2} (3 for a consistent covariance)");
+    assert!(mean > 2.0 && mean < 16.0, "mean NEES {mean}");
+}
