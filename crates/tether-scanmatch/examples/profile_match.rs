@@ -45,6 +45,7 @@ fn main() {
                 config.reuse_correspondences_below_rad = x;
             }
             "spacing" => mconfig.min_point_spacing_m = x,
+            "iters" => config.max_iterations = x as u32,
             _ => panic!("unknown key {k}"),
         }
     }

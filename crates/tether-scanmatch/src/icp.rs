@@ -48,8 +48,8 @@ impl Default for IcpConfig {
     fn default() -> Self {
         IcpConfig {
             max_iterations: 25,
-            translation_tolerance_m: 5e-4,
-            rotation_tolerance_rad: 5e-4,
+            translation_tolerance_m: 1e-3,
+            rotation_tolerance_rad: 1e-3,
             max_correspondence_m: 0.3,
             lines: LineFit::default(),
             trim_fraction: 0.05,
