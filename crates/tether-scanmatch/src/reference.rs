@@ -267,48 +267,46 @@ impl Reference {
                 end = k as u32 - 1;
             }
         }
-        for k in 0..n {
+        self.lines.clear();
+        self.lines.resize(n, [f64::NAN; 4]);
+        let (pre, starts, ends) = (&self.prefix[..], &self.run_start[..], &self.run_end[..]);
+        let (bearings, ranges) = (&self.bearings_rad[..], &self.ranges_m[..]);
+        for (k, line) in self.lines.iter_mut().enumerate() {
             let spacing = if n > 1 {
                 let kk = k.min(n - 2);
-                (self.bearings_rad[kk + 1] - self.bearings_rad[kk]).abs()
+                (bearings[kk + 1] - bearings[kk]).abs()
             } else {
                 1.0
             };
             // ceil, as floor + 1 (no library call; one more return at most).
-            let m = fit.half_span_m / (self.ranges_m[k] * spacing).max(1e-6);
+            let m = fit.half_span_m / (ranges[k] * spacing).max(1e-6);
             let m = (m.clamp(0.0, 63.0) as usize) + 1;
-            let lo = k.saturating_sub(m).max(self.run_start[k] as usize);
-            let hi = (k + m).min(self.run_end[k] as usize);
-            let line = if hi - lo + 1 >= 3 {
-                let inv_count = 1.0 / (hi + 1 - lo) as f64;
-                let s: [f64; 5] =
-                    std::array::from_fn(|i| self.prefix[hi + 1][i] - self.prefix[lo][i]);
-                let (mx, my) = (s[0] * inv_count, s[1] * inv_count);
-                let cxx = s[2] * inv_count - mx * mx;
-                let cxy = s[3] * inv_count - mx * my;
-                let cyy = s[4] * inv_count - my * my;
-                let half_trace = 0.5 * (cxx + cyy);
-                let root = (0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy).sqrt();
-                let (l_max, l_min) = (half_trace + root, (half_trace - root).max(0.0));
-                if l_max > 0.0 && l_min <= fit.max_flatness * l_max {
-                    // The eigenvector of lambda_min, from whichever row of
-                    // `C - lambda_min I` is the larger (the better conditioned).
-                    let (a, b) = (cxx - l_min, cyy - l_min);
-                    let (nx, ny) = if a >= b { (-cxy, a) } else { (b, -cxy) };
-                    let norm_sq = nx * nx + ny * ny;
-                    if norm_sq > 0.0 {
-                        let inv = 1.0 / norm_sq.sqrt();
-                        [nx * inv, ny * inv, mx, my]
-                    } else {
-                        [f64::NAN; 4]
-                    }
-                } else {
-                    [f64::NAN; 4]
-                }
-            } else {
-                [f64::NAN; 4]
-            };
-            self.lines.push(line);
+            let lo = k.saturating_sub(m).max(starts[k] as usize);
+            let hi = (k + m).min(ends[k] as usize);
+            if hi < lo + 2 {
+                continue;
+            }
+            let inv_count = 1.0 / (hi + 1 - lo) as f64;
+            let (a, b) = (&pre[lo], &pre[hi + 1]);
+            let (mx, my) = ((b[0] - a[0]) * inv_count, (b[1] - a[1]) * inv_count);
+            let cxx = (b[2] - a[2]) * inv_count - mx * mx;
+            let cxy = (b[3] - a[3]) * inv_count - mx * my;
+            let cyy = (b[4] - a[4]) * inv_count - my * my;
+            let half_trace = 0.5 * (cxx + cyy);
+            let root = (0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy).sqrt();
+            let (l_max, l_min) = (half_trace + root, (half_trace - root).max(0.0));
+            if !(l_max > 0.0 && l_min <= fit.max_flatness * l_max) {
+                continue;
+            }
+            // The eigenvector of lambda_min, from whichever row of `C - lambda_min I` is
+            // the larger (the better conditioned).
+            let (ra, rb) = (cxx - l_min, cyy - l_min);
+            let (nx, ny) = if ra >= rb { (-cxy, ra) } else { (rb, -cxy) };
+            let norm_sq = nx * nx + ny * ny;
+            if norm_sq > 0.0 {
+                let inv = 1.0 / norm_sq.sqrt();
+                *line = [nx * inv, ny * inv, mx, my];
+            }
         }
     }
 
