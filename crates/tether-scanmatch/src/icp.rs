@@ -2,13 +2,15 @@
 //! solved by Gauss-Newton in SE(2), with trimming, Huber weights, a covariance from the
 //! Hessian and degeneracy handled by solution remapping.
 
+use serde::{Deserialize, Serialize};
 use tether_core::{Laser, Point2, Pose2, Robot};
 
 use crate::linalg::{Mat3, ZERO3, symmetric_eigen3};
 use crate::reference::{LineFit, NeighbourSearch, Reference};
 
 /// Settings of one scan-to-keyframe match.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct IcpConfig {
     /// Most Gauss-Newton iterations (each re-finds the correspondences).
     pub max_iterations: u32,

@@ -47,8 +47,8 @@ pub mod synthetic;
 pub use icp::{IcpConfig, IcpScratch, MatchFailure, MatchResult, match_scan};
 pub use linalg::Mat3;
 pub use matcher::{
-    Estimate, ExclusionZone, Failure, MatcherCounts, MotionPrior, Quality, ScanMatcher,
-    ScanMatcherConfig, arc,
+    ConfigError, Estimate, ExclusionZone, Failure, MatcherCounts, MotionPrior, Quality,
+    ScanMatcher, ScanMatcherConfig, arc,
 };
 pub use points::{ScanPoints, ScanPointsError};
 pub use reference::{Line, LineFit, Nearest, NeighbourSearch, Reference};

@@ -2,6 +2,7 @@
 //! when the robot has moved away from it, and the increments are accumulated into
 //! `world_from_robot`.
 
+use serde::{Deserialize, Serialize};
 use tether_core::{Point2, Pose2, Robot, Stamp, World, wrap_angle_rad};
 
 use crate::icp::{IcpConfig, IcpScratch, MatchFailure, MatchResult, match_scan};
@@ -10,7 +11,8 @@ use crate::points::ScanPoints;
 use crate::reference::{NeighbourSearch, Reference};
 
 /// Settings of a [`ScanMatcher`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct ScanMatcherConfig {
     /// The match itself.
     pub icp: IcpConfig,
@@ -33,6 +35,101 @@ pub struct ScanMatcherConfig {
     /// A gap between scans longer than this makes the constant-velocity prior
     /// unreliable: it is replaced by "stationary" and the estimate says so, s.
     pub max_prior_gap_s: f64,
+}
+
+/// A setting that cannot work.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("scan matcher setting `{field}` = {value}: {expected}")]
+pub struct ConfigError {
+    /// The setting's name (as in the TOML table).
+    pub field: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// What it must be.
+    pub expected: &'static str,
+}
+
+impl ScanMatcherConfig {
+    /// Checks every setting: distances, angles and rates positive and finite, shares in
+    /// `[0, 1)`, at least one iteration and three matches.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let icp = &self.icp;
+        let positive: [(&'static str, f64); 14] = [
+            ("icp.translation_tolerance_m", icp.translation_tolerance_m),
+            ("icp.rotation_tolerance_rad", icp.rotation_tolerance_rad),
+            ("icp.max_correspondence_m", icp.max_correspondence_m),
+            ("icp.huber_m", icp.huber_m),
+            ("icp.rotation_scale_m", icp.rotation_scale_m),
+            (
+                "icp.degeneracy_min_eigenvalue",
+                icp.degeneracy_min_eigenvalue,
+            ),
+            ("icp.lines.max_gap_m", icp.lines.max_gap_m),
+            ("icp.lines.half_span_m", icp.lines.half_span_m),
+            ("icp.lines.max_flatness", icp.lines.max_flatness),
+            ("keyframe_translation_m", self.keyframe_translation_m),
+            ("keyframe_rotation_rad", self.keyframe_rotation_rad),
+            ("prior_sigma_m_per_s", self.prior_sigma_m_per_s),
+            ("prior_sigma_rad_per_s", self.prior_sigma_rad_per_s),
+            ("max_prior_gap_s", self.max_prior_gap_s),
+        ];
+        for (field, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(ConfigError {
+                    field,
+                    value,
+                    expected: "a positive finite number",
+                });
+            }
+        }
+        let non_negative: [(&'static str, f64); 3] = [
+            (
+                "icp.reuse_correspondences_below_m",
+                icp.reuse_correspondences_below_m,
+            ),
+            (
+                "icp.reuse_correspondences_below_rad",
+                icp.reuse_correspondences_below_rad,
+            ),
+            ("min_point_spacing_m", self.min_point_spacing_m),
+        ];
+        for (field, value) in non_negative {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(ConfigError {
+                    field,
+                    value,
+                    expected: "zero or a positive finite number",
+                });
+            }
+        }
+        for (field, value) in [
+            ("icp.trim_fraction", icp.trim_fraction),
+            ("keyframe_min_overlap", self.keyframe_min_overlap),
+        ] {
+            if !(0.0..1.0).contains(&value) {
+                return Err(ConfigError {
+                    field,
+                    value,
+                    expected: "a share in [0, 1)",
+                });
+            }
+        }
+        if icp.max_iterations == 0 {
+            return Err(ConfigError {
+                field: "icp.max_iterations",
+                value: 0.0,
+                expected: "at least 1",
+            });
+        }
+        if icp.min_matches < 3 {
+            return Err(ConfigError {
+                field: "icp.min_matches",
+                value: icp.min_matches as f64,
+                expected: "at least 3 (an SE(2) pose has three unknowns)",
+            });
+        }
+        Ok(())
+    }
 }
 
 impl Default for ScanMatcherConfig {
@@ -216,7 +313,9 @@ pub struct ScanMatcher {
 }
 
 impl ScanMatcher {
-    /// A matcher that has seen no scan.
+    /// A matcher that has seen no scan. The settings should have passed
+    /// [`ScanMatcherConfig::validate`] (read from a file, they must): unchecked nonsense
+    /// never panics, but gives failed or meaningless estimates.
     pub fn new(config: ScanMatcherConfig) -> Self {
         ScanMatcher {
             config,

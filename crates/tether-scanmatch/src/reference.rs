@@ -3,6 +3,7 @@
 
 use std::f64::consts::{PI, TAU};
 
+use serde::{Deserialize, Serialize};
 use tether_core::{Laser, Point2, Pose2, Robot};
 
 use crate::points::ScanPoints;
@@ -23,7 +24,8 @@ pub enum NeighbourSearch {
 const BINS_PER_RAD: f64 = 200.0;
 
 /// How the reference's surfaces are estimated around each return.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct LineFit {
     /// Neighbouring returns farther apart than this are on different surfaces (a jump
     /// edge), m.

@@ -368,3 +368,32 @@ fn covariance_is_within_a_known_factor_of_the_errors() {
     println!("room matches: mean NEES {mean:.2} (3 for a consistent covariance)");
     assert!(mean > 2.0 && mean < 16.0, "mean NEES {mean}");
 }
+
+#[test]
+fn settings_read_from_toml_and_nonsense_is_refused() {
+    let config: ScanMatcherConfig = toml::from_str(
+        "keyframe_translation_m = 0.5\n[icp]\nhuber_m = 0.02\n[icp.lines]\nhalf_span_m = 0.08\n",
+    )
+    .unwrap();
+    assert_eq!(config.keyframe_translation_m, 0.5);
+    assert_eq!(config.icp.huber_m, 0.02);
+    assert_eq!(config.icp.lines.half_span_m, 0.08);
+    assert_eq!(
+        config.icp.max_iterations,
+        IcpConfig::default().max_iterations
+    );
+    assert!(config.validate().is_ok());
+    assert!(ScanMatcherConfig::default().validate().is_ok());
+    assert!(toml::from_str::<ScanMatcherConfig>("keyframe_translaton_m = 0.5").is_err());
+    let mut bad = ScanMatcherConfig::default();
+    bad.icp.max_correspondence_m = f64::NAN;
+    let e = bad.validate().unwrap_err();
+    assert_eq!(e.field, "icp.max_correspondence_m");
+    assert!(e.to_string().contains("positive finite"), "{e}");
+    let mut bad = ScanMatcherConfig::default();
+    bad.icp.trim_fraction = 1.0;
+    assert_eq!(bad.validate().unwrap_err().field, "icp.trim_fraction");
+    let mut bad = ScanMatcherConfig::default();
+    bad.icp.min_matches = 2;
+    assert_eq!(bad.validate().unwrap_err().field, "icp.min_matches");
+}
