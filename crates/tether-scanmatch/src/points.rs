@@ -1,6 +1,6 @@
 //! The returns of one scan, in the robot frame, ordered by beam direction.
 
-use tether_core::{Laser, LaserScan, Point2, Pose2, Robot};
+use tether_core::{Laser, LaserScan, Point2, Pose2, RangeNoiseModel, Robot};
 use thiserror::Error;
 
 /// Why the beams given cannot make a scan to match.
@@ -136,6 +136,43 @@ impl ScanPoints {
         Ok(())
     }
 
+    /// Like [`ScanPoints::fill_from_scan`], with the calibrated range bias removed from
+    /// every return first (`r - bias(r)`, SPEC 2.1), as tether-laser's pre-processing
+    /// does; a corrected range that is not positive is dropped and counted.
+    pub fn fill_from_scan_corrected(
+        &mut self,
+        scan: &LaserScan,
+        robot_from_laser: Pose2<Robot, Laser>,
+        noise: &RangeNoiseModel,
+    ) -> Result<(), ScanPointsError> {
+        if noise.bias_m.0.is_empty() {
+            return self.fill_from_scan(scan, robot_from_laser);
+        }
+        check_mount(robot_from_laser)?;
+        self.clear(robot_from_laser);
+        let n = scan.len();
+        let span_rad = (scan.angle_increment_rad * (n as f64 - 1.0)).abs();
+        if span_rad >= std::f64::consts::TAU {
+            return Err(ScanPointsError::SpanTooWide { span_rad });
+        }
+        let ranges = scan.ranges_m();
+        for k in 0..n {
+            let i = if scan.angle_increment_rad > 0.0 {
+                k
+            } else {
+                n - 1 - k
+            };
+            let r = f64::from(ranges[i]);
+            let r = if r.is_finite() {
+                noise.corrected_m(r)
+            } else {
+                r
+            };
+            self.push(scan.angle_rad(i), r);
+        }
+        Ok(())
+    }
+
     /// The returns of beams at `angles_rad` (laser frame, strictly increasing) with
     /// `ranges_m` (`+inf`, NaN or non-positive: no return), from a scanner mounted at
     /// `robot_from_laser`.
@@ -257,6 +294,24 @@ mod tests {
         assert_eq!(p.bearings_rad(), &[0.0, 0.5, 1.0]);
         assert_eq!(p.ranges_m(), &[3.0, 2.0, 1.0]);
         assert!((p.points()[0].x - 3.1).abs() < 1e-12);
+    }
+
+    #[test]
+    fn range_bias_is_removed_when_asked() {
+        use tether_core::Polynomial;
+        let scan = LaserScan::new(Stamp::ZERO, "l", 0.0, 0.1, 0.02, 5.0, vec![1.0, 2.0]).unwrap();
+        let noise = RangeNoiseModel {
+            bias_m: Polynomial(vec![0.01, 0.02]),
+            ..RangeNoiseModel::default()
+        };
+        let mut p = ScanPoints::default();
+        p.fill_from_scan_corrected(&scan, Pose2::IDENTITY, &noise)
+            .unwrap();
+        assert!((p.ranges_m()[0] - (1.0 - 0.03)).abs() < 1e-9);
+        assert!((p.ranges_m()[1] - (2.0 - 0.05)).abs() < 1e-9);
+        p.fill_from_scan_corrected(&scan, Pose2::IDENTITY, &RangeNoiseModel::default())
+            .unwrap();
+        assert_eq!(p.ranges_m(), &[1.0, 2.0]);
     }
 
     #[test]

@@ -20,6 +20,9 @@ pub enum NeighbourSearch {
     BruteForce,
 }
 
+/// Returns on each side of a return whose mean places its line across the surface.
+const ANCHOR_HALF_WIDTH: usize = 1;
+
 /// Bins per radian of the direction look-up table (about one per URG-04LX beam).
 const BINS_PER_RAD: f64 = 200.0;
 
@@ -52,7 +55,8 @@ impl Default for LineFit {
 pub struct Line {
     /// Unit normal, robot frame.
     pub normal: (f64, f64),
-    /// A point of the line (the centroid of the fitted returns), robot frame.
+    /// A point of the line, where the surface is at this return (see [`Reference`]),
+    /// robot frame.
     pub anchor: Point2<Robot>,
 }
 
@@ -66,8 +70,13 @@ pub struct Line {
 /// through two neighbours points anywhere. Here the line at return `k` is fitted (total
 /// least squares: the principal axis of the points' covariance) to the returns of the
 /// same surface within [`LineFit::half_span_m`] of it on either side — the same
-/// point-to-line model, with a line that noise does not turn. Sums over returns are kept
-/// as prefix sums, so every fit costs the same whatever its width.
+/// point-to-line model, with a line that noise does not turn. The line is placed across
+/// the surface at the mean of this return and its two neighbours, not at the fit's
+/// centroid: on a curved surface the centroid lies behind it by the sagitta, which moves
+/// with the viewpoint (on a sparse scene of trunks and posts the drift was 2.1 % through
+/// the centroid, 0.65 % so; at the return alone, the nearest return's own noise, chosen by
+/// being nearest, biased single matches fivefold). Sums over returns are kept as prefix
+/// sums, so every fit costs the same whatever its width.
 #[derive(Debug, Clone)]
 pub struct Reference {
     laser_from_robot: Pose2<Laser, Robot>,
@@ -307,7 +316,21 @@ impl Reference {
             let norm_sq = nx * nx + ny * ny;
             if norm_sq > 0.0 {
                 let inv = 1.0 / norm_sq.sqrt();
-                *line = [nx * inv, ny * inv, mx, my];
+                let (nx, ny) = (nx * inv, ny * inv);
+                // Anchored where the surface is at this return, not at the centroid: on a
+                // curved surface (a trunk, a pillar) the centroid lies behind the surface
+                // by the sagitta, which moves with the viewpoint and biases the match.
+                // The offset across the line is the mean over the returns within
+                // ANCHOR_HALF_WIDTH of this one (less noise than the return alone).
+                let (slo, shi) = (
+                    k.saturating_sub(ANCHOR_HALF_WIDTH).max(lo),
+                    (k + ANCHOR_HALF_WIDTH).min(hi),
+                );
+                let inv_small = 1.0 / (shi + 1 - slo) as f64;
+                let (sa, sb) = (&pre[slo], &pre[shi + 1]);
+                let (sx, sy) = ((sb[0] - sa[0]) * inv_small, (sb[1] - sa[1]) * inv_small);
+                let offset = nx * (sx - mx) + ny * (sy - my);
+                *line = [nx, ny, mx + offset * nx, my + offset * ny];
             }
         }
     }
