@@ -147,7 +147,11 @@ impl ScanOdometry {
         format!(
             "scan odometry: {} scans, {} keyframes, {} degenerate (along a corridor's axis the \
              prior), {} on the prior alone, {} gaps that reset the prior, {} unreadable",
-            c.scans, c.keyframes, self.degenerate, self.prior_only, c.prior_resets,
+            c.scans,
+            c.keyframes,
+            self.degenerate,
+            self.prior_only,
+            c.prior_resets,
             self.unusable_scans
         )
     }
@@ -208,7 +212,11 @@ mod tests {
         let mut last = Pose2::IDENTITY;
         for k in 0..30 {
             let x = 0.05 * k as f64;
-            last = odom.update(&room_scan(100 * k, x, 0.0), MotionPrior::ConstantVelocity, []);
+            last = odom.update(
+                &room_scan(100 * k, x, 0.0),
+                MotionPrior::ConstantVelocity,
+                [],
+            );
         }
         let p = last.translation();
         assert!((p.x - 1.45).abs() < 0.02 && p.y.abs() < 0.02, "{last:?}");

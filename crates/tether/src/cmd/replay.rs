@@ -7,10 +7,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use tether::ego::{EgoMotion, PoseSource, ScanOdometry};
 use tether::plot::{Plot, Series};
 use tether::recording::{self, Sample, Topics};
 use tether::report::simple_page;
-use tether::ego::{EgoMotion, PoseSource, ScanOdometry};
 use tether::results::ResultWriter;
 use tether::target_log::TargetLog;
 use tether_core::{Pose2, Robot, Stamp, World};
@@ -268,8 +268,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .ego_motion
         .resolve(args.odom_topic.is_some())
         .map_err(anyhow::Error::msg)?;
-    let mut scan_odometry = (source == PoseSource::Scans)
-        .then(|| ScanOdometry::new(ScanMatcherConfig::default(), config.laser.robot_from_laser()));
+    let mut scan_odometry = (source == PoseSource::Scans).then(|| {
+        ScanOdometry::new(
+            ScanMatcherConfig::default(),
+            config.laser.robot_from_laser(),
+        )
+    });
     let mut pipeline = Pipeline::new(config, None)?;
     let frame = source.frame();
     let mut output = match &args.out {
@@ -301,7 +305,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Sample::Scan(scan) => {
                 summary.scans += 1;
                 if let Some(odometry) = scan_odometry.as_mut() {
-                    let people = pipeline.tracker().tracks().iter().map(|t| t.position().mean);
+                    let people = pipeline
+                        .tracker()
+                        .tracks()
+                        .iter()
+                        .map(|t| t.position().mean);
                     pose = Some(odometry.update(&scan, MotionPrior::ConstantVelocity, people));
                 }
                 let Some(p) = pose else {
