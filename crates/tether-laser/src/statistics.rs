@@ -166,6 +166,28 @@ impl DetectorStatistics {
         Self::default()
     }
 
+    /// Adds everything `other` counted (its open runs closed first), as if its scans
+    /// had been a separate recording fed to `self`.
+    pub fn merge(&mut self, other: &DetectorStatistics) {
+        let mut o = other.clone();
+        o.end_sequence();
+        for k in 0..N_RANGE_BINS {
+            self.labelled_per_bin[k] += o.labelled_per_bin[k];
+            self.detected_per_bin[k] += o.detected_per_bin[k];
+        }
+        self.labelled_legs += o.labelled_legs;
+        self.merged_legs += o.merged_legs;
+        self.measured_widths += o.measured_widths;
+        self.person_scans += o.person_scans;
+        self.person_missed_scans += o.person_missed_scans;
+        self.miss_then_any += o.miss_then_any;
+        self.miss_then_miss += o.miss_then_miss;
+        self.miss_runs.extend(o.miss_runs);
+        self.fp_scans += o.fp_scans;
+        self.fp_detections += o.fp_detections;
+        self.fp_runs.extend(o.fp_runs);
+    }
+
     /// Ends the current recording: open runs are closed.
     pub fn end_sequence(&mut self) {
         self.close_miss_run();
@@ -584,6 +606,11 @@ mod tests {
         // Runs: 12, 1, 1.
         assert_eq!(m.fp_run_histogram, vec![2, 0, 0, 0, 1, 0, 0]);
         assert!((m.fp_share_persisting_1s - 12.0 / 14.0).abs() < 1e-12);
+        let mut twice = s.clone();
+        twice.merge(&s);
+        let t = twice.summary();
+        assert_eq!(t.fp_scans, 26);
+        assert_eq!(t.fp_run_histogram, vec![4, 0, 0, 0, 2, 0, 0]);
         let table = side_by_side(&[("a", &m), ("b", &m)]);
         assert_eq!(table.lines().count(), 2 + row_names().len());
     }

@@ -1,0 +1,119 @@
+//! The simulated laser fails the way the real one does (issue 14): the statistics of
+//! tether's leg detector that matter for tracking (detection against range, runs of
+//! misses of the person, merged legs, false positives and how long they stay in place;
+//! `tether_laser::statistics`) computed on simulated runs of the built-in scenarios and
+//! on the real training split, each within a stated tolerance, with a side-by-side table
+//! (real training / simulated / real test) for the README.
+//!
+//! The simulated labels are made as leg_tracker's labeller made the real ones: every
+//! cluster of the default clustering whose centroid lies near a true leg of the person
+//! (within [`LABEL_REACH_M`]) inside its window (+-15 deg, 5 m); false positives are the
+//! detected legs farther than [`FP_CLEARANCE_M`] from every person's legs, their
+//! persistence measured in the world frame (the real scanners were static, so their
+//! frame was a world frame).
+//!
+//! Without `../shared` the test prints why and passes, unless `TETHER_REQUIRE_SHARED=1`.
+
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "test code: a failed unwrap is a failed test"
+)]
+
+#[path = "../../tether-laser/tests/support/real_statistics.rs"]
+mod real_statistics;
+
+use tether_core::{Laser, Point2};
+use tether_laser::statistics::{
+    DetectorStatistics, StatisticsSummary, clusters_near, detected_legs, side_by_side,
+};
+use tether_laser::training::LabelledRegion;
+use tether_sim::driver::driver_for;
+use tether_sim::{BUILTIN_NAMES, Scenario, SensorData, Simulation};
+
+/// A cluster whose centroid lies this close to a true leg centre is the person's, m
+/// (a leg's returns lie about one radius in front of its centre; two merged legs
+/// 0.1-0.15 m to either side of the cluster's centroid).
+const LABEL_REACH_M: f64 = 0.2;
+/// A detected leg this far from every person's legs is a false positive, m.
+const FP_CLEARANCE_M: f64 = 0.5;
+/// Seeds per scenario.
+const SEEDS: u64 = 3;
+
+/// The statistics of simulated runs of `scenario` for `seeds`.
+fn simulated(scenario: &Scenario, seeds: std::ops::Range<u64>) -> DetectorStatistics {
+    let mut all = DetectorStatistics::new();
+    let region = LabelledRegion::leg_tracker();
+    for seed in seeds {
+        let mut sim = Simulation::new(scenario, seed).unwrap();
+        let mut driver = driver_for(scenario);
+        let mut detector = real_statistics::default_detector();
+        let n_people = scenario.people.len();
+        let mut per_person: Vec<DetectorStatistics> =
+            (0..n_people).map(|_| DetectorStatistics::new()).collect();
+        let mut fps = DetectorStatistics::new();
+        while let Some(event) = sim.advance() {
+            if let Some(c) = driver.on_event(&event) {
+                sim.set_command(c);
+            }
+            let SensorData::Scan(scan) = &event.data else {
+                continue;
+            };
+            let t = event.truth.stamp.secs_f64();
+            let laser_from_world = event.truth.world_from_laser.inverse();
+            let found = detected_legs(&mut detector, scan);
+            let mut all_legs: Vec<Point2<Laser>> = Vec::new();
+            for (k, person) in event.truth.people.iter().enumerate() {
+                let legs: Vec<Point2<Laser>> =
+                    person.legs.iter().map(|l| laser_from_world * l.center).collect();
+                all_legs.extend(&legs);
+                let labels = clusters_near(&mut detector, scan, &legs, LABEL_REACH_M, &region);
+                per_person[k].add_labelled_scan(t, &labels, &found);
+            }
+            let world_from_laser = event.truth.world_from_laser;
+            let false_positives: Vec<(f64, f64)> = found
+                .iter()
+                .filter(|d| all_legs.iter().all(|l| l.distance_m(**d) > FP_CLEARANCE_M))
+                .map(|d| {
+                    let w = world_from_laser * *d;
+                    (w.x, w.y)
+                })
+                .collect();
+            fps.add_false_positives(t, &false_positives);
+        }
+        for p in &per_person {
+            all.merge(p);
+        }
+        all.merge(&fps);
+    }
+    all
+}
+
+fn builtins() -> Vec<Scenario> {
+    BUILTIN_NAMES
+        .iter()
+        .map(|n| Scenario::builtin(n).unwrap())
+        .collect()
+}
+
+#[test]
+fn simulated_detector_statistics_match_the_real_training_split() {
+    let Some(dir) = real_statistics::shared_data_dir() else {
+        return;
+    };
+    let (train, test) = real_statistics::real_splits_held_out(&dir);
+    let mut sim = DetectorStatistics::new();
+    let mut columns: Vec<(String, StatisticsSummary)> = Vec::new();
+    for scenario in builtins() {
+        let s = simulated(&scenario, 0..SEEDS);
+        columns.push((scenario.name.clone(), s.summary()));
+        sim.merge(&s);
+    }
+    let (train, sim, test) = (train.summary(), sim.summary(), test.summary());
+    let mut table: Vec<(&str, &StatisticsSummary)> =
+        vec![("real training", &train), ("simulated", &sim), ("real test", &test)];
+    for (n, s) in &columns {
+        table.push((n.as_str(), s));
+    }
+    println!("{}", side_by_side(&table));
+}
