@@ -21,6 +21,7 @@
 )]
 
 #[path = "../../tether-laser/tests/support/real_statistics.rs"]
+#[allow(dead_code, reason = "shared with tether-laser's test, which uses the rest")]
 mod real_statistics;
 
 use tether_core::{Laser, Point2};
@@ -89,6 +90,37 @@ fn simulated(scenario: &Scenario, seeds: std::ops::Range<u64>) -> DetectorStatis
     all
 }
 
+/// People walking 0.5-5 m in front of a still laser, as in the recordings of
+/// leg_tracker's `positive_*` bags (a still scanner, one or more people walking in
+/// front of it, towards it, away and across).
+const WALKERS: &str = r#"
+name = "walkers"
+description = "people walking 0.5-5 m in front of a still laser, like the real recordings"
+duration_s = 60.0
+
+[world]
+rooms = [{ min = [-2.0, -5.0], max = [7.0, 5.0] }]
+
+[robot]
+start = { x = 0.0, y = 0.0 }
+driver = "still"
+
+[camera_sim]
+enabled = false
+
+[[people]]
+name = "towards_and_away"
+path = [[0.8, 0.2], [4.8, -0.3]]
+speed_mps = 1.0
+repeat = true
+
+[[people]]
+name = "across"
+path = [[2.2, -1.2], [2.6, 1.2], [3.6, 0.9], [3.4, -1.0]]
+speed_mps = 1.1
+repeat = true
+"#;
+
 fn builtins() -> Vec<Scenario> {
     BUILTIN_NAMES
         .iter()
@@ -103,15 +135,30 @@ fn simulated_detector_statistics_match_the_real_training_split() {
     };
     let (train, test) = real_statistics::real_splits_held_out(&dir);
     let mut sim = DetectorStatistics::new();
+    let mut ideal = DetectorStatistics::new();
     let mut columns: Vec<(String, StatisticsSummary)> = Vec::new();
-    for scenario in builtins() {
+    let mut scenarios = builtins();
+    scenarios.push(Scenario::from_toml_str(WALKERS, "walkers").unwrap());
+    for scenario in scenarios {
         let s = simulated(&scenario, 0..SEEDS);
         columns.push((scenario.name.clone(), s.summary()));
         sim.merge(&s);
+        let mut perfect = scenario.clone();
+        perfect.laser_sim.realistic = false;
+        ideal.merge(&simulated(&perfect, 0..SEEDS));
     }
-    let (train, sim, test) = (train.summary(), sim.summary(), test.summary());
-    let mut table: Vec<(&str, &StatisticsSummary)> =
-        vec![("real training", &train), ("simulated", &sim), ("real test", &test)];
+    let (train, sim, test, ideal) = (
+        train.summary(),
+        sim.summary(),
+        test.summary(),
+        ideal.summary(),
+    );
+    let mut table: Vec<(&str, &StatisticsSummary)> = vec![
+        ("real training", &train),
+        ("simulated", &sim),
+        ("real test", &test),
+        ("ideal sensor", &ideal),
+    ];
     for (n, s) in &columns {
         table.push((n.as_str(), s));
     }
