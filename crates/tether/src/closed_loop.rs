@@ -4,8 +4,16 @@
 //! The pipeline under test drives the robot. Optional passenger pipelines (laser only,
 //! vision only) see exactly the same sensor data and are evaluated too, without
 //! driving. Faults can be injected between the simulator and the pipelines.
+//!
+//! The robot's pose each pipeline is given is the simulator's true pose when the
+//! scenario's robot has odometry (`[robot] odometry`, the default), and otherwise the
+//! dead reckoning of the driving pipeline's own commands ([`OdometryFeed`]): a robot
+//! without odometry knows only what it commanded, never where it really went.
 
-use tether_core::{LaserScan, Stamp};
+use tether_control::Twist;
+use tether_core::{LaserScan, Pose2, Robot, Stamp, World};
+
+use crate::live::odometry::DeadReckoning;
 use tether_pipeline::{Pipeline, PipelineConfig, PipelineError, Tick};
 use tether_sim::{Command, Event, Scenario, SensorData, SimError, Simulation, Truth};
 
@@ -130,7 +138,55 @@ pub fn config_for(scenario: &Scenario, base: &PipelineConfig) -> PipelineConfig 
     c
 }
 
-fn feed(pipeline: &mut Pipeline, event: &Event, faults: &[Fault]) -> Option<Tick> {
+/// The robot's motion as the pipelines are told it.
+#[derive(Debug, Clone)]
+pub enum OdometryFeed {
+    /// The simulator's true pose (a base with perfect odometry).
+    Truth,
+    /// No odometry: the dead reckoning of the commands sent to the base, from the
+    /// identity at the start.
+    DeadReckoned(DeadReckoning),
+}
+
+impl OdometryFeed {
+    /// The feed for `scenario`: [`OdometryFeed::Truth`] when
+    /// [`Scenario::odometry_available`], dead reckoning otherwise.
+    pub fn for_scenario(scenario: &Scenario) -> Self {
+        if scenario.odometry_available() {
+            OdometryFeed::Truth
+        } else {
+            OdometryFeed::DeadReckoned(DeadReckoning::new(Stamp::ZERO))
+        }
+    }
+
+    /// The pose given to the pipelines at the instant of `truth`.
+    pub fn pose(&self, truth: &Truth) -> Pose2<World, Robot> {
+        match self {
+            OdometryFeed::Truth => truth.world_from_robot,
+            OdometryFeed::DeadReckoned(dr) => dr.pose_at(truth.stamp),
+        }
+    }
+
+    /// The driving pipeline commanded `command` at `stamp`.
+    pub fn commanded(&mut self, stamp: Stamp, command: Command) {
+        if let OdometryFeed::DeadReckoned(dr) = self {
+            dr.set_command(
+                stamp,
+                Twist {
+                    v_mps: command.v_mps,
+                    w_radps: command.w_radps,
+                },
+            );
+        }
+    }
+}
+
+fn feed(
+    pipeline: &mut Pipeline,
+    event: &Event,
+    pose: Pose2<World, Robot>,
+    faults: &[Fault],
+) -> Option<Tick> {
     let t = event.truth.stamp.secs_f64();
     let mut stamp = event.truth.stamp;
     for f in faults {
@@ -140,7 +196,6 @@ fn feed(pipeline: &mut Pipeline, event: &Event, faults: &[Fault]) -> Option<Tick
             stamp = stamp.saturating_add_ns((jump_s * 1e9) as i64);
         }
     }
-    let pose = event.truth.world_from_robot;
     match &event.data {
         SensorData::Scan(scan) => {
             if faults
@@ -220,16 +275,23 @@ pub fn run_observed(
         .map(|c| Pipeline::new(c.clone(), None))
         .collect::<Result<Vec<_>, _>>()?;
     let mut steps = Vec::new();
+    let mut odometry = OdometryFeed::for_scenario(scenario);
     while let Some(event) = sim.advance() {
-        let tick = feed(&mut driver, &event, faults);
+        let pose = odometry.pose(&event.truth);
+        let tick = feed(&mut driver, &event, pose, faults);
         if let Some(t) = &tick {
-            sim.set_command(Command {
+            let command = Command {
                 v_mps: t.command.v_mps,
                 w_radps: t.command.w_radps,
-            });
+            };
+            sim.set_command(command);
+            odometry.commanded(event.truth.stamp, command);
         }
         observe(&event, tick.as_ref())?;
-        let passengers = riders.iter_mut().map(|p| feed(p, &event, faults)).collect();
+        let passengers = riders
+            .iter_mut()
+            .map(|p| feed(p, &event, pose, faults))
+            .collect();
         let kind = match event.data {
             SensorData::Scan(_) => StepKind::Scan,
             SensorData::Camera(_) => StepKind::Camera,

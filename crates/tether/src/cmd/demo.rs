@@ -24,6 +24,10 @@ pub struct Args {
     /// Run only these scenarios (built-in names or .toml files).
     #[arg(long = "scenario", value_name = "NAME")]
     pub scenarios: Vec<String>,
+    /// Skip the laser-only version of each scenario (the camera off, the laser-only
+    /// pipeline driving), which the demo otherwise runs after the fused one.
+    #[arg(long)]
+    pub no_laser_only: bool,
 }
 
 /// The pipeline variants of a run: the driver and its laser-only and vision-only
@@ -39,6 +43,26 @@ pub fn variants(scenario: &Scenario) -> (PipelineConfig, Vec<PipelineConfig>) {
     (fused, vec![laser_only, vision_only])
 }
 
+/// The laser-only version of `scenario`: the camera off (`camera_sim.enabled = false`)
+/// and `-laser` appended to its name.
+pub fn laser_only(scenario: &Scenario) -> Scenario {
+    let mut s = scenario.clone();
+    if !s.name.ends_with("-laser") {
+        s.name = format!("{}-laser", s.name);
+    }
+    s.camera_sim.enabled = false;
+    s
+}
+
+/// The pipeline variants of a laser-only run: the laser-only pipeline drives, with no
+/// passengers (there is no camera to compare with).
+pub fn laser_only_variants(scenario: &Scenario) -> (PipelineConfig, Vec<PipelineConfig>) {
+    let base = PipelineConfig::default();
+    let mut laser = config_for(scenario, &base);
+    laser.fusion.use_vision = false;
+    (laser, Vec::new())
+}
+
 /// Runs the demo.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let names: Vec<String> = if args.scenarios.is_empty() {
@@ -46,10 +70,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         args.scenarios.clone()
     };
-    let scenarios = names
+    let fused_scenarios = names
         .iter()
         .map(|n| Scenario::resolve(n).map(|(s, _)| s))
         .collect::<Result<Vec<_>, _>>()?;
+    // Each scenario fused, then (unless turned off) its laser-only version.
+    let mut scenarios: Vec<(Scenario, bool)> = Vec::new();
+    for s in fused_scenarios {
+        let laser = laser_only(&s);
+        scenarios.push((s, false));
+        if !args.no_laser_only {
+            scenarios.push((laser, true));
+        }
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let bar = ProgressBar::new(scenarios.len() as u64 + 1);
@@ -59,9 +92,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .progress_chars("=> "),
     );
     let mut logs: Vec<(RunLog, RunMetrics)> = Vec::new();
-    for scenario in &scenarios {
+    for (scenario, is_laser_only) in &scenarios {
         bar.set_message(scenario.name.clone());
-        let (driver, passengers) = variants(scenario);
+        let (driver, passengers) = if *is_laser_only {
+            laser_only_variants(scenario)
+        } else {
+            variants(scenario)
+        };
         let log = closed_loop::run(scenario, args.seed, &driver, &passengers, &[])
             .with_context(|| format!("running `{}`", scenario.name))?;
         let metrics = measure(&log);
@@ -85,7 +122,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     bar.finish_and_clear();
 
     println!(
-        "{:<12} {:>10} {:>9} {:>8} {:>8} {:>9} {:>6} {:>5} {:>22}",
+        "{:<22} {:>10} {:>9} {:>8} {:>8} {:>9} {:>6} {:>5} {:>22}",
         "scenario",
         "mean|d-d0|",
         "RMS d-d0",
@@ -103,7 +140,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .chain(std::iter::once(("printed*".to_owned(), &printed_metrics)));
     for (name, m) in rows {
         println!(
-            "{:<12} {:>10} {:>9} {:>8.2} {:>8} {:>9.1} {:>6} {:>5} {:>22}",
+            "{:<22} {:>10} {:>9} {:>8.2} {:>8} {:>9.1} {:>6} {:>5} {:>22}",
             name,
             f(m.mean_abs_distance_error_m),
             f(m.rms_distance_error_m),
@@ -125,7 +162,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     let runs: Vec<ScenarioRun<'_>> = logs
         .iter()
-        .zip(&scenarios)
+        .zip(scenarios.iter().map(|(s, _)| s))
         .map(|((log, metrics), scenario)| ScenarioRun {
             scenario,
             log,
@@ -148,7 +185,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let intro = format!(
         "<p>tether's full pipeline (laser legs, upper-body camera model, Covariance Intersection, tracking, \
          virtual spring, safety) in the loop of every built-in scenario, seed {}. The robot is driven by tether's \
-         own estimates; laser-only and vision-only pipelines ride along on the same data for comparison.</p>",
+         own estimates; laser-only and vision-only pipelines ride along on the same data for comparison. \
+         Each scenario is then run again with the camera off and the laser-only pipeline driving \
+         (`NAME-laser`).</p>",
         args.seed
     );
     let html = report::html(
