@@ -78,6 +78,43 @@ pub struct StepRecord {
     pub tick: Option<Tick>,
     /// The passengers' ticks, in the order they were given.
     pub passengers: Vec<Option<Tick>>,
+    /// The robot's pose the pipelines were given ([`OdometryFeed`]): the true pose
+    /// with odometry, the dead reckoning without.
+    pub world_from_robot_given: Pose2<World, Robot>,
+}
+
+impl StepRecord {
+    /// Where the frame of the pipelines' estimates lies in the world:
+    /// `world_from_robot_true * (world_from_robot_given)^-1` (the identity with
+    /// odometry). Estimates mapped through it are compared with the truth *relative to
+    /// the robot*, which is what following needs, whatever the odometry drifted.
+    pub fn world_from_estimates(&self) -> Pose2<World, World> {
+        let given_from_robot: Pose2<Robot, World> = self.world_from_robot_given.inverse();
+        let w = self.truth.world_from_robot * given_from_robot;
+        Pose2::new(w.x, w.y, w.yaw)
+    }
+
+    /// The truth with every position and velocity expressed in the frame of the
+    /// pipelines' estimates (the truth itself with odometry).
+    pub fn truth_in_estimate_frame(&self) -> Truth {
+        let e: Pose2<World, World> = self.world_from_estimates().inverse();
+        let mut t = self.truth.clone();
+        let robot = e * t.world_from_robot;
+        t.world_from_robot = Pose2::new(robot.x, robot.y, robot.yaw);
+        let laser = e * t.world_from_laser;
+        t.world_from_laser = Pose2::new(laser.x, laser.y, laser.yaw);
+        let camera = e * t.world_from_camera;
+        t.world_from_camera = Pose2::new(camera.x, camera.y, camera.yaw);
+        for p in &mut t.people {
+            p.position = e * p.position;
+            p.velocity = e.rotate(p.velocity);
+            p.heading_rad = tether_core::wrap_angle_rad(p.heading_rad + e.yaw);
+            for leg in &mut p.legs {
+                leg.center = e * leg.center;
+            }
+        }
+        t
+    }
 }
 
 /// A finished run.
@@ -302,6 +339,7 @@ pub fn run_observed(
             truth: event.truth,
             tick,
             passengers,
+            world_from_robot_given: pose,
         });
     }
     Ok(RunLog {
