@@ -143,7 +143,13 @@ impl SimLaser {
             let rng = &mut self.realism_rng;
             let beam = ((rng.unit() * n as f64) as usize).min(n.saturating_sub(1));
             let radius_m = rng.uniform(0.04, 0.07);
-            let far_m = self.true_ranges_m.get(beam).copied().unwrap_or(f64::INFINITY).min(4.5) - 0.1;
+            let far_m = self
+                .true_ranges_m
+                .get(beam)
+                .copied()
+                .unwrap_or(f64::INFINITY)
+                .min(4.5)
+                - 0.1;
             let u = rng.unit();
             if far_m <= 0.5 {
                 continue;
@@ -170,8 +176,7 @@ impl SimLaser {
             }
             self.ghosts.push(Circle {
                 center: {
-                    let p = world_from_laser
-                        * Point2::<tether_core::Laser>::new(local.x, local.y);
+                    let p = world_from_laser * Point2::<tether_core::Laser>::new(local.x, local.y);
                     Point2::new(p.x, p.y)
                 },
                 radius_m,
@@ -193,7 +198,11 @@ impl SimLaser {
         }
         let spec = &self.spec;
         let rng = &mut self.realism_rng;
-        let n_people = legs.iter().map(|l| l.person as usize + 1).max().unwrap_or(0);
+        let n_people = legs
+            .iter()
+            .map(|l| l.person as usize + 1)
+            .max()
+            .unwrap_or(0);
         if self.in_spell.len() < n_people {
             self.in_spell.resize(n_people, false);
         }
@@ -504,6 +513,127 @@ mod tests {
         assert!((scan.range_m(340).unwrap() - 1.8).abs() < 0.0011);
         assert_eq!(scan.range_m(0), None);
         assert!(laser.last_hits()[340] == Hit::Obstacle(0));
+    }
+
+    /// An open field with one still person 2 m ahead.
+    fn person_ahead() -> Vec<LegCircle> {
+        (0..2)
+            .map(|leg| LegCircle {
+                circle: Circle {
+                    center: Point2::new(2.0, 0.12 * (2 * leg as i32 - 1) as f64),
+                    radius_m: 0.06,
+                },
+                person: 0,
+                leg: leg as u8,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_ideal_sensor_has_no_failures_and_the_realistic_one_has_them_at_their_rates() {
+        let world = StaticWorld::default();
+        let legs = person_ahead();
+        let mut ideal = SimLaser::new(
+            LaserModel::urg_04lx(),
+            LaserSimSpec::ideal(),
+            SimRng::stream(1, "laser"),
+        );
+        for k in 0..50 {
+            ideal
+                .scan(Stamp::from_ns(k), Pose2::IDENTITY, &world, &legs)
+                .unwrap();
+            assert!(ideal.last_ghosts().is_empty());
+            assert!(ideal.last_weak_legs().iter().all(|w| w == &[false, false]));
+        }
+        let spec = LaserSimSpec::default();
+        let mut real = SimLaser::new(
+            LaserModel::urg_04lx(),
+            spec.clone(),
+            SimRng::stream(1, "laser"),
+        )
+        .with_realism_rng(SimRng::stream(1, "laser/realism"));
+        let n = 20_000;
+        let (mut ghosts, mut weak, mut spell_scans, mut spells) = (0usize, 0usize, 0usize, 0usize);
+        let mut was_in_spell = false;
+        for k in 0..n {
+            real.scan(Stamp::from_ns(k), Pose2::IDENTITY, &world, &legs)
+                .unwrap();
+            ghosts += real.last_ghosts().len();
+            let in_spell = real.last_spells()[0];
+            if in_spell {
+                spell_scans += 1;
+                spells += usize::from(!was_in_spell);
+            } else {
+                weak += real.last_weak_legs()[0].iter().filter(|w| **w).count();
+            }
+            was_in_spell = in_spell;
+        }
+        let n = n as f64;
+        let ghost_rate = ghosts as f64 / n;
+        assert!(
+            (ghost_rate - spec.ghosts_per_scan).abs() < 0.05,
+            "{ghost_rate}"
+        );
+        let mean_spell = spell_scans as f64 / spells as f64;
+        assert!(
+            (mean_spell - spec.spell_mean_scans).abs() < 0.6,
+            "{mean_spell}"
+        );
+        let p_weak = weak as f64 / (2.0 * (n - spell_scans as f64));
+        let expected = spec.weak_leg_prob(2.0 - 0.0);
+        assert!((p_weak - expected).abs() < 0.01, "{p_weak} vs {expected}");
+    }
+
+    #[test]
+    fn a_weak_leg_loses_returns_and_reads_noisier() {
+        let world = StaticWorld::default();
+        let legs = person_ahead();
+        let mut spec = LaserSimSpec {
+            dropout_prob: 0.0,
+            ghosts_per_scan: 0.0,
+            spell_start_prob: 0.0,
+            weak_leg_prob_near: 1.0,
+            weak_leg_prob_far: 1.0,
+            ..LaserSimSpec::default()
+        };
+        let mut weak = SimLaser::new(
+            LaserModel::urg_04lx(),
+            spec.clone(),
+            SimRng::stream(2, "laser"),
+        );
+        spec.weak_leg_prob_near = 0.0;
+        spec.weak_leg_prob_far = 0.0;
+        let mut strong = SimLaser::new(LaserModel::urg_04lx(), spec, SimRng::stream(2, "laser"));
+        let (mut lost_weak, mut lost_strong) = (0u32, 0u32);
+        let (mut err_weak, mut err_strong) = (0.0f64, 0.0f64);
+        let mut hits = 0u32;
+        for k in 0..200 {
+            let a = weak
+                .scan(Stamp::from_ns(k), Pose2::IDENTITY, &world, &legs)
+                .unwrap();
+            let b = strong
+                .scan(Stamp::from_ns(k), Pose2::IDENTITY, &world, &legs)
+                .unwrap();
+            for i in 0..a.len() {
+                if !matches!(strong.last_hits()[i], Hit::Leg { .. }) {
+                    continue;
+                }
+                hits += 1;
+                let truth = strong.last_true_ranges_m()[i];
+                match a.range_m(i) {
+                    None => lost_weak += 1,
+                    Some(r) => err_weak += (f64::from(r) - truth).abs(),
+                }
+                match b.range_m(i) {
+                    None => lost_strong += 1,
+                    Some(r) => err_strong += (f64::from(r) - truth).abs(),
+                }
+            }
+        }
+        let share = f64::from(lost_weak) / f64::from(hits);
+        assert!((share - 0.4).abs() < 0.05, "{share}");
+        assert_eq!(lost_strong, 0);
+        assert!(err_weak / f64::from(hits - lost_weak) > 3.0 * err_strong / f64::from(hits));
     }
 
     #[test]

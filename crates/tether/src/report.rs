@@ -130,7 +130,8 @@ pub fn run_map(scenario: &Scenario, log: &RunLog) -> String {
         };
         let to_world = step.world_from_estimates();
         let nearest = |gs: &[Gaussian2<World>], p: Point2<World>| {
-            let mapped: Vec<Gaussian2<World>> = gs.iter().map(|g| g.transformed(to_world)).collect();
+            let mapped: Vec<Gaussian2<World>> =
+                gs.iter().map(|g| g.transformed(to_world)).collect();
             nearest(&mapped, p)
         };
         let laser = log
