@@ -236,10 +236,12 @@ impl LegDetector {
                         leg(arc.centre_in_laser, arc.radius_m, score)
                     })),
                 Some(_) => {
-                    let Some(margin) = (self.config.weak_margin > 0.0)
-                        .then(|| self.compiled.margin_if_at_least(&c.features, weak_floor))
-                        .unwrap_or_else(|| self.compiled.margin_if_leg(&c.features))
-                    else {
+                    let margin = if self.config.weak_margin > 0.0 {
+                        self.compiled.margin_if_at_least(&c.features, weak_floor)
+                    } else {
+                        self.compiled.margin_if_leg(&c.features)
+                    };
+                    let Some(margin) = margin else {
                         continue;
                     };
                     let (centre, radius_m) =

@@ -517,14 +517,15 @@ mod tests {
 
     /// An open field with one still person 2 m ahead.
     fn person_ahead() -> Vec<LegCircle> {
-        (0..2)
-            .map(|leg| LegCircle {
+        [(0u8, -0.12), (1u8, 0.12)]
+            .into_iter()
+            .map(|(leg, y_m)| LegCircle {
                 circle: Circle {
-                    center: Point2::new(2.0, 0.12 * (2 * leg as i32 - 1) as f64),
+                    center: Point2::new(2.0, y_m),
                     radius_m: 0.06,
                 },
                 person: 0,
-                leg: leg as u8,
+                leg,
             })
             .collect()
     }

@@ -212,7 +212,7 @@ pub fn real_splits_held_out(dir: &Path) -> (DetectorStatistics, DetectorStatisti
         decision_margin: built_in.decision_margin,
         ..default_adaboost_config()
     };
-    for held in 0..k {
+    for (held, held_scans) in train_scans.iter().enumerate().take(k) {
         let set = TrainingSet::from_scans(
             folds
                 .iter()
@@ -225,7 +225,7 @@ pub fn real_splits_held_out(dir: &Path) -> (DetectorStatistics, DetectorStatisti
         let mut detector =
             LegDetector::learned(DetectorConfig::default(), RangeNoiseModel::default(), model)
                 .expect("the default configuration is valid");
-        add_positive_scans(&mut train, &mut detector, &train_scans[held]);
+        add_positive_scans(&mut train, &mut detector, held_scans);
         for scans in &negative_scans {
             // The held-out block of each topic, as `training_folds` cuts it.
             let n = scans.len();
