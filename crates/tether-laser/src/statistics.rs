@@ -576,8 +576,9 @@ mod tests {
         let mut s = DetectorStatistics::new();
         s.add_labelled_scan(
             0.0,
-            &[leg(2.0, 0.0, 0.12), leg(2.0, 0.5, 0.26)],
-            &[Point2::new(2.0, 0.26)],
+            &[leg(2.0, 0.0, 0.12), leg(2.0, 0.6, 0.26)],
+            // 0.3 m from either: beyond the 0.25 m match radius.
+            &[Point2::new(2.0, 0.3)],
         );
         let m = s.summary();
         assert_eq!(m.labelled_legs, 2);
