@@ -8,3 +8,5 @@ pub mod plot;
 pub mod recording;
 pub mod report;
 pub mod results;
+pub mod target_log;
+pub mod target_metrics;

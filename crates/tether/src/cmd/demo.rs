@@ -24,10 +24,6 @@ pub struct Args {
     /// Run only these scenarios (built-in names or .toml files).
     #[arg(long = "scenario", value_name = "NAME")]
     pub scenarios: Vec<String>,
-    /// Skip the laser-only version of each scenario (the camera off, the laser-only
-    /// pipeline driving), which the demo otherwise runs after the fused one.
-    #[arg(long)]
-    pub no_laser_only: bool,
 }
 
 /// The pipeline variants of a run: the driver and its laser-only and vision-only
@@ -43,22 +39,26 @@ pub fn variants(scenario: &Scenario) -> (PipelineConfig, Vec<PipelineConfig>) {
     (fused, vec![laser_only, vision_only])
 }
 
-/// The laser-only version of `scenario`: the camera off (`camera_sim.enabled = false`)
-/// and `-laser` appended to its name.
+/// The laser-only version of `scenario`: the camera off (`camera_sim.enabled = false`,
+/// no frames at all), `-laser-only` appended to its name.
 pub fn laser_only(scenario: &Scenario) -> Scenario {
     let mut s = scenario.clone();
-    if !s.name.ends_with("-laser") {
-        s.name = format!("{}-laser", s.name);
+    if !s.name.ends_with("-laser-only") {
+        s.name = format!("{}-laser-only", scenario.name);
+        s.description = format!(
+            "{} Laser only: the camera is off and the laser alone finds, tracks and vouches \
+             for the target.",
+            scenario.description
+        );
     }
     s.camera_sim.enabled = false;
     s
 }
 
-/// The pipeline variants of a laser-only run: the laser-only pipeline drives, with no
-/// passengers (there is no camera to compare with).
+/// The pipeline of a laser-only run: the fused configuration with vision off, driving
+/// alone (no passengers: there is no camera to compare with).
 pub fn laser_only_variants(scenario: &Scenario) -> (PipelineConfig, Vec<PipelineConfig>) {
-    let base = PipelineConfig::default();
-    let mut laser = config_for(scenario, &base);
+    let (mut laser, _) = variants(scenario);
     laser.fusion.use_vision = false;
     (laser, Vec::new())
 }
@@ -70,19 +70,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         args.scenarios.clone()
     };
-    let fused_scenarios = names
+    let scenarios = names
         .iter()
         .map(|n| Scenario::resolve(n).map(|(s, _)| s))
         .collect::<Result<Vec<_>, _>>()?;
-    // Each scenario fused, then (unless turned off) its laser-only version.
-    let mut scenarios: Vec<(Scenario, bool)> = Vec::new();
-    for s in fused_scenarios {
-        let laser = laser_only(&s);
-        scenarios.push((s, false));
-        if !args.no_laser_only {
-            scenarios.push((laser, true));
-        }
-    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let bar = ProgressBar::new(scenarios.len() as u64 + 1);
@@ -91,15 +82,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
+    // Every scenario twice: driven by the fused pipeline, then by the laser alone (the
+    // camera off), as a robot without a camera, or whose camera is blinded, follows.
+    let mut runs_to_do: Vec<(Scenario, PipelineConfig, Vec<PipelineConfig>)> = Vec::new();
+    for scenario in &scenarios {
+        let (driver, passengers) = variants(scenario);
+        runs_to_do.push((scenario.clone(), driver, passengers));
+    }
+    for scenario in &scenarios {
+        let (laser_driver, passengers) = laser_only_variants(scenario);
+        runs_to_do.push((laser_only(scenario), laser_driver, passengers));
+    }
+    bar.set_length(runs_to_do.len() as u64 + 1);
     let mut logs: Vec<(RunLog, RunMetrics)> = Vec::new();
-    for (scenario, is_laser_only) in &scenarios {
+    for (scenario, driver, passengers) in &runs_to_do {
         bar.set_message(scenario.name.clone());
-        let (driver, passengers) = if *is_laser_only {
-            laser_only_variants(scenario)
-        } else {
-            variants(scenario)
-        };
-        let log = closed_loop::run(scenario, args.seed, &driver, &passengers, &[])
+        let log = closed_loop::run(scenario, args.seed, driver, passengers, &[])
             .with_context(|| format!("running `{}`", scenario.name))?;
         let metrics = measure(&log);
         let dir = args.out.join(&scenario.name);
@@ -110,6 +108,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         logs.push((log, metrics));
         bar.inc(1);
     }
+    let scenarios: Vec<Scenario> = runs_to_do.into_iter().map(|(s, _, _)| s).collect();
 
     // Why the controller as printed in the paper cannot follow anyone.
     bar.set_message("printed controller");
@@ -122,7 +121,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     bar.finish_and_clear();
 
     println!(
-        "{:<22} {:>10} {:>9} {:>8} {:>8} {:>9} {:>6} {:>5} {:>22}",
+        "{:<24} {:>10} {:>9} {:>8} {:>8} {:>9} {:>6} {:>5} {:>22}",
         "scenario",
         "mean|d-d0|",
         "RMS d-d0",
@@ -140,7 +139,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .chain(std::iter::once(("printed*".to_owned(), &printed_metrics)));
     for (name, m) in rows {
         println!(
-            "{:<22} {:>10} {:>9} {:>8.2} {:>8} {:>9.1} {:>6} {:>5} {:>22}",
+            "{:<24} {:>10} {:>9} {:>8.2} {:>8} {:>9.1} {:>6} {:>5} {:>22}",
             name,
             f(m.mean_abs_distance_error_m),
             f(m.rms_distance_error_m),
@@ -162,7 +161,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     let runs: Vec<ScenarioRun<'_>> = logs
         .iter()
-        .zip(scenarios.iter().map(|(s, _)| s))
+        .zip(&scenarios)
         .map(|((log, metrics), scenario)| ScenarioRun {
             scenario,
             log,
@@ -185,9 +184,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let intro = format!(
         "<p>tether's full pipeline (laser legs, upper-body camera model, Covariance Intersection, tracking, \
          virtual spring, safety) in the loop of every built-in scenario, seed {}. The robot is driven by tether's \
-         own estimates; laser-only and vision-only pipelines ride along on the same data for comparison. \
-         Each scenario is then run again with the camera off and the laser-only pipeline driving \
-         (`NAME-laser`).</p>",
+         own estimates; laser-only and vision-only pipelines ride along on the same data for comparison. Then \
+         every scenario again, driven by the laser alone (<code>-laser-only</code>).</p>",
         args.seed
     );
     let html = report::html(

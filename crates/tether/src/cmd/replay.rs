@@ -11,7 +11,9 @@ use tether::plot::{Plot, Series};
 use tether::recording::{self, Sample, Topics};
 use tether::report::simple_page;
 use tether::results::ResultWriter;
+use tether::target_log::TargetLog;
 use tether_core::{Pose2, Robot, Stamp, World};
+use tether_fusion::TargetStats;
 use tether_pipeline::{Pipeline, Tick};
 use tether_sim::svg::xml_escape;
 
@@ -71,11 +73,14 @@ struct Summary {
     robot_path: Vec<(f64, f64)>,
     target_ids: Vec<u64>,
     start: Option<Stamp>,
+    target: TargetLog,
 }
 
 impl Summary {
     fn record(&mut self, tick: &Tick, world_from_robot: Pose2<World, Robot>) {
         let start = *self.start.get_or_insert(tick.stamp);
+        self.target
+            .record(tick.stamp, &tick.target.state, &tick.refusals);
         let robot = world_from_robot.translation();
         self.robot_path.push((robot.x, robot.y));
         let target = tick
@@ -179,7 +184,7 @@ impl Summary {
         s
     }
 
-    fn html(&self, recording: &Path, frame: &str) -> String {
+    fn html(&self, recording: &Path, frame: &str, counts: TargetStats) -> String {
         let duration = self.ticks.last().map_or(0.0, |r| r.t_s);
         let locked = self
             .ticks
@@ -226,6 +231,10 @@ impl Summary {
         };
         let sections = vec![
             ("Map".to_string(), self.map_svg()),
+            (
+                "Target: locks, losses and why".to_string(),
+                self.target.html(counts),
+            ),
             (
                 "Over time".to_string(),
                 [target, commands, tracks]
@@ -316,6 +325,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     let ps = pipeline.stats();
+    let target_counts = pipeline.selector().stats();
     if ps.out_of_order_ticks > 0 {
         tracing::warn!(
             "{} inputs arrived out of order and were kept out of the tracks",
@@ -326,7 +336,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         out.finish()
             .with_context(|| format!("writing {}", path.display()))?;
         let report = path.with_extension("html");
-        std::fs::write(&report, summary.html(&args.recording, frame))
+        std::fs::write(&report, summary.html(&args.recording, frame, target_counts))
             .with_context(|| format!("writing {}", report.display()))?;
         println!(
             "results -> {}, report -> {}",
@@ -336,13 +346,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     println!(
         "{} scans, {} camera frames ({} detections), {} odometry messages: {} people tracked, \
-         target track ids {:?}",
+         target track ids {:?}; {}",
         summary.scans,
         summary.frames,
         summary.boxes,
         summary.odom,
         summary.trails.len(),
-        summary.target_ids
+        summary.target_ids,
+        summary.target.one_line(target_counts)
     );
     Ok(())
 }

@@ -387,6 +387,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.clamped_stamps,
         stats.out_of_order_ticks
     );
+    tracing::info!("{}", summary.target.one_line(pipeline.selector().stats()));
     for (output, error) in &summary.final_stop_failures {
         problems.push(format!("the final stop to {output} failed: {error}"));
     }

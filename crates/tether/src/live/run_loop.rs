@@ -26,7 +26,8 @@ use tether_pipeline::{Pipeline, Tick, TickInput};
 
 use super::base::{CommandLine, CommandSink, TargetLine};
 use super::odometry::DeadReckoning;
-use crate::results::ResultWriter;
+use crate::results::{ResultWriter, TargetStateLine};
+use crate::target_log::TargetLog;
 
 /// What the sensor threads send.
 #[derive(Debug)]
@@ -119,6 +120,8 @@ pub struct RunSummary {
     pub final_stop_failures: Vec<(String, String)>,
     /// Distance driven by dead reckoning, m.
     pub distance_m: f64,
+    /// The target's locks, losses (with reasons) and refusals.
+    pub target: TargetLog,
 }
 
 /// The MCAP recording of a live run: the scans (`/scan`), the dead-reckoned odometry
@@ -255,6 +258,10 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
             self.config.track_width_m,
         );
         line.stop = tick.stop.map(|s| s.name());
+        line.target_state = Some(TargetStateLine::of(tick));
+        self.summary
+            .target
+            .record(tick.stamp, &tick.target.state, &tick.refusals);
         if let (Some(id), Some(estimate)) = (tick.target.state.locked_track(), tick.target.estimate)
         {
             self.summary.ticks_with_target += 1;
@@ -412,6 +419,7 @@ pub fn run<W: std::io::Write + std::io::Seek>(
             ticks_with_target: 0,
             final_stop_failures: Vec::new(),
             distance_m: 0.0,
+            target: TargetLog::new(),
         },
         scan_period_s,
         travelled_to: tether_core::Point2::ORIGIN,
