@@ -49,7 +49,8 @@ pub struct Args {
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
     /// The camera off: the simulated camera is not run and tether's laser-only
-    /// pipeline drives the robot (a vision-only passenger has nothing to see).
+    /// pipeline drives the robot alone (no passengers); the run is named
+    /// `NAME-laser-only`, as in `tether demo`.
     #[arg(long)]
     pub laser_only: bool,
 }
