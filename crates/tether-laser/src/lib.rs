@@ -18,6 +18,10 @@
 //!    weaker hypotheses, and give each a covariance: the polar range and bearing noise
 //!    propagated to Cartesian plus the spread of the leg midpoint during gait.
 //!
+//! [`statistics`] measures what matters for tracking (detection against range, runs of
+//! misses, merged legs, false positives and their persistence), on real recordings and
+//! simulated runs alike.
+//!
 //! [`calibration`] fits `bias(r)` and `sigma(r)` from measurements at known distances
 //! (the paper's Fig. 9).
 //!
@@ -33,6 +37,7 @@ mod fit;
 pub mod people;
 pub mod preprocess;
 pub mod segment;
+pub mod statistics;
 pub mod training;
 
 pub use arc::{ArcLeg, ArcReject, ArcTestConfig, arc_test};

@@ -10,6 +10,13 @@
 //! URG-04LX's 1 mm, lost with probability `dropout_prob` plus a long-range term (real
 //! beams flicker between valid and invalid near the end of the range) and reported as
 //! "no return" when nothing is hit within range.
+//!
+//! With `laser_sim.realistic` (the default) the scanner also fails the way tether's leg
+//! detector sees real URG-04LX scans fail (issue 14; [`LaserSimSpec`]): weak leg
+//! returns more likely with range, per-person dark spells (a two-state Markov chain:
+//! misses in bursts), one-scan phantom leg-like returns, and foliage whose returns come
+//! and go. Those draws come from a stream of their own (`laser/realism`), so switching
+//! them off leaves every other draw as it was.
 
 use std::f64::consts::{PI, TAU};
 
@@ -18,7 +25,7 @@ use tether_core::{LaserModel, LaserScan, Point2, Pose2, Stamp, Vector2, World};
 use crate::geometry::{Circle, Segment, ray_circle_m, ray_segment_m};
 use crate::rng::SimRng;
 use crate::scenario::LaserSimSpec;
-use crate::world::StaticWorld;
+use crate::world::{ObstacleKind, StaticWorld};
 
 /// What a beam hit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -36,6 +43,9 @@ pub enum Hit {
         /// 0 left, 1 right.
         leg: u8,
     },
+    /// A one-scan phantom return (realistic mode), by index in
+    /// [`SimLaser::last_ghosts`].
+    Ghost(u32),
 }
 
 /// A dynamic circle seen by the laser (a leg).
@@ -58,6 +68,14 @@ pub struct SimLaser {
     directions: Vec<(f64, f64)>,
     true_ranges_m: Vec<f64>,
     hits: Vec<Hit>,
+    /// Draws of the realistic failures.
+    realism_rng: SimRng,
+    /// Whether each person (by id) is in a dark spell.
+    in_spell: Vec<bool>,
+    /// Which legs of the last scan were weak, by person id.
+    weak: Vec<[bool; 2]>,
+    /// Phantom returns of the last scan.
+    ghosts: Vec<Circle>,
 }
 
 impl SimLaser {
@@ -79,6 +97,135 @@ impl SimLaser {
             directions,
             true_ranges_m: vec![f64::INFINITY; n],
             hits: vec![Hit::Nothing; n],
+            realism_rng: SimRng::stream(0, "laser/realism"),
+            in_spell: Vec::new(),
+            weak: Vec::new(),
+            ghosts: Vec::new(),
+        }
+    }
+
+    /// Draws the realistic failures from `rng` (by default a fixed stream; the
+    /// simulation passes its run's `laser/realism` stream).
+    pub fn with_realism_rng(mut self, rng: SimRng) -> Self {
+        self.realism_rng = rng;
+        self
+    }
+
+    /// Which legs of the last scan had weak returns, by person id (empty when not
+    /// realistic).
+    pub fn last_weak_legs(&self) -> &[[bool; 2]] {
+        &self.weak
+    }
+
+    /// Whether each person (by id) was in a dark spell at the last scan.
+    pub fn last_spells(&self) -> &[bool] {
+        &self.in_spell
+    }
+
+    /// The phantom returns of the last scan, world frame.
+    pub fn last_ghosts(&self) -> &[Circle] {
+        &self.ghosts
+    }
+
+    /// Draws the phantom returns of one scan (realistic mode) and writes them into the
+    /// cast ranges: a Poisson number of leg-sized circles (radius 0.04-0.07 m) on a
+    /// uniformly drawn beam, at a range uniform between 0.5 m and 0.1 m short of that
+    /// beam's true return (at most 4.5 m), so that every phantom is in sight; each beam
+    /// it covers reads the circle's near side where that is nearer than the world.
+    fn add_ghosts(&mut self, world_from_laser: Pose2<World, tether_core::Laser>) {
+        if !self.spec.realistic {
+            return;
+        }
+        let n = self.directions.len();
+        let inc = self.model.geometry.angle_increment_rad();
+        let count = self.realism_rng.poisson(self.spec.ghosts_per_scan);
+        for _ in 0..count {
+            let rng = &mut self.realism_rng;
+            let beam = ((rng.unit() * n as f64) as usize).min(n.saturating_sub(1));
+            let radius_m = rng.uniform(0.04, 0.07);
+            let far_m = self
+                .true_ranges_m
+                .get(beam)
+                .copied()
+                .unwrap_or(f64::INFINITY)
+                .min(4.5)
+                - 0.1;
+            let u = rng.unit();
+            if far_m <= 0.5 {
+                continue;
+            }
+            // Distance to the circle's centre: the near side at `range`.
+            let centre_m = 0.5 + u * (far_m - 0.5) + radius_m;
+            let (dx, dy) = self.directions[beam];
+            let local = Point2::<World>::new(centre_m * dx, centre_m * dy);
+            let circle = Circle {
+                center: local,
+                radius_m,
+            };
+            let half = (radius_m / centre_m).asin();
+            let span = (half / inc).ceil() as usize + 1;
+            let k = self.ghosts.len() as u32;
+            for i in beam.saturating_sub(span)..(beam + span + 1).min(n) {
+                let (cx, cy) = self.directions[i];
+                if let Some(t) = ray_circle_m(Point2::ORIGIN, Vector2::new(cx, cy), &circle)
+                    && t < self.true_ranges_m[i]
+                {
+                    self.true_ranges_m[i] = t;
+                    self.hits[i] = Hit::Ghost(k);
+                }
+            }
+            self.ghosts.push(Circle {
+                center: {
+                    let p = world_from_laser * Point2::<tether_core::Laser>::new(local.x, local.y);
+                    Point2::new(p.x, p.y)
+                },
+                radius_m,
+            });
+        }
+    }
+
+    /// Steps the dark-spell chains and draws the weak legs and the phantoms of one
+    /// scan.
+    fn draw_failures(
+        &mut self,
+        world_from_laser: Pose2<World, tether_core::Laser>,
+        legs: &[LegCircle],
+    ) {
+        self.weak.clear();
+        self.ghosts.clear();
+        if !self.spec.realistic {
+            return;
+        }
+        let spec = &self.spec;
+        let rng = &mut self.realism_rng;
+        let n_people = legs
+            .iter()
+            .map(|l| l.person as usize + 1)
+            .max()
+            .unwrap_or(0);
+        if self.in_spell.len() < n_people {
+            self.in_spell.resize(n_people, false);
+        }
+        self.weak.resize(n_people, [false; 2]);
+        // Two-state chain per person, one step per scan: enter with spell_start_prob,
+        // leave with 1 / spell_mean_scans (a geometric duration of that mean).
+        let leave = 1.0 / spec.spell_mean_scans.max(1.0);
+        for spell in self.in_spell.iter_mut() {
+            *spell = if *spell {
+                !rng.chance(leave)
+            } else {
+                rng.chance(spec.spell_start_prob)
+            };
+        }
+        let origin = world_from_laser.translation();
+        for l in legs {
+            let range_m = l.circle.center.distance_m(origin);
+            let p = if self.in_spell[l.person as usize] {
+                spec.spell_weak_leg_prob
+            } else {
+                spec.weak_leg_prob(range_m)
+            };
+            self.weak[l.person as usize][usize::from(l.leg.min(1))] = rng.chance(p);
         }
     }
 
@@ -105,7 +252,9 @@ impl SimLaser {
         world: &StaticWorld,
         legs: &[LegCircle],
     ) -> Result<LaserScan, tether_core::ScanError> {
+        self.draw_failures(world_from_laser, legs);
         self.cast(world_from_laser, world, legs);
+        self.add_ghosts(world_from_laser);
         let n = self.directions.len();
         let mut ranges = Vec::with_capacity(n);
         let range_max = self.model.range_max_m;
@@ -117,7 +266,32 @@ impl SimLaser {
                 continue;
             }
             let noise = &self.spec.noise;
-            let measured = r + noise.bias_m(r) + self.rng.normal(0.0, noise.sigma_m(r));
+            let mut measured = r + noise.bias_m(r) + self.rng.normal(0.0, noise.sigma_m(r));
+            if self.spec.realistic {
+                match self.hits[i] {
+                    Hit::Leg { person, leg }
+                        if self
+                            .weak
+                            .get(person as usize)
+                            .is_some_and(|w| w[usize::from(leg.min(1))]) =>
+                    {
+                        if self.realism_rng.chance(self.spec.weak_beam_loss_prob) {
+                            ranges.push(f32::INFINITY);
+                            continue;
+                        }
+                        measured += self.realism_rng.normal(0.0, self.spec.weak_range_sigma_m);
+                    }
+                    Hit::Obstacle(k)
+                        if world.obstacles.get(k as usize).map(|o| o.kind)
+                            == Some(ObstacleKind::Foliage)
+                            && self.realism_rng.chance(self.spec.foliage_beam_loss_prob) =>
+                    {
+                        ranges.push(f32::INFINITY);
+                        continue;
+                    }
+                    _ => {}
+                }
+            }
             let far = ((r - self.spec.long_range_start_m) / span).clamp(0.0, 1.0);
             let p_drop = self.spec.dropout_prob + self.spec.long_range_dropout_prob * far;
             if self.rng.chance(p_drop) {
@@ -254,7 +428,7 @@ mod tests {
         let mut spec = LaserSimSpec {
             dropout_prob: 0.0,
             long_range_dropout_prob: 0.0,
-            ..LaserSimSpec::default()
+            ..LaserSimSpec::ideal()
         };
         spec.noise.sigma_m = tether_core::Polynomial(vec![0.0]);
         spec.noise.sigma_floor_m = 1e-9;
@@ -341,6 +515,128 @@ mod tests {
         assert!(laser.last_hits()[340] == Hit::Obstacle(0));
     }
 
+    /// An open field with one still person 2 m ahead.
+    fn person_ahead() -> Vec<LegCircle> {
+        [(0u8, -0.12), (1u8, 0.12)]
+            .into_iter()
+            .map(|(leg, y_m)| LegCircle {
+                circle: Circle {
+                    center: Point2::new(2.0, y_m),
+                    radius_m: 0.06,
+                },
+                person: 0,
+                leg,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_ideal_sensor_has_no_failures_and_the_realistic_one_has_them_at_their_rates() {
+        let world = StaticWorld::default();
+        let legs = person_ahead();
+        let mut ideal = SimLaser::new(
+            LaserModel::urg_04lx(),
+            LaserSimSpec::ideal(),
+            SimRng::stream(1, "laser"),
+        );
+        for k in 0..50 {
+            ideal
+                .scan(Stamp::from_ns(k), Pose2::IDENTITY, &world, &legs)
+                .unwrap();
+            assert!(ideal.last_ghosts().is_empty());
+            assert!(ideal.last_weak_legs().iter().all(|w| w == &[false, false]));
+        }
+        let spec = LaserSimSpec::default();
+        let mut real = SimLaser::new(
+            LaserModel::urg_04lx(),
+            spec.clone(),
+            SimRng::stream(1, "laser"),
+        )
+        .with_realism_rng(SimRng::stream(1, "laser/realism"));
+        let n = 20_000;
+        let (mut ghosts, mut weak, mut spell_scans, mut spells) = (0usize, 0usize, 0usize, 0usize);
+        let mut was_in_spell = false;
+        for k in 0..n {
+            real.scan(Stamp::from_ns(k), Pose2::IDENTITY, &world, &legs)
+                .unwrap();
+            ghosts += real.last_ghosts().len();
+            let in_spell = real.last_spells()[0];
+            if in_spell {
+                spell_scans += 1;
+                spells += usize::from(!was_in_spell);
+            } else {
+                weak += real.last_weak_legs()[0].iter().filter(|w| **w).count();
+            }
+            was_in_spell = in_spell;
+        }
+        let n = n as f64;
+        let ghost_rate = ghosts as f64 / n;
+        assert!(
+            (ghost_rate - spec.ghosts_per_scan).abs() < 0.05,
+            "{ghost_rate}"
+        );
+        let mean_spell = spell_scans as f64 / spells as f64;
+        assert!(
+            (mean_spell - spec.spell_mean_scans).abs() < 0.6,
+            "{mean_spell}"
+        );
+        let p_weak = weak as f64 / (2.0 * (n - spell_scans as f64));
+        let expected = spec.weak_leg_prob(2.0 - 0.0);
+        assert!((p_weak - expected).abs() < 0.01, "{p_weak} vs {expected}");
+    }
+
+    #[test]
+    fn a_weak_leg_loses_returns_and_reads_noisier() {
+        let world = StaticWorld::default();
+        let legs = person_ahead();
+        let mut spec = LaserSimSpec {
+            dropout_prob: 0.0,
+            ghosts_per_scan: 0.0,
+            spell_start_prob: 0.0,
+            weak_leg_prob_near: 1.0,
+            weak_leg_prob_far: 1.0,
+            ..LaserSimSpec::default()
+        };
+        let mut weak = SimLaser::new(
+            LaserModel::urg_04lx(),
+            spec.clone(),
+            SimRng::stream(2, "laser"),
+        );
+        spec.weak_leg_prob_near = 0.0;
+        spec.weak_leg_prob_far = 0.0;
+        let mut strong = SimLaser::new(LaserModel::urg_04lx(), spec, SimRng::stream(2, "laser"));
+        let (mut lost_weak, mut lost_strong) = (0u32, 0u32);
+        let (mut err_weak, mut err_strong) = (0.0f64, 0.0f64);
+        let mut hits = 0u32;
+        for k in 0..200 {
+            let a = weak
+                .scan(Stamp::from_ns(k), Pose2::IDENTITY, &world, &legs)
+                .unwrap();
+            let b = strong
+                .scan(Stamp::from_ns(k), Pose2::IDENTITY, &world, &legs)
+                .unwrap();
+            for i in 0..a.len() {
+                if !matches!(strong.last_hits()[i], Hit::Leg { .. }) {
+                    continue;
+                }
+                hits += 1;
+                let truth = strong.last_true_ranges_m()[i];
+                match a.range_m(i) {
+                    None => lost_weak += 1,
+                    Some(r) => err_weak += (f64::from(r) - truth).abs(),
+                }
+                match b.range_m(i) {
+                    None => lost_strong += 1,
+                    Some(r) => err_strong += (f64::from(r) - truth).abs(),
+                }
+            }
+        }
+        let share = f64::from(lost_weak) / f64::from(hits);
+        assert!((share - 0.4).abs() < 0.05, "{share}");
+        assert_eq!(lost_strong, 0);
+        assert!(err_weak / f64::from(hits - lost_weak) > 3.0 * err_strong / f64::from(hits));
+    }
+
     #[test]
     fn long_range_beams_flicker() {
         let mut model = LaserModel::urg_04lx();
@@ -352,7 +648,7 @@ mod tests {
             )],
             obstacles: vec![],
         };
-        let mut laser = SimLaser::new(model, LaserSimSpec::default(), SimRng::stream(0, "laser"));
+        let mut laser = SimLaser::new(model, LaserSimSpec::ideal(), SimRng::stream(0, "laser"));
         let mut lost = 0;
         let mut total = 0;
         for k in 0..50 {

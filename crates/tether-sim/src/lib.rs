@@ -15,6 +15,12 @@
 //! - [`record`]: the files a run writes (`scans.jsonl`, `camera.jsonl`, `truth.jsonl`,
 //!   `camera_truth.jsonl`, `scene.svg`...).
 //!
+//! The laser fails the way tether's leg detector sees a real URG-04LX fail (issue 14;
+//! `[laser_sim] realistic`, the default): weak leg returns more likely with range,
+//! per-person dark spells (misses in bursts), one-scan phantom leg-like returns, and
+//! bushes whose returns flicker; `tests/realism_vs_real.rs` compares the detector's
+//! statistics on simulated runs with those on real recordings.
+//!
 //! Runs are deterministic: every random draw comes from a named stream of the run's
 //! seed ([`rng::SimRng`]), and the same scenario and seed give byte-identical files.
 

@@ -117,9 +117,17 @@ pub struct WorldSpec {
     /// Round pillars (full height: block the laser and the camera).
     #[serde(default)]
     pub pillars: Vec<CircleSpec>,
-    /// Thin posts (coat stands, plant stems): block the laser only.
+    /// Thin posts (coat stands, plant stems, lamp posts): block the laser only.
     #[serde(default)]
     pub posts: Vec<CircleSpec>,
+    /// Litter bins: round, about 1 m tall (block the laser, not the camera).
+    #[serde(default)]
+    pub bins: Vec<CircleSpec>,
+    /// Bushes: within the circle, stems and clumps of leaves at the laser's height
+    /// (small circles drawn from the bush's index, the same in every run), whose
+    /// returns come and go as the leaves move (`laser_sim.foliage_beam_loss_prob`).
+    #[serde(default)]
+    pub bushes: Vec<CircleSpec>,
     /// Tables: four round legs at the corners.
     #[serde(default)]
     pub tables: Vec<TableSpec>,
@@ -266,6 +274,10 @@ pub struct RobotSpec {
     pub follow_distance_m: f64,
     /// Commands of the scripted driver.
     pub script: Vec<ScriptedCommand>,
+    /// Whether the robot's odometry is given to the pipeline under test. `false`
+    /// models a robot (or a recording) without odometry: the closed loop must then
+    /// estimate the robot's motion itself ([`Scenario::odometry_available`]).
+    pub odometry: bool,
 }
 
 impl Default for RobotSpec {
@@ -280,11 +292,34 @@ impl Default for RobotSpec {
             driver: DriverKind::default(),
             follow_distance_m: 1.0,
             script: Vec::new(),
+            odometry: true,
         }
     }
 }
 
-/// Laser behaviour the model does not cover: lost returns.
+/// Laser behaviour the model does not cover: lost returns, and (with `realistic`) the
+/// ways a real URG-04LX makes a leg detector fail (issue 14), tuned so that tether's
+/// detector on simulated scans shows the statistics it shows on the real training
+/// recordings (`tests/realism_vs_real.rs`, README):
+///
+/// - a leg's returns are *weak* (dark or loose clothing, a grazing angle) with
+///   probability `weak_leg_prob_near` at `weak_range_near_m` growing linearly to
+///   `weak_leg_prob_far` at `weak_range_far_m`, independently per leg and scan;
+/// - per person, a two-state Markov chain of *dark spells* (bursts of misses): a spell
+///   starts with probability `spell_start_prob` per scan and lasts a geometric number
+///   of scans of mean `spell_mean_scans`; during a spell each leg is weak with
+///   probability `spell_weak_leg_prob`;
+/// - a weak leg's beams are lost with probability `weak_beam_loss_prob` and the others
+///   read `weak_range_sigma_m` of extra normal error (the cluster is still there but no
+///   longer looks like a leg);
+/// - transient false positives: a Poisson number (mean `ghosts_per_scan`) of leg-sized
+///   phantom returns per scan (radius 0.04-0.07 m, 0.5-4.5 m away, anywhere in the
+///   field of view), each for one scan: mixed pixels, passing debris, reflections;
+/// - foliage (`world.bushes`) loses each return with `foliage_beam_loss_prob` per scan
+///   (leaves move), so bushes make leg-like clusters that come and go in place.
+///
+/// Legs occluding each other and two legs merging into one cluster come from the
+/// geometry (ray casting the two leg circles) and need no parameter.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LaserSimSpec {
@@ -303,6 +338,31 @@ pub struct LaserSimSpec {
     /// bound that the estimator's default model (`laser.noise`) assumes. Calibration
     /// (`tether calibrate laser`) estimates this from samples.
     pub noise: tether_core::RangeNoiseModel,
+    /// Simulate the detector-level failures below (weak legs, dark spells, phantom
+    /// returns, moving foliage); `false` gives the ideal sensor of before.
+    pub realistic: bool,
+    /// Probability that a leg is weak in a scan at `weak_range_near_m` and closer.
+    pub weak_leg_prob_near: f64,
+    /// Probability that a leg is weak in a scan at `weak_range_far_m` and farther.
+    pub weak_leg_prob_far: f64,
+    /// Range of `weak_leg_prob_near`, m.
+    pub weak_range_near_m: f64,
+    /// Range of `weak_leg_prob_far`, m.
+    pub weak_range_far_m: f64,
+    /// Probability per scan that a person's dark spell starts.
+    pub spell_start_prob: f64,
+    /// Mean length of a dark spell, scans (>= 1).
+    pub spell_mean_scans: f64,
+    /// Probability that a leg is weak during a spell.
+    pub spell_weak_leg_prob: f64,
+    /// Probability that a weak leg's beam returns nothing.
+    pub weak_beam_loss_prob: f64,
+    /// Extra range error of a weak leg's returns, m.
+    pub weak_range_sigma_m: f64,
+    /// Mean number of phantom leg-like returns per scan.
+    pub ghosts_per_scan: f64,
+    /// Probability that a return from foliage is lost in a scan.
+    pub foliage_beam_loss_prob: f64,
 }
 
 impl Default for LaserSimSpec {
@@ -311,12 +371,41 @@ impl Default for LaserSimSpec {
             enabled: true,
             dropout_prob: 0.002,
             long_range_dropout_prob: 0.45,
-            long_range_start_m: 4.0,
+            long_range_start_m: 4.6,
             noise: tether_core::RangeNoiseModel {
                 bias_m: tether_core::Polynomial(Vec::new()),
                 sigma_m: tether_core::Polynomial(vec![0.006, 0.0015]),
                 sigma_floor_m: 0.005,
             },
+            realistic: true,
+            weak_leg_prob_near: 0.04,
+            weak_leg_prob_far: 0.08,
+            weak_range_near_m: 1.0,
+            weak_range_far_m: 5.0,
+            spell_start_prob: 0.006,
+            spell_mean_scans: 5.0,
+            spell_weak_leg_prob: 0.9,
+            weak_beam_loss_prob: 0.4,
+            weak_range_sigma_m: 0.03,
+            ghosts_per_scan: 0.8,
+            foliage_beam_loss_prob: 0.3,
+        }
+    }
+}
+
+impl LaserSimSpec {
+    /// Probability that a leg at `range_m` is weak outside a spell.
+    pub fn weak_leg_prob(&self, range_m: f64) -> f64 {
+        let span = (self.weak_range_far_m - self.weak_range_near_m).max(1e-9);
+        let f = ((range_m - self.weak_range_near_m) / span).clamp(0.0, 1.0);
+        self.weak_leg_prob_near + f * (self.weak_leg_prob_far - self.weak_leg_prob_near)
+    }
+
+    /// The ideal sensor: `realistic` off.
+    pub fn ideal() -> Self {
+        LaserSimSpec {
+            realistic: false,
+            ..Self::default()
         }
     }
 }
@@ -468,6 +557,7 @@ pub const BUILTIN_NAMES: &[&str] = &[
     "stop_and_go",
     "turns",
     "occlusion",
+    "outdoor_follow",
 ];
 
 fn builtin_source(name: &str) -> Option<&'static str> {
@@ -478,6 +568,7 @@ fn builtin_source(name: &str) -> Option<&'static str> {
         "stop_and_go" => include_str!("../scenarios/stop_and_go.toml"),
         "turns" => include_str!("../scenarios/turns.toml"),
         "occlusion" => include_str!("../scenarios/occlusion.toml"),
+        "outdoor_follow" => include_str!("../scenarios/outdoor_follow.toml"),
         _ => return None,
     })
 }
@@ -551,6 +642,14 @@ impl Scenario {
             source,
         })?;
         Scenario::from_toml_str(&src, &path.display().to_string())
+    }
+
+    /// Whether the pipeline driving the robot may be given the robot's odometry
+    /// (`[robot] odometry`, default true). When false, a closed loop must not hand the
+    /// pipeline the true motion: it dead-reckons its own commands or estimates the
+    /// motion from the scans.
+    pub fn odometry_available(&self) -> bool {
+        self.robot.odometry
     }
 
     /// A built-in name or a path to a `.toml` file.
@@ -689,7 +788,12 @@ impl Scenario {
                 );
             }
         }
-        for (kind, list) in [("pillars", &w.pillars), ("posts", &w.posts)] {
+        for (kind, list) in [
+            ("pillars", &w.pillars),
+            ("posts", &w.posts),
+            ("bins", &w.bins),
+            ("bushes", &w.bushes),
+        ] {
             for (i, c) in list.iter().enumerate() {
                 if !all_finite(&c.center) {
                     bad(path!["world", kind, i, "center"], "must be finite".into());
@@ -829,6 +933,12 @@ impl Scenario {
         for (field, value) in [
             ("dropout_prob", ls.dropout_prob),
             ("long_range_dropout_prob", ls.long_range_dropout_prob),
+            ("weak_leg_prob_near", ls.weak_leg_prob_near),
+            ("weak_leg_prob_far", ls.weak_leg_prob_far),
+            ("spell_start_prob", ls.spell_start_prob),
+            ("spell_weak_leg_prob", ls.spell_weak_leg_prob),
+            ("weak_beam_loss_prob", ls.weak_beam_loss_prob),
+            ("foliage_beam_loss_prob", ls.foliage_beam_loss_prob),
         ] {
             if !(0.0..=1.0).contains(&value) {
                 bad(
@@ -843,6 +953,36 @@ impl Scenario {
         };
         if let Err(e) = noise_check.validate() {
             bad(dotted("laser_sim", laser_error_field(&e)), e.to_string());
+        }
+        if !(ls.spell_mean_scans.is_finite() && ls.spell_mean_scans >= 1.0) {
+            bad(
+                path!["laser_sim", "spell_mean_scans"],
+                format!("must be at least 1 scan, got {}", ls.spell_mean_scans),
+            );
+        }
+        for (field, value) in [
+            ("weak_range_sigma_m", ls.weak_range_sigma_m),
+            ("ghosts_per_scan", ls.ghosts_per_scan),
+        ] {
+            if !(value.is_finite() && (0.0..=10.0).contains(&value)) {
+                bad(
+                    path!["laser_sim", field],
+                    format!("must lie in [0, 10], got {value}"),
+                );
+            }
+        }
+        if !(ls.weak_range_near_m.is_finite()
+            && ls.weak_range_far_m.is_finite()
+            && 0.0 <= ls.weak_range_near_m
+            && ls.weak_range_near_m < ls.weak_range_far_m)
+        {
+            bad(
+                path!["laser_sim", "weak_range_far_m"],
+                format!(
+                    "need 0 <= weak_range_near_m < weak_range_far_m, got {} and {}",
+                    ls.weak_range_near_m, ls.weak_range_far_m
+                ),
+            );
         }
         if !(ls.long_range_start_m.is_finite() && ls.long_range_start_m > 0.0) {
             bad(

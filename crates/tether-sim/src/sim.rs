@@ -179,6 +179,7 @@ impl Simulation {
                 scenario.laser_sim.clone(),
                 SimRng::stream(seed, "laser"),
             )
+            .with_realism_rng(SimRng::stream(seed, "laser/realism"))
         });
         let camera = scenario.camera_sim.enabled.then(|| {
             SimCamera::new(

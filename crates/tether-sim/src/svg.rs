@@ -182,6 +182,8 @@ impl MapSvg {
                 ObstacleKind::Post => "#555555",
                 ObstacleKind::TableLeg => "#8c6d3f",
                 ObstacleKind::ChairLeg => "#a0522d",
+                ObstacleKind::Bin => "#4a6a8a",
+                ObstacleKind::Foliage => "#3c8c3c",
             };
             let r = (o.circle.radius_m * self.px_per_m).max(1.5);
             let _ = writeln!(

@@ -3,7 +3,28 @@
 use tether_core::{Point2, Vector2, World};
 
 use crate::geometry::{Circle, Segment};
+use crate::rng::SimRng;
 use crate::scenario::Scenario;
+
+/// Stems and leaf clumps of a bush of radius `radius_m` at `center`: about one per
+/// 0.04 m^2 of its footprint (at least 3), each a circle of radius 0.015-0.07 m placed
+/// uniformly in the footprint. Drawn from a stream named after the bush's index, so a
+/// bush looks the same in every run and every seed.
+pub fn bush_parts(index: usize, center: Point2<World>, radius_m: f64) -> Vec<Circle> {
+    let mut rng = SimRng::stream(0, &format!("bush/{index}"));
+    let area = std::f64::consts::PI * radius_m * radius_m;
+    let n = ((area / 0.04).round() as usize).clamp(3, 200);
+    (0..n)
+        .map(|_| {
+            let r = radius_m * rng.unit().sqrt();
+            let a = rng.uniform(-std::f64::consts::PI, std::f64::consts::PI);
+            Circle {
+                center: center + Vector2::new(r * a.cos(), r * a.sin()),
+                radius_m: rng.uniform(0.015, 0.07),
+            }
+        })
+        .collect()
+}
 
 /// What a round obstacle is; decides what it blocks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -16,6 +37,10 @@ pub enum ObstacleKind {
     TableLeg,
     /// Chair leg (up to seat height, ~0.45 m).
     ChairLeg,
+    /// Litter bin (~1 m tall).
+    Bin,
+    /// A stem or clump of leaves of a bush (~1 m tall); its returns flicker.
+    Foliage,
 }
 
 impl ObstacleKind {
@@ -25,6 +50,7 @@ impl ObstacleKind {
             ObstacleKind::Pillar | ObstacleKind::Post => f64::INFINITY,
             ObstacleKind::TableLeg => 0.75,
             ObstacleKind::ChairLeg => 0.45,
+            ObstacleKind::Bin | ObstacleKind::Foliage => 1.0,
         }
     }
 
@@ -35,6 +61,8 @@ impl ObstacleKind {
             ObstacleKind::Post => "post",
             ObstacleKind::TableLeg => "table_leg",
             ObstacleKind::ChairLeg => "chair_leg",
+            ObstacleKind::Bin => "bin",
+            ObstacleKind::Foliage => "foliage",
         }
     }
 }
@@ -87,6 +115,20 @@ impl StaticWorld {
                 circle: circle(p.center, p.radius_m),
                 kind: ObstacleKind::Post,
             });
+        }
+        for b in &w.bins {
+            obstacles.push(Obstacle {
+                circle: circle(b.center, b.radius_m),
+                kind: ObstacleKind::Bin,
+            });
+        }
+        for (i, b) in w.bushes.iter().enumerate() {
+            for part in bush_parts(i, Point2::new(b.center[0], b.center[1]), b.radius_m) {
+                obstacles.push(Obstacle {
+                    circle: part,
+                    kind: ObstacleKind::Foliage,
+                });
+            }
         }
         for t in &w.tables {
             // Legs sit inset from the corners of the top by 1.5 leg radii + 3 cm.

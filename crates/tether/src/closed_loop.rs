@@ -4,8 +4,16 @@
 //! The pipeline under test drives the robot. Optional passenger pipelines (laser only,
 //! vision only) see exactly the same sensor data and are evaluated too, without
 //! driving. Faults can be injected between the simulator and the pipelines.
+//!
+//! The robot's pose each pipeline is given is the simulator's true pose when the
+//! scenario's robot has odometry (`[robot] odometry`, the default), and otherwise the
+//! dead reckoning of the driving pipeline's own commands ([`OdometryFeed`]): a robot
+//! without odometry knows only what it commanded, never where it really went.
 
-use tether_core::{LaserScan, Stamp};
+use tether_control::Twist;
+use tether_core::{LaserScan, Pose2, Robot, Stamp, World};
+
+use crate::live::odometry::DeadReckoning;
 use tether_pipeline::{Pipeline, PipelineConfig, PipelineError, Tick};
 use tether_sim::{Command, Event, Scenario, SensorData, SimError, Simulation, Truth};
 
@@ -70,6 +78,43 @@ pub struct StepRecord {
     pub tick: Option<Tick>,
     /// The passengers' ticks, in the order they were given.
     pub passengers: Vec<Option<Tick>>,
+    /// The robot's pose the pipelines were given ([`OdometryFeed`]): the true pose
+    /// with odometry, the dead reckoning without.
+    pub world_from_robot_given: Pose2<World, Robot>,
+}
+
+impl StepRecord {
+    /// Where the frame of the pipelines' estimates lies in the world:
+    /// `world_from_robot_true * (world_from_robot_given)^-1` (the identity with
+    /// odometry). Estimates mapped through it are compared with the truth *relative to
+    /// the robot*, which is what following needs, whatever the odometry drifted.
+    pub fn world_from_estimates(&self) -> Pose2<World, World> {
+        let given_from_robot: Pose2<Robot, World> = self.world_from_robot_given.inverse();
+        let w = self.truth.world_from_robot * given_from_robot;
+        Pose2::new(w.x, w.y, w.yaw)
+    }
+
+    /// The truth with every position and velocity expressed in the frame of the
+    /// pipelines' estimates (the truth itself with odometry).
+    pub fn truth_in_estimate_frame(&self) -> Truth {
+        let e: Pose2<World, World> = self.world_from_estimates().inverse();
+        let mut t = self.truth.clone();
+        let robot = e * t.world_from_robot;
+        t.world_from_robot = Pose2::new(robot.x, robot.y, robot.yaw);
+        let laser = e * t.world_from_laser;
+        t.world_from_laser = Pose2::new(laser.x, laser.y, laser.yaw);
+        let camera = e * t.world_from_camera;
+        t.world_from_camera = Pose2::new(camera.x, camera.y, camera.yaw);
+        for p in &mut t.people {
+            p.position = e * p.position;
+            p.velocity = e.rotate(p.velocity);
+            p.heading_rad = tether_core::wrap_angle_rad(p.heading_rad + e.yaw);
+            for leg in &mut p.legs {
+                leg.center = e * leg.center;
+            }
+        }
+        t
+    }
 }
 
 /// A finished run.
@@ -130,7 +175,55 @@ pub fn config_for(scenario: &Scenario, base: &PipelineConfig) -> PipelineConfig 
     c
 }
 
-fn feed(pipeline: &mut Pipeline, event: &Event, faults: &[Fault]) -> Option<Tick> {
+/// The robot's motion as the pipelines are told it.
+#[derive(Debug, Clone)]
+pub enum OdometryFeed {
+    /// The simulator's true pose (a base with perfect odometry).
+    Truth,
+    /// No odometry: the dead reckoning of the commands sent to the base, from the
+    /// identity at the start.
+    DeadReckoned(DeadReckoning),
+}
+
+impl OdometryFeed {
+    /// The feed for `scenario`: [`OdometryFeed::Truth`] when
+    /// [`Scenario::odometry_available`], dead reckoning otherwise.
+    pub fn for_scenario(scenario: &Scenario) -> Self {
+        if scenario.odometry_available() {
+            OdometryFeed::Truth
+        } else {
+            OdometryFeed::DeadReckoned(DeadReckoning::new(Stamp::ZERO))
+        }
+    }
+
+    /// The pose given to the pipelines at the instant of `truth`.
+    pub fn pose(&self, truth: &Truth) -> Pose2<World, Robot> {
+        match self {
+            OdometryFeed::Truth => truth.world_from_robot,
+            OdometryFeed::DeadReckoned(dr) => dr.pose_at(truth.stamp),
+        }
+    }
+
+    /// The driving pipeline commanded `command` at `stamp`.
+    pub fn commanded(&mut self, stamp: Stamp, command: Command) {
+        if let OdometryFeed::DeadReckoned(dr) = self {
+            dr.set_command(
+                stamp,
+                Twist {
+                    v_mps: command.v_mps,
+                    w_radps: command.w_radps,
+                },
+            );
+        }
+    }
+}
+
+fn feed(
+    pipeline: &mut Pipeline,
+    event: &Event,
+    pose: Pose2<World, Robot>,
+    faults: &[Fault],
+) -> Option<Tick> {
     let t = event.truth.stamp.secs_f64();
     let mut stamp = event.truth.stamp;
     for f in faults {
@@ -140,7 +233,6 @@ fn feed(pipeline: &mut Pipeline, event: &Event, faults: &[Fault]) -> Option<Tick
             stamp = stamp.saturating_add_ns((jump_s * 1e9) as i64);
         }
     }
-    let pose = event.truth.world_from_robot;
     match &event.data {
         SensorData::Scan(scan) => {
             if faults
@@ -220,16 +312,23 @@ pub fn run_observed(
         .map(|c| Pipeline::new(c.clone(), None))
         .collect::<Result<Vec<_>, _>>()?;
     let mut steps = Vec::new();
+    let mut odometry = OdometryFeed::for_scenario(scenario);
     while let Some(event) = sim.advance() {
-        let tick = feed(&mut driver, &event, faults);
+        let pose = odometry.pose(&event.truth);
+        let tick = feed(&mut driver, &event, pose, faults);
         if let Some(t) = &tick {
-            sim.set_command(Command {
+            let command = Command {
                 v_mps: t.command.v_mps,
                 w_radps: t.command.w_radps,
-            });
+            };
+            sim.set_command(command);
+            odometry.commanded(event.truth.stamp, command);
         }
         observe(&event, tick.as_ref())?;
-        let passengers = riders.iter_mut().map(|p| feed(p, &event, faults)).collect();
+        let passengers = riders
+            .iter_mut()
+            .map(|p| feed(p, &event, pose, faults))
+            .collect();
         let kind = match event.data {
             SensorData::Scan(_) => StepKind::Scan,
             SensorData::Camera(_) => StepKind::Camera,
@@ -240,6 +339,7 @@ pub fn run_observed(
             truth: event.truth,
             tick,
             passengers,
+            world_from_robot_given: pose,
         });
     }
     Ok(RunLog {

@@ -156,6 +156,9 @@ pub fn measure(log: &RunLog) -> RunMetrics {
         let Some(target) = truth.target() else {
             continue;
         };
+        // Estimates live in the frame of the pose the pipelines were given.
+        let to_world = step.world_from_estimates();
+        let locked_estimate = |tick: &Tick| locked_estimate(tick).map(|g| g.transformed(to_world));
         let t = truth.stamp.secs_f64();
         let j = truth.world_from_robot * Point2::new(log.attach_ahead_m, 0.0);
         let d = target.position.distance_m(j);
@@ -182,7 +185,7 @@ pub fn measure(log: &RunLog) -> RunMetrics {
                     .tracks
                     .iter()
                     .filter(|tr| tr.confirmed)
-                    .map(|tr| (tr.id, tr.position.mean))
+                    .map(|tr| (tr.id, to_world * tr.position.mean))
                     .collect();
                 mot.add_frame(&objects, &hypotheses);
                 // Who is being followed: the person the CLEAR MOT correspondence ties the
@@ -267,7 +270,10 @@ pub fn measure(log: &RunLog) -> RunMetrics {
         log.steps
             .iter()
             .filter(|s| s.kind == StepKind::Camera)
-            .map(|s| (&s.truth, s.tick.as_ref())),
+            .map(|s| (s.truth_in_estimate_frame(), s.tick.as_ref()))
+            .collect::<Vec<_>>()
+            .iter()
+            .map(|(t, k)| (t, *k)),
     );
     RunMetrics {
         scenario: log.scenario.clone(),

@@ -85,7 +85,7 @@ pub fn run_map(scenario: &Scenario, log: &RunLog) -> String {
         }
         robot.push(step.truth.world_from_robot.translation());
         if let Some(e) = step.tick.as_ref().and_then(|t| t.target.estimate) {
-            estimate.push(e.mean);
+            estimate.push(step.world_from_estimates() * e.mean);
         }
     }
     let extent = paths
@@ -127,6 +127,12 @@ pub fn run_map(scenario: &Scenario, log: &RunLog) -> String {
         };
         let (Some(tick), Some(target)) = (&step.tick, step.truth.target()) else {
             continue;
+        };
+        let to_world = step.world_from_estimates();
+        let nearest = |gs: &[Gaussian2<World>], p: Point2<World>| {
+            let mapped: Vec<Gaussian2<World>> =
+                gs.iter().map(|g| g.transformed(to_world)).collect();
+            nearest(&mapped, p)
         };
         let laser = log
             .steps
@@ -183,7 +189,8 @@ pub fn run_plots(log: &RunLog) -> Vec<Plot> {
             TargetState::Locked { .. } => k.target.estimate,
             _ => None,
         });
-        let pe = est.map(|e| robot_from_world * e.mean);
+        // Estimates are in the frame of the pose the pipeline was given.
+        let pe = est.map(|e| step.world_from_robot_given.inverse() * e.mean);
         d_est.push((t, pe.map(|q| q.distance_m(j))));
         b_est.push((t, pe.map(|q| wrap_angle_rad(q.bearing_rad()).to_degrees())));
         v.push((t, tick.map(|k| k.command.v_mps)));

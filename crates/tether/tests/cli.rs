@@ -14,7 +14,7 @@ fn scenarios_lists_every_builtin_with_one_line() {
     assert!(out.status.success());
     let stdout = text(&out.stdout);
     let lines: Vec<&str> = stdout.lines().collect();
-    assert_eq!(lines.len(), 6, "{stdout}");
+    assert_eq!(lines.len(), 7, "{stdout}");
     for name in [
         "corridor",
         "office",
@@ -22,6 +22,7 @@ fn scenarios_lists_every_builtin_with_one_line() {
         "stop_and_go",
         "turns",
         "occlusion",
+        "outdoor_follow",
     ] {
         assert!(
             lines.iter().any(|l| l.starts_with(name)),

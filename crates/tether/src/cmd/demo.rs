@@ -39,6 +39,30 @@ pub fn variants(scenario: &Scenario) -> (PipelineConfig, Vec<PipelineConfig>) {
     (fused, vec![laser_only, vision_only])
 }
 
+/// The laser-only version of `scenario`: the camera off (`camera_sim.enabled = false`,
+/// no frames at all), `-laser-only` appended to its name.
+pub fn laser_only(scenario: &Scenario) -> Scenario {
+    let mut s = scenario.clone();
+    if !s.name.ends_with("-laser-only") {
+        s.name = format!("{}-laser-only", scenario.name);
+        s.description = format!(
+            "{} Laser only: the camera is off and the laser alone finds, tracks and vouches \
+             for the target.",
+            scenario.description
+        );
+    }
+    s.camera_sim.enabled = false;
+    s
+}
+
+/// The pipeline of a laser-only run: the fused configuration with vision off, driving
+/// alone (no passengers: there is no camera to compare with).
+pub fn laser_only_variants(scenario: &Scenario) -> (PipelineConfig, Vec<PipelineConfig>) {
+    let (mut laser, _) = variants(scenario);
+    laser.fusion.use_vision = false;
+    (laser, Vec::new())
+}
+
 /// Runs the demo.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let names: Vec<String> = if args.scenarios.is_empty() {
@@ -66,17 +90,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         runs_to_do.push((scenario.clone(), driver, passengers));
     }
     for scenario in &scenarios {
-        let (driver, _) = variants(scenario);
-        let mut laser_only = driver;
-        laser_only.fusion.use_vision = false;
-        let mut s = scenario.clone();
-        s.name = format!("{}-laser-only", scenario.name);
-        s.description = format!(
-            "{} Laser only: the camera is off and the laser alone finds, tracks and vouches \
-             for the target.",
-            scenario.description
-        );
-        runs_to_do.push((s, laser_only, Vec::new()));
+        let (laser_driver, passengers) = laser_only_variants(scenario);
+        runs_to_do.push((laser_only(scenario), laser_driver, passengers));
     }
     bar.set_length(runs_to_do.len() as u64 + 1);
     let mut logs: Vec<(RunLog, RunMetrics)> = Vec::new();

@@ -99,7 +99,15 @@ pub fn evaluate(
             log.steps
                 .iter()
                 .filter(|s| s.kind == StepKind::Camera)
-                .map(|s| (&s.truth, s.passengers.get(2).and_then(Option::as_ref))),
+                .map(|s| {
+                    (
+                        s.truth_in_estimate_frame(),
+                        s.passengers.get(2).and_then(Option::as_ref),
+                    )
+                })
+                .collect::<Vec<_>>()
+                .iter()
+                .map(|(t, k)| (t, *k)),
         );
         nees_kf.extend(kf);
         mota.push(m.mota);

@@ -48,26 +48,36 @@ pub struct Args {
     /// observations, target, commands; see `tether::results`).
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
+    /// The camera off: the simulated camera is not run and tether's laser-only
+    /// pipeline drives the robot alone (no passengers); the run is named
+    /// `NAME-laser-only`, as in `tether demo`.
+    #[arg(long)]
+    pub laser_only: bool,
 }
 
 /// Writes a simulated event (odometry and ground truth first, then the sensor data, so
 /// that a replay knows the robot's pose at each scan) and the driving pipeline's tick.
+/// A scenario without odometry (`[robot] odometry = false`) records no `/odom`, as a
+/// robot without odometry would.
 fn record_event(
     out: &mut ResultWriter<std::io::BufWriter<std::fs::File>>,
     event: &Event,
     tick: Option<&Tick>,
+    with_odometry: bool,
 ) -> Result<(), McapError> {
     let truth = &event.truth;
     let stamp = truth.stamp;
     if !matches!(event.data, SensorData::Timer) {
-        let odom = OdometryMsg::planar(
-            Header::new(stamp, out.frame()),
-            "base_link",
-            truth.world_from_robot,
-            truth.robot_velocity.v_mps,
-            truth.robot_velocity.w_radps,
-        );
-        out.mcap().write("/odom", stamp, &odom)?;
+        if with_odometry {
+            let odom = OdometryMsg::planar(
+                Header::new(stamp, out.frame()),
+                "base_link",
+                truth.world_from_robot,
+                truth.robot_velocity.v_mps,
+                truth.robot_velocity.w_radps,
+            );
+            out.mcap().write("/odom", stamp, &odom)?;
+        }
         let people = out.poses(
             stamp,
             truth.people.iter().map(|p| (p.position.x, p.position.y)),
@@ -106,6 +116,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         scenario.duration_s = duration;
     }
+    if args.laser_only {
+        scenario = super::demo::laser_only(&scenario);
+    }
     let bar = progress_bar(&scenario.name);
     let end_ns = (scenario.duration_s * 1e9) as i64;
     let show = |ns: i64| {
@@ -120,7 +133,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         })
         .with_context(context)?,
         DriverChoice::Tether => {
-            let (driver, passengers) = super::demo::variants(&scenario);
+            let (driver, passengers) = if args.laser_only {
+                super::demo::laser_only_variants(&scenario)
+            } else {
+                super::demo::variants(&scenario)
+            };
+            let with_odometry = scenario.odometry_available();
             let mut recorder =
                 RunRecorder::create(&args.out, &scenario, args.seed).with_context(context)?;
             let mut mcap = match &args.record {
@@ -139,7 +157,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 &mut |event, tick| {
                     show(event.truth.stamp.ns());
                     if let Some(out) = mcap.as_mut() {
-                        record_event(out, event, tick)?;
+                        record_event(out, event, tick, with_odometry)?;
                     }
                     recorder.record(event).map_err(RunError::from)
                 },
