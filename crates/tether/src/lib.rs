@@ -8,3 +8,4 @@ pub mod plot;
 pub mod recording;
 pub mod report;
 pub mod results;
+pub mod tracking;
