@@ -8,4 +8,5 @@ pub mod plot;
 pub mod recording;
 pub mod report;
 pub mod results;
+pub mod track_eval;
 pub mod tracking;

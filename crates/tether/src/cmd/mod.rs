@@ -7,6 +7,7 @@ pub mod detect;
 pub mod eval_cascade;
 pub mod eval_fusion;
 pub mod eval_legs;
+pub mod eval_track;
 pub mod legs;
 pub mod replay;
 pub mod run;
