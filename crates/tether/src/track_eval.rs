@@ -246,10 +246,10 @@ impl TrackEval {
             },
             Pairing::Before => self.pending.push((labels, false)),
             Pairing::Auto => {
-                if labels.stamp.ns() == 0 {
-                    self.pending.push((labels, false));
-                } else if let Some(k) = last.filter(|&k| self.scans[k].stamp == labels.stamp) {
+                if let Some(k) = last.filter(|&k| self.scans[k].stamp == labels.stamp) {
                     self.attach(k, &labels);
+                } else if labels.stamp.ns() == 0 {
+                    self.pending.push((labels, false));
                 } else {
                     self.pending.push((labels, true));
                 }
