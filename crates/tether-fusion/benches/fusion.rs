@@ -10,8 +10,8 @@
 
 use tether_core::{Cov2, Gaussian2, Point2, Pose2, Stamp, World};
 use tether_fusion::{
-    FusionRule, Gate, MotionBounds, Observation, Source, TargetConfig, TargetSelector, Tracker, TrackerConfig,
-    complementary_fusion,
+    FusionRule, Gate, MotionBounds, Observation, Source, TargetConfig, TargetSelector, Tracker,
+    TrackerConfig, complementary_fusion,
 };
 
 fn main() {

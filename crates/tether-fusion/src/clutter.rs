@@ -158,7 +158,10 @@ impl<F: Frame> ClutterMap<F> {
     }
 
     fn key(&self, x: f64, y: f64) -> Option<(i32, i32)> {
-        let (i, j) = ((x / self.config.cell_m).round(), (y / self.config.cell_m).round());
+        let (i, j) = (
+            (x / self.config.cell_m).round(),
+            (y / self.config.cell_m).round(),
+        );
         // Far outside any scan's reach (or NaN): not a place.
         (i.abs() < 1e8 && j.abs() < 1e8).then_some((i as i32, j as i32))
     }
@@ -207,7 +210,8 @@ impl<F: Frame> ClutterMap<F> {
         self.scans += 1;
         if self.scans.is_multiple_of(64) {
             let rate = c.forget_rate;
-            self.cells.retain(|_, cell| cell.evidence_at(stamp, rate) > 0.0);
+            self.cells
+                .retain(|_, cell| cell.evidence_at(stamp, rate) > 0.0);
         }
     }
 
@@ -250,7 +254,10 @@ mod tests {
             if became.is_none() && m.is_static(pole, at(100 * k)) {
                 became = Some(k);
             }
-            assert!(!m.is_static(walker, at(100 * k)), "walker static at scan {k}");
+            assert!(
+                !m.is_static(walker, at(100 * k)),
+                "walker static at scan {k}"
+            );
         }
         // 4 s of evidence at 0.075 s gained per 0.1 s scan: ~5.3 s.
         let k = became.expect("the pole is learned");
@@ -277,7 +284,10 @@ mod tests {
             let seen: &[Point2<World>] = if k % 3 != 0 { &[p] } else { &[] };
             m.observe(at(100 * k), seen);
         }
-        assert!(m.is_static(p, at(59_900)), "seen in 2 of 3 scans for a minute");
+        assert!(
+            m.is_static(p, at(59_900)),
+            "seen in 2 of 3 scans for a minute"
+        );
     }
 
     #[test]
@@ -289,7 +299,10 @@ mod tests {
         assert!(m.evidence_s(p, at(60_000)) <= 0.2 + 1e-9);
         m.observe(at(50_000), &[p; 3]);
         assert!(m.evidence_s(p, at(60_000)) <= 0.2 + 1e-9);
-        m.observe(at(60_100), &[Point2::new(f64::NAN, 0.0), Point2::new(1e12, 0.0)]);
+        m.observe(
+            at(60_100),
+            &[Point2::new(f64::NAN, 0.0), Point2::new(1e12, 0.0)],
+        );
     }
 
     #[test]

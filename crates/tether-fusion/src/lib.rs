@@ -29,13 +29,15 @@ pub(crate) fn wrap(angle_rad: f64) -> f64 {
 }
 
 pub use ci::{CiCriterion, Fused, ci_weight, covariance_intersection, independent_fusion};
+pub use clutter::{ClutterConfig, ClutterMap};
 pub use complementary::{FusedPerson, FusionRule, complementary_fusion};
 pub use gate::{CHI2_2DOF_95, CHI2_2DOF_99, CHI2_2DOF_999, Gate, mahalanobis_sq};
 pub use kalman::CvFilter;
 pub use mot::{ClearMot, MotSummary};
-pub use clutter::{ClutterConfig, ClutterMap};
-pub use target::{LossReason, Refusal, TargetConfig, TargetSelector, TargetState, TargetStats, View};
+pub use target::{
+    LossReason, Refusal, TargetConfig, TargetSelector, TargetState, TargetStats, View,
+};
 pub use tracker::{
-    Anchor, BatchResult, Bearing, MotionBounds, Observation, Source, Track, Tracker,
-    TrackerConfig, TrackerStats, UpdateRule,
+    Anchor, BatchResult, Bearing, MotionBounds, Observation, Source, Track, Tracker, TrackerConfig,
+    TrackerStats, UpdateRule,
 };

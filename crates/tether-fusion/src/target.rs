@@ -106,7 +106,9 @@ impl TargetConfig {
         if let Some([x, y]) = self.near_point_m
             && !(x.is_finite() && y.is_finite())
         {
-            return Err(format!("target near_point_m must be finite, got [{x}, {y}]"));
+            return Err(format!(
+                "target near_point_m must be finite, got [{x}, {y}]"
+            ));
         }
         Ok(())
     }
@@ -640,8 +642,7 @@ impl TargetSelector {
                 None => eligible
                     .filter_map(|(p, t)| {
                         let bearing = wrap_angle_rad(p.bearing_rad()).abs();
-                        (p.range_m() <= c.max_select_range_m
-                            && bearing <= c.max_select_bearing_rad)
+                        (p.range_m() <= c.max_select_range_m && bearing <= c.max_select_bearing_rad)
                             .then_some((bearing, t))
                     })
                     .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.id.cmp(&b.1.id)))
@@ -781,7 +782,11 @@ mod tests {
         // 1.1 s after the last update, 2.6 m away: too far for a walker (2 m/s,
         // 2 m/s^2 from standing: 1.2 m, plus 0.3 m of velocity and 0.6 m of margins).
         let far = track(9, 4.6, 0.0, 1100, true);
-        assert!(s.update(at(1100), &[far.clone()], Pose2::IDENTITY).locked_track().is_none());
+        assert!(
+            s.update(at(1100), &[far.clone()], Pose2::IDENTITY)
+                .locked_track()
+                .is_none()
+        );
         assert_eq!(s.refusals(), &[(9, Refusal::OutOfReach)]);
         // 3 s later the same place is within reach.
         let later = track(9, 4.6, 0.0, 3000, true);
@@ -796,7 +801,11 @@ mod tests {
         t.filter.x = [6.0, 3.0, 1.7, 1.0];
         s2.update(at(1100), &[t], Pose2::IDENTITY);
         let runaway = track(9, 6.0, 3.0, 1100, true);
-        assert!(s2.update(at(1100), &[runaway], Pose2::IDENTITY).locked_track().is_none());
+        assert!(
+            s2.update(at(1100), &[runaway], Pose2::IDENTITY)
+                .locked_track()
+                .is_none()
+        );
     }
 
     #[test]
@@ -861,7 +870,11 @@ mod tests {
         );
         let mut other_now = other;
         other_now.last_update = at(1100);
-        let state = s.update(at(1100), &[track(1, 2.0, 0.0, 0, true), other_now.clone()], Pose2::IDENTITY);
+        let state = s.update(
+            at(1100),
+            &[track(1, 2.0, 0.0, 0, true), other_now.clone()],
+            Pose2::IDENTITY,
+        );
         assert!(matches!(state, TargetState::Lost { track: 1, .. }));
         let state = s.update(at(1200), &[other_now], Pose2::IDENTITY);
         assert!(matches!(state, TargetState::Lost { track: 1, .. }));

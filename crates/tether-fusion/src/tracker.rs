@@ -646,7 +646,9 @@ impl Tracker {
             }
             t.hits += 1;
             t.pair_hits += u32::from(o.leg_pair);
-            t.walked_m = t.walked_m.max(t.anchor.position.mean.distance_m(t.birth_position));
+            t.walked_m = t
+                .walked_m
+                .max(t.anchor.position.mean.distance_m(t.birth_position));
             if t.hits >= self.config.confirm_hits {
                 t.confirmed = true;
             }
