@@ -217,7 +217,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Ok(())
         },
     )?;
-    drop(boxes);
     let skipped = counts.read.bad_messages + counts.read.unattributed;
     out.flush()
         .with_context(|| format!("writing {}", args.out.display()))?;
