@@ -13,8 +13,13 @@
 //! are published right after their scan with its stamp; its extracted training bags
 //! publish `/leg_cluster_positions` with a zero stamp just before each `/training_scan`.
 //!
+//! A scan given several label messages keeps the one nearest to it in stamp (the later
+//! on a tie), e.g. `/truth/people` of `tether sim --record`, written for camera frames
+//! too.
+//!
 //! **Measures**, over the labelled scans in log order (labels put in the world frame
-//! with the scan's `world_from_robot * robot_from_laser`):
+//! with the scan's `world_from_robot * robot_from_laser`, or taken as in the world
+//! frame already, [`LabelsFrame`]):
 //! - CLEAR MOT (Bernardin and Stiefelhagen 2008) of the confirmed tracks against the
 //!   labelled people, match within [`crate::metrics::MATCH_M`] (0.75 m), see
 //!   [`tether_fusion::ClearMot`].
@@ -64,6 +69,18 @@ pub enum PoseLabels {
     People,
 }
 
+/// The frame the labels' positions are in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum LabelsFrame {
+    /// The scan's frame (leg_tracker's annotations; `tether sim --record-bag`): put in
+    /// the world with the scan's `world_from_robot * robot_from_laser`.
+    Scan,
+    /// The world frame: the odometry frame with an odometry topic (e.g. `/truth/people`
+    /// of `tether sim --record`), the scan's frame without.
+    World,
+}
+
 /// Options of the evaluation.
 #[derive(Debug, Clone, Copy)]
 pub struct EvalOptions {
@@ -71,6 +88,8 @@ pub struct EvalOptions {
     pub pairing: Pairing,
     /// How PoseArray labels are read.
     pub pose_labels: PoseLabels,
+    /// The frame of the labels.
+    pub labels_frame: LabelsFrame,
     /// The labelled person the robot should follow (`None`: the only label id, if
     /// there is only one).
     pub target_label: Option<u32>,
@@ -90,6 +109,8 @@ struct ScanRecord {
     target: Option<(u64, Point2<World>)>,
     /// Labelled people, in the world frame.
     labels: Option<Vec<(u64, Point2<World>)>>,
+    /// |label stamp - scan stamp| of the label message kept, ns.
+    labels_dt_ns: Option<u64>,
 }
 
 /// Collects scans and labels while the recording is read, then measures.
@@ -163,7 +184,8 @@ pub struct EvalReport {
     pub label_messages: usize,
     /// Label messages with no scan to go to (before the first scan or after the last).
     pub unpaired_label_messages: usize,
-    /// Scans that got a second label message (the later one kept).
+    /// Scans that got more than one label message (the one nearest in stamp kept, the
+    /// later on a tie).
     pub doubly_labelled_scans: usize,
     /// Label messages whose frame is not their scan's (used as if it were).
     pub frame_mismatches: usize,
@@ -222,6 +244,7 @@ impl TrackEval {
             hypotheses,
             target,
             labels: None,
+            labels_dt_ns: None,
         });
         let new = self.scans.len() - 1;
         for (labels, either) in std::mem::take(&mut self.pending) {
@@ -259,10 +282,17 @@ impl TrackEval {
 
     fn attach(&mut self, k: usize, labels: &LabelMessage) {
         let scan = &mut self.scans[k];
-        if labels.frame_id != scan.frame_id {
-            self.frame_mismatches += 1;
-        }
-        let to_world = scan.world_from_laser;
+        let to_world: Pose2<World, Laser> = match self.options.labels_frame {
+            LabelsFrame::Scan => {
+                if labels.frame_id != scan.frame_id {
+                    self.frame_mismatches += 1;
+                }
+                scan.world_from_laser
+            }
+            // Already in the world frame: the identity, named as such.
+            LabelsFrame::World => Pose2::IDENTITY,
+        };
+        let dt_ns = (labels.stamp.ns() - scan.stamp.ns()).unsigned_abs();
         let people: Vec<(u64, Point2<World>)> =
             match (labels.labels.first(), self.options.pose_labels) {
                 // PersonArray: ids given.
@@ -287,8 +317,19 @@ impl TrackEval {
                     .map(|(i, (_, p))| (i as u64, to_world * *p))
                     .collect(),
             };
-        if scan.labels.replace(people).is_some() {
-            self.doubled += 1;
+        match scan.labels_dt_ns {
+            // A second label message: the one nearer in stamp stays (the later on a tie).
+            Some(old) => {
+                self.doubled += 1;
+                if dt_ns <= old {
+                    scan.labels = Some(people);
+                    scan.labels_dt_ns = Some(dt_ns);
+                }
+            }
+            None => {
+                scan.labels = Some(people);
+                scan.labels_dt_ns = Some(dt_ns);
+            }
         }
     }
 
@@ -417,7 +458,7 @@ impl EvalReport {
     pub fn text(&self) -> String {
         let m = &self.clear_mot;
         let mut s = format!(
-            "{} scans, {} labelled ({} label messages, {} unpaired, {} scans labelled twice), \
+            "{} scans, {} labelled ({} label messages, {} unpaired, {} scans labelled more than once), \
              {} stretches (gap > {} s), label ids {:?}\n",
             self.scans,
             self.labelled_scans,

@@ -153,6 +153,67 @@ fn simulated_bag_evaluates_sanely_and_deterministically() {
 }
 
 #[test]
+fn mcap_with_world_frame_pose_labels() {
+    // `tether sim --record` writes `/truth/people` (PoseArray, every person, world
+    // frame) before each scan and each camera frame: the one stamped like the scan wins.
+    let dir = scratch("eval-track-mcap");
+    let mcap = dir.join("run.mcap");
+    run_ok(&[
+        "sim",
+        "--scenario",
+        "crossing",
+        "--seed",
+        "2",
+        "--out",
+        dir.join("run").to_str().unwrap(),
+        "--record",
+        mcap.to_str().unwrap(),
+    ]);
+    let json = dir.join("m.json");
+    let args = [
+        "eval-track",
+        mcap.to_str().unwrap(),
+        "--scan-topic",
+        "/scan",
+        "--labels-topic",
+        "/truth/people",
+        "--odom-topic",
+        "/odom",
+        "--pose-labels",
+        "people",
+        "--labels-frame",
+        "world",
+        "--target-label",
+        "0",
+        "--json",
+        json.to_str().unwrap(),
+    ];
+    run_ok(&args);
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["labelled_scans"], v["scans"]);
+    assert!(
+        v["doubly_labelled_scans"].as_u64().unwrap() > 0,
+        "camera-frame truths"
+    );
+    assert_eq!(v["frame_mismatches"], 0);
+    assert_eq!(v["label_ids"], serde_json::json!([0, 1]));
+    let t = &v["target"];
+    assert!(t["on_person_share"].as_f64().unwrap() > 0.85, "{t}");
+    assert_eq!(t["wrong_scans"], 0, "{t}");
+    assert!(v["clear_mot"]["motp_m"].as_f64().unwrap() < 0.1, "{v}");
+    // Taken in the scan's frame instead, the world-frame labels are far off: the
+    // frame check says so and nothing matches.
+    let mut scan_frame = args.to_vec();
+    scan_frame[11] = "scan";
+    let stdout = run_ok(&scan_frame);
+    assert!(
+        stdout.contains("in another frame than their scan"),
+        "{stdout}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn refuses_a_labels_topic_that_is_not_labels() {
     let dir = scratch("eval-track-bad");
     let bag = sim_bag(&dir, "corridor", "1", &["--duration", "3"]);

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use tether::recording::Topics;
-use tether::track_eval::{EvalOptions, Pairing, PoseLabels, TrackEval};
+use tether::track_eval::{EvalOptions, LabelsFrame, Pairing, PoseLabels, TrackEval};
 use tether::tracking::{Step, run_recording};
 use tether_pipeline::Pipeline;
 
@@ -38,6 +38,10 @@ pub struct Args {
     /// PoseArray labels are the legs of one person (at their mean), or people.
     #[arg(long, value_enum, default_value_t = PoseLabels::Legs)]
     pub pose_labels: PoseLabels,
+    /// The frame of the labels: the scan's, or the world (the odometry frame with
+    /// `--odom-topic`), as `/truth/people` of `tether sim --record` is.
+    #[arg(long, value_enum, default_value_t = LabelsFrame::Scan)]
+    pub labels_frame: LabelsFrame,
     /// A gap between labelled scans longer than this starts a new stretch, s.
     #[arg(long, default_value_t = 0.5, value_name = "S")]
     pub gap_s: f64,
@@ -73,6 +77,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut eval = TrackEval::new(EvalOptions {
         pairing: args.pairing,
         pose_labels: args.pose_labels,
+        labels_frame: args.labels_frame,
         target_label: args.target_label,
         gap_s: args.gap_s,
     });
