@@ -515,3 +515,214 @@ impl EvalReport {
         s
     }
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(
+        clippy::unwrap_used,
+        reason = "test code: a failed unwrap is a failed test"
+    )]
+
+    use super::*;
+    use tether_control::Twist;
+    use tether_core::{Cov2, Gaussian2, LaserScan, Vector2};
+    use tether_fusion::TargetState;
+    use tether_pipeline::{TargetView, Tick, TickInput, TrackView};
+
+    const MS: i64 = 1_000_000;
+
+    fn scan(t_ms: i64) -> LaserScan {
+        LaserScan::new(
+            Stamp::from_ns(t_ms * MS),
+            "laser",
+            -1.0,
+            0.5,
+            0.02,
+            5.0,
+            vec![1.0; 5],
+        )
+        .unwrap()
+    }
+
+    /// A tick with confirmed tracks `(id, x)` at y = 0 and the target locked on one.
+    fn tick(t_ms: i64, tracks: &[(u64, f64)], target: Option<u64>) -> Tick {
+        let g =
+            |x: f64| Gaussian2::new(Point2::new(x, 0.0), Cov2::isotropic(0.1).unwrap()).unwrap();
+        Tick {
+            stamp: Stamp::from_ns(t_ms * MS),
+            input: TickInput::Scan,
+            laser_people: Vec::new(),
+            vision_people: Vec::new(),
+            fused_people: Vec::new(),
+            tracks: tracks
+                .iter()
+                .map(|&(id, x)| TrackView {
+                    id,
+                    confirmed: true,
+                    position: g(x),
+                    velocity: Vector2::new(0.0, 0.0),
+                })
+                .collect(),
+            target: TargetView {
+                state: target.map_or(TargetState::Searching, |track| TargetState::Locked {
+                    track,
+                }),
+                id: target,
+                estimate: target
+                    .and_then(|id| tracks.iter().find(|t| t.0 == id))
+                    .map(|t| g(t.1)),
+                velocity: None,
+            },
+            command: Twist {
+                v_mps: 0.0,
+                w_radps: 0.0,
+            },
+            stop: None,
+            refusals: Vec::new(),
+        }
+    }
+
+    fn feed(eval: &mut TrackEval, t_ms: i64, tracks: &[(u64, f64)], target: Option<u64>) {
+        let s = scan(t_ms);
+        let tk = tick(t_ms, tracks, target);
+        eval.on_scan(&ScanStep {
+            scan: &s,
+            tick: &tk,
+            world_from_robot: Pose2::IDENTITY,
+            robot_from_laser: Pose2::IDENTITY,
+        });
+    }
+
+    fn legs(t_ms: i64, xs: &[f64]) -> LabelMessage {
+        LabelMessage {
+            stamp: Stamp::from_ns(t_ms * MS),
+            frame_id: "laser".into(),
+            labels: xs.iter().map(|&x| (None, Point2::new(x, 0.1))).collect(),
+        }
+    }
+
+    fn options(pairing: Pairing) -> EvalOptions {
+        EvalOptions {
+            pairing,
+            pose_labels: PoseLabels::Legs,
+            labels_frame: LabelsFrame::Scan,
+            target_label: None,
+            gap_s: 0.5,
+        }
+    }
+
+    #[test]
+    fn zero_stamped_legs_go_to_the_next_scan_and_count() {
+        // leg_tracker's extracted bags: legs (stamp 0) just before each scan. The
+        // person is the mean of the legs; the track at x follows them.
+        let mut e = TrackEval::new(options(Pairing::Auto));
+        let frames: [(i64, [f64; 2], Option<u64>); 6] = [
+            (1000, [1.9, 2.1], None),    // before the lock: lost
+            (1100, [1.9, 2.1], Some(7)), // on the person
+            (1200, [2.9, 3.1], Some(7)), // the track is at 2.0, person at 3.0: wrong
+            (1300, [1.9, 2.1], Some(8)), // another track at 2.0: on the person, a switch
+            // 2 s gap: a new stretch.
+            (3300, [1.9, 2.1], Some(9)), // a new track id in a new stretch: no switch
+            (3400, [1.9, 2.1], Some(9)),
+        ];
+        for (t, xs, target) in frames {
+            e.on_labels(legs(0, &xs));
+            feed(&mut e, t, &[(7, 2.0), (8, 2.0), (9, 2.0)], target);
+        }
+        // A label after the last scan has no scan to go to.
+        e.on_labels(legs(0, &[1.0]));
+        let r = e.finish();
+        assert_eq!(
+            (r.scans, r.labelled_scans, r.unpaired_label_messages),
+            (6, 6, 1)
+        );
+        assert_eq!(r.label_ids, vec![0]);
+        assert_eq!(r.stretches.len(), 2);
+        let t = r.target.unwrap();
+        assert_eq!(
+            (
+                t.labelled_scans,
+                t.on_person_scans,
+                t.lost_scans,
+                t.wrong_scans
+            ),
+            (6, 4, 1, 1)
+        );
+        assert_eq!(t.switches_in_stretches, 1);
+        assert_eq!(t.stretches_with_wrong_target, 1);
+        // Each scan stands for the time to the next labelled one; the last of a
+        // stretch for the mean interval (0.1 s here).
+        assert!((t.lost_s - 0.1).abs() < 1e-9 && (t.wrong_s - 0.1).abs() < 1e-9);
+        assert!((t.labelled_s - 0.6).abs() < 1e-9, "{}", t.labelled_s);
+        // Three tracks, one person: two false positives a scan, three and a miss in
+        // the scan where the person is 1 m from every track.
+        let m = r.clear_mot;
+        assert_eq!(
+            (m.objects, m.matches, m.misses, m.false_positives),
+            (6, 5, 1, 13)
+        );
+    }
+
+    #[test]
+    fn pairing_rules() {
+        // A label stamped like the scan before it goes to that scan (auto or after);
+        // before: to the next one.
+        for (pairing, expect_first) in [
+            (Pairing::Auto, true),
+            (Pairing::After, true),
+            (Pairing::Before, false),
+        ] {
+            let mut e = TrackEval::new(options(pairing));
+            feed(&mut e, 1000, &[(1, 2.0)], Some(1));
+            e.on_labels(legs(1000, &[2.0]));
+            feed(&mut e, 1100, &[(1, 5.0)], Some(1));
+            let r = e.finish();
+            assert_eq!(r.labelled_scans, 1);
+            let on = r.target.unwrap().on_person_scans;
+            assert_eq!(on == 1, expect_first, "{pairing:?}");
+        }
+        // Auto with another stamp: the nearer scan, before or after.
+        for (stamp, on_first) in [(1030, true), (1080, false)] {
+            let mut e = TrackEval::new(options(Pairing::Auto));
+            feed(&mut e, 1000, &[(1, 2.0)], Some(1));
+            e.on_labels(legs(stamp, &[2.0]));
+            feed(&mut e, 1100, &[(1, 5.0)], Some(1));
+            let r = e.finish();
+            assert_eq!(r.target.unwrap().on_person_scans == 1, on_first, "{stamp}");
+        }
+        // Two label messages for one scan: the nearer in stamp stays.
+        let mut e = TrackEval::new(options(Pairing::After));
+        feed(&mut e, 1000, &[(1, 2.0)], Some(1));
+        e.on_labels(legs(1000, &[2.0]));
+        e.on_labels(legs(1040, &[5.0]));
+        let r = e.finish();
+        assert_eq!(r.doubly_labelled_scans, 1);
+        assert_eq!(r.target.unwrap().on_person_scans, 1);
+    }
+
+    #[test]
+    fn several_ids_need_a_target_label() {
+        let people = |t: i64| LabelMessage {
+            stamp: Stamp::from_ns(t * MS),
+            frame_id: "laser".into(),
+            labels: vec![
+                (Some(4), Point2::new(2.0, 0.0)),
+                (Some(5), Point2::new(4.0, 0.0)),
+            ],
+        };
+        let run = |target_label| {
+            let mut e = TrackEval::new(EvalOptions {
+                target_label,
+                ..options(Pairing::Auto)
+            });
+            feed(&mut e, 1000, &[(1, 2.0), (2, 4.0)], Some(2));
+            e.on_labels(people(1000));
+            e.finish()
+        };
+        let r = run(None);
+        assert!(r.target.is_none() && r.text().contains("--target-label"));
+        assert_eq!((r.clear_mot.matches, r.clear_mot.false_positives), (2, 0));
+        assert_eq!(run(Some(5)).target.unwrap().on_person_scans, 1);
+        assert_eq!(run(Some(4)).target.unwrap().wrong_scans, 1);
+    }
+}
