@@ -53,8 +53,15 @@ pub struct TargetConfig {
     /// The target counts as lost when its track has not been updated for this long, s
     /// (until then it coasts, still locked).
     pub lost_after_s: f64,
-    /// Leg-pair observations a track needs before the laser alone vouches for it.
+    /// Leg-pair observations a walking track needs before the laser alone vouches for
+    /// it when re-acquiring (walking already sets it apart from static clutter; one
+    /// pair says it walks on legs).
     pub min_leg_pairs: u32,
+    /// Leg-pair observations a track that has not walked needs before the laser alone
+    /// vouches for it at the start (a person standing in front of the robot; nothing
+    /// but the legs sets them apart from a pair of table legs until the clutter map
+    /// has learned the room).
+    pub min_leg_pairs_standing: u32,
     /// Distance a track must have walked before the laser alone vouches for it when
     /// re-acquiring, m.
     pub min_walked_m: f64,
@@ -74,7 +81,8 @@ impl Default for TargetConfig {
             max_select_range_m: 4.0,
             max_select_bearing_rad: 0.6,
             lost_after_s: 1.0,
-            min_leg_pairs: 2,
+            min_leg_pairs: 1,
+            min_leg_pairs_standing: 2,
             min_walked_m: 0.5,
             region_margin_m: 0.3,
         }
@@ -501,9 +509,14 @@ impl TargetSelector {
             LossReason::Unseen
         };
         self.stats.count_loss(reason);
+        // Somebody else: a track seen beside the target, before the target's last
+        // observation. A track born after it may be the target itself, taken up again
+        // by a new track while the old one coasted.
+        let seen_until = anchor.map(|a| a.stamp);
         self.others_at_loss = tracks
             .iter()
             .filter(|t| t.confirmed && t.id != track)
+            .filter(|t| seen_until.is_some_and(|s| t.born <= s))
             .map(|t| t.id)
             .collect();
         self.refused.clear();
@@ -549,7 +562,13 @@ impl TargetSelector {
     fn laser_refusal(&self, t: &Track, view: &View, walking: bool) -> Option<Refusal> {
         if (view.in_clutter)(t.position().mean) {
             Some(Refusal::StaticClutter)
-        } else if t.pair_hits < self.config.min_leg_pairs {
+        } else if t.pair_hits
+            < if walking {
+                self.config.min_leg_pairs
+            } else {
+                self.config.min_leg_pairs_standing
+            }
+        {
             Some(Refusal::NoLegPair)
         } else if walking && t.walked_m < self.config.min_walked_m {
             Some(Refusal::NotWalking)
@@ -783,7 +802,7 @@ mod tests {
         // 2 m/s^2 from standing: 1.2 m, plus 0.3 m of velocity and 0.6 m of margins).
         let far = track(9, 4.6, 0.0, 1100, true);
         assert!(
-            s.update(at(1100), &[far.clone()], Pose2::IDENTITY)
+            s.update(at(1100), std::slice::from_ref(&far), Pose2::IDENTITY)
                 .locked_track()
                 .is_none()
         );
@@ -879,6 +898,27 @@ mod tests {
         let state = s.update(at(1200), &[other_now], Pose2::IDENTITY);
         assert!(matches!(state, TargetState::Lost { track: 1, .. }));
         assert_eq!(s.refusals(), &[(2, Refusal::SomebodyElse)]);
+    }
+
+    #[test]
+    fn a_new_track_taking_up_the_target_while_it_coasted_is_not_somebody_else() {
+        // The target's last observation is at 0; a new track is born on the same person
+        // at 300 ms and confirmed before the old one counts as lost at 1100 ms.
+        let mut s = selector();
+        s.update(at(0), &[track(1, 2.0, 0.0, 0, true)], Pose2::IDENTITY);
+        let mut new = track(2, 2.4, 0.1, 1100, true);
+        new.born = at(300);
+        let state = s.update(
+            at(1100),
+            &[track(1, 2.0, 0.0, 0, true), new.clone()],
+            Pose2::IDENTITY,
+        );
+        assert!(
+            matches!(state, TargetState::Lost { track: 1, .. }) || state.locked_track() == Some(2),
+            "{state:?}"
+        );
+        let state = s.update(at(1200), &[new], Pose2::IDENTITY);
+        assert_eq!(state.locked_track(), Some(2));
     }
 
     #[test]

@@ -229,15 +229,19 @@ impl LegDetector {
                 n_points: pts.len(),
             };
             match &self.classifier {
-                None => out.legs.extend(arc_test(pts, &self.config.arc).ok().map(|arc| {
-                    let score = (1.0 - arc.spread_m / self.config.arc.delta_m).clamp(0.0, 1.0);
-                    leg(arc.centre_in_laser, arc.radius_m, score)
-                })),
+                None => out
+                    .legs
+                    .extend(arc_test(pts, &self.config.arc).ok().map(|arc| {
+                        let score = (1.0 - arc.spread_m / self.config.arc.delta_m).clamp(0.0, 1.0);
+                        leg(arc.centre_in_laser, arc.radius_m, score)
+                    })),
                 Some(_) => {
-                    let Some(margin) = (self.config.weak_margin > 0.0)
-                        .then(|| self.compiled.margin_if_at_least(&c.features, weak_floor))
-                        .unwrap_or_else(|| self.compiled.margin_if_leg(&c.features))
-                    else {
+                    let margin = if self.config.weak_margin > 0.0 {
+                        self.compiled.margin_if_at_least(&c.features, weak_floor)
+                    } else {
+                        self.compiled.margin_if_leg(&c.features)
+                    };
+                    let Some(margin) = margin else {
                         continue;
                     };
                     let (centre, radius_m) =

@@ -449,7 +449,8 @@ impl Pipeline {
             self.stats.clutter_observations += u64::from(clutter);
             used.push(!clutter);
         }
-        let tracking = self.config.fusion.use_laser && self.config.fusion.mode == FusionMode::Tracker;
+        let tracking =
+            self.config.fusion.use_laser && self.config.fusion.mode == FusionMode::Tracker;
         let lone_spawns = self.config.fusion.lone_legs_spawn_tracks;
         let observations: Vec<Observation> = people
             .iter()
@@ -521,7 +522,11 @@ impl Pipeline {
         let mut track_of = track_of_used.iter();
         let (mut in_world, mut in_laser) = (Vec::new(), Vec::new());
         for ((p, g), &was_used) in people.iter().zip(world).zip(used) {
-            let updated = if was_used { track_of.next().copied().flatten() } else { None };
+            let updated = if was_used {
+                track_of.next().copied().flatten()
+            } else {
+                None
+            };
             let explained = protected
                 .iter()
                 .any(|(id, q)| updated == Some(*id) || q.distance_m(g.mean) < 0.5);

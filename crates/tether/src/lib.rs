@@ -2,6 +2,7 @@
 //! report, shared by the command line, the tests and the benchmarks.
 
 pub mod closed_loop;
+pub mod ego;
 pub mod live;
 pub mod metrics;
 pub mod plot;
@@ -10,3 +11,5 @@ pub mod report;
 pub mod results;
 pub mod track_eval;
 pub mod tracking;
+pub mod target_log;
+pub mod target_metrics;

@@ -286,6 +286,17 @@ pub fn scenario_section(run: &ScenarioRun<'_>) -> String {
         let _ = writeln!(s, "<div class=\"figure\">{}</div>", plot.svg());
     }
     s.push_str(&metrics_table(&[run.metrics]));
+    let mut target = crate::target_log::TargetLog::new();
+    for step in &run.log.steps {
+        if let Some(tick) = &step.tick {
+            target.record(tick.stamp, &tick.target.state, &tick.refusals);
+        }
+    }
+    let _ = writeln!(
+        s,
+        "<h3>Target: locks, losses and why</h3>{}",
+        target.html(target.counts_from_events())
+    );
     s.push_str("</section>\n");
     s
 }

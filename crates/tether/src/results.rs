@@ -8,6 +8,7 @@
 //! | `/tether/vision_people` | `geometry_msgs/msg/PoseArray` | every camera frame: its person observations |
 //! | `/tether/target` | `geometry_msgs/msg/PoseWithCovarianceStamped` | every tick while locked (heading: walking direction, variance pi^2) |
 //! | `/tether/cmd_vel` | `geometry_msgs/msg/Twist` | every tick: the command (`linear.x`, `angular.z`) |
+//! | `/tether/target_state` | `std_msgs/msg/String` | every tick: the target's state as JSON, e.g. `{"state":"lost","track":3,"reason":"unseen","refused":[{"track":5,"why":"not_walking"}]}` |
 //!
 //! Positions are in the world (odometry) frame, named by the writer's `frame`.
 
@@ -15,9 +16,65 @@ use std::path::Path;
 
 use tether_core::Stamp;
 use tether_io::mcap::{
-    Header, McapError, McapWriter, Pose3, PoseArrayMsg, PoseWithCovarianceStampedMsg, TwistMsg,
+    Header, McapError, McapWriter, Pose3, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg,
+    TwistMsg,
 };
 use tether_pipeline::{Tick, TickInput};
+
+/// The target's state at a tick, as `track`'s JSON lines and `/tether/target_state`
+/// carry it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct TargetStateLine {
+    /// `searching`, `locked` or `lost`.
+    pub state: &'static str,
+    /// The followed track (locked) or the one that was followed (lost).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub track: Option<u64>,
+    /// Why it is lost.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<&'static str>,
+    /// Tracks refused as the lost target at this tick, and why.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub refused: Vec<RefusedLine>,
+}
+
+/// One refused candidate.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct RefusedLine {
+    /// The track.
+    pub track: u64,
+    /// Why it is not the target.
+    pub why: &'static str,
+}
+
+impl TargetStateLine {
+    /// The state of `tick`.
+    pub fn of(tick: &Tick) -> Self {
+        use tether_fusion::TargetState;
+        let state = tick.target.state;
+        TargetStateLine {
+            state: state.name(),
+            track: match state {
+                TargetState::Locked { track } | TargetState::Lost { track, .. } => Some(track),
+                TargetState::Searching => None,
+            },
+            reason: state.loss_reason().map(|r| r.name()),
+            refused: tick
+                .refusals
+                .iter()
+                .map(|&(track, r)| RefusedLine {
+                    track,
+                    why: r.name(),
+                })
+                .collect(),
+        }
+    }
+}
+
+/// [`TargetStateLine::of`] as JSON.
+pub fn target_state_json(tick: &Tick) -> String {
+    serde_json::to_string(&TargetStateLine::of(tick)).unwrap_or_default()
+}
 
 /// Writes pipeline ticks as ROS 2 messages.
 pub struct ResultWriter<W: std::io::Write + std::io::Seek> {
@@ -93,6 +150,10 @@ impl<W: std::io::Write + std::io::Seek> ResultWriter<W> {
             );
             self.writer.write("/tether/target", stamp, &msg)?;
         }
+        let state = StringMsg {
+            data: target_state_json(tick),
+        };
+        self.writer.write("/tether/target_state", stamp, &state)?;
         let cmd = TwistMsg::unicycle(tick.command.v_mps, tick.command.w_radps);
         self.writer.write("/tether/cmd_vel", stamp, &cmd)
     }

@@ -6,7 +6,7 @@
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
 
 use tether::closed_loop::{Fault, RunLog, StepKind, config_for, run};
-use tether_fusion::TargetState;
+use tether_fusion::{LossReason, TargetState};
 use tether_pipeline::PipelineConfig;
 use tether_sim::Scenario;
 
@@ -112,4 +112,93 @@ fn stamp_jump_does_not_break_the_loop() {
     // Nothing the robot did came close to the person.
     let m = tether::metrics::measure(&log);
     assert!(m.min_distance_m > 0.5, "{}", m.min_distance_m);
+}
+
+/// The target's states over the run's ticks, with the time of each.
+fn target_states(log: &RunLog) -> Vec<(f64, TargetState)> {
+    log.steps
+        .iter()
+        .filter_map(|s| {
+            s.tick
+                .as_ref()
+                .map(|t| (s.truth.stamp.secs_f64(), t.target.state))
+        })
+        .collect()
+}
+
+fn laser_only_corridor_run(faults: &[Fault]) -> RunLog {
+    let scenario = Scenario::builtin("corridor").unwrap();
+    let mut config = config_for(&scenario, &PipelineConfig::default());
+    config.fusion.use_vision = false;
+    run(&scenario, 3, &config, &[], faults).unwrap()
+}
+
+#[test]
+fn a_laser_that_stops_loses_the_target_for_a_sensor_gap_and_takes_it_up_again() {
+    // Issue 14: a laser silent for 3 s (longer than the target's `lost_after_s`); with
+    // the camera off nothing else sees the person. The target state says why it was
+    // lost, and the person is taken up again once the scans return.
+    let log = laser_only_corridor_run(&[Fault::LaserDropout {
+        from_s: 8.0,
+        duration_s: 3.0,
+    }]);
+    let states = target_states(&log);
+    let reasons: Vec<_> = states
+        .iter()
+        .filter(|(t, _)| (8.0..11.0).contains(t))
+        .filter_map(|(_, s)| s.loss_reason())
+        .collect();
+    assert!(!reasons.is_empty(), "lost during the outage");
+    assert!(
+        reasons.iter().all(|r| *r == LossReason::SensorGap),
+        "{reasons:?}"
+    );
+    let back = states
+        .iter()
+        .find(|(t, s)| *t >= 11.0 && s.locked_track().is_some())
+        .map(|(t, _)| *t);
+    assert!(
+        back.is_some_and(|t| t < 13.0),
+        "taken up again within 2 s of the scans' return: {back:?}"
+    );
+}
+
+#[test]
+fn a_gap_in_the_scan_stamps_is_a_sensor_gap_not_a_panic() {
+    // The stamps jump 2 s ahead (a recording paused, a clock step): no panic; what the
+    // target's state says about the jump is a sensor gap, never "unseen".
+    let log = laser_only_corridor_run(&[Fault::StampJump {
+        at_s: 8.0,
+        jump_s: 2.0,
+    }]);
+    let states = target_states(&log);
+    assert!(
+        states
+            .iter()
+            .any(|(t, s)| *t > 7.0 && s.locked_track().is_some())
+    );
+    let reasons: Vec<_> = states.iter().filter_map(|(_, s)| s.loss_reason()).collect();
+    assert!(!reasons.is_empty(), "2 s without scans loses the target");
+    assert!(
+        reasons.iter().all(|r| *r == LossReason::SensorGap),
+        "{reasons:?}"
+    );
+    assert!(
+        states
+            .iter()
+            .any(|(t, s)| *t > 8.5 && s.locked_track().is_some()),
+        "following again after the jump"
+    );
+}
+
+#[test]
+fn a_run_that_starts_mid_walk_locks_on_the_walking_person_with_the_laser_alone() {
+    // The corridor's target is already walking at the first scan; the laser alone
+    // must lock on them (a pair of legs in front of the robot) within a few seconds.
+    let log = laser_only_corridor_run(&[]);
+    let first = target_states(&log)
+        .into_iter()
+        .find(|(_, s)| s.locked_track().is_some())
+        .map(|(t, _)| t);
+    assert!(first.is_some_and(|t| t < 3.0), "first lock at {first:?}");
 }

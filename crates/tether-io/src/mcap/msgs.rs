@@ -1133,3 +1133,46 @@ mod tests {
         assert!(!type_matches::<LaserScanMsg>("sensor_msgs/msg/Image"));
     }
 }
+
+/// `std_msgs/msg/String`: free text (tether writes its target state as one JSON object
+/// per tick on `/tether/target_state`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct StringMsg {
+    /// The text (no NUL characters: CDR strings end at the first).
+    pub data: String,
+}
+
+impl Ros2Message for StringMsg {
+    const TYPE: &'static str = "std_msgs/msg/String";
+    const DEFINITION: &'static str = "string data\n";
+
+    fn write_cdr(&self, w: &mut CdrWriter) -> Result<(), EncodeError> {
+        w.string("data", &self.data)
+    }
+
+    fn read_cdr(r: &mut CdrReader<'_>) -> Result<Self, DecodeError> {
+        Ok(StringMsg {
+            data: r.string("data")?,
+        })
+    }
+}
+
+#[cfg(test)]
+mod string_msg_tests {
+    use super::*;
+
+    #[test]
+    fn a_string_round_trips_through_cdr() {
+        let msg = StringMsg {
+            data: "{\"state\":\"lost\",\"reason\":\"unseen\"}".into(),
+        };
+        let bytes = to_cdr(&msg).unwrap();
+        // Encapsulation (4), length with the NUL (4), the text and its NUL.
+        assert_eq!(bytes.len(), 8 + msg.data.len() + 1);
+        assert_eq!(from_cdr::<StringMsg>(&bytes).unwrap(), msg);
+        let nul = StringMsg {
+            data: "a\0b".into(),
+        };
+        assert!(to_cdr(&nul).is_err());
+    }
+}

@@ -58,11 +58,31 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
-    let mut logs: Vec<(RunLog, RunMetrics)> = Vec::new();
+    // Every scenario twice: driven by the fused pipeline, then by the laser alone (the
+    // camera off), as a robot without a camera, or whose camera is blinded, follows.
+    let mut runs_to_do: Vec<(Scenario, PipelineConfig, Vec<PipelineConfig>)> = Vec::new();
     for scenario in &scenarios {
-        bar.set_message(scenario.name.clone());
         let (driver, passengers) = variants(scenario);
-        let log = closed_loop::run(scenario, args.seed, &driver, &passengers, &[])
+        runs_to_do.push((scenario.clone(), driver, passengers));
+    }
+    for scenario in &scenarios {
+        let (driver, _) = variants(scenario);
+        let mut laser_only = driver;
+        laser_only.fusion.use_vision = false;
+        let mut s = scenario.clone();
+        s.name = format!("{}-laser-only", scenario.name);
+        s.description = format!(
+            "{} Laser only: the camera is off and the laser alone finds, tracks and vouches \
+             for the target.",
+            scenario.description
+        );
+        runs_to_do.push((s, laser_only, Vec::new()));
+    }
+    bar.set_length(runs_to_do.len() as u64 + 1);
+    let mut logs: Vec<(RunLog, RunMetrics)> = Vec::new();
+    for (scenario, driver, passengers) in &runs_to_do {
+        bar.set_message(scenario.name.clone());
+        let log = closed_loop::run(scenario, args.seed, driver, passengers, &[])
             .with_context(|| format!("running `{}`", scenario.name))?;
         let metrics = measure(&log);
         let dir = args.out.join(&scenario.name);
@@ -73,6 +93,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         logs.push((log, metrics));
         bar.inc(1);
     }
+    let scenarios: Vec<Scenario> = runs_to_do.into_iter().map(|(s, _, _)| s).collect();
 
     // Why the controller as printed in the paper cannot follow anyone.
     bar.set_message("printed controller");
@@ -85,7 +106,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     bar.finish_and_clear();
 
     println!(
-        "{:<12} {:>10} {:>9} {:>8} {:>8} {:>9} {:>6} {:>5} {:>22}",
+        "{:<24} {:>10} {:>9} {:>8} {:>8} {:>9} {:>6} {:>5} {:>22}",
         "scenario",
         "mean|d-d0|",
         "RMS d-d0",
@@ -103,7 +124,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .chain(std::iter::once(("printed*".to_owned(), &printed_metrics)));
     for (name, m) in rows {
         println!(
-            "{:<12} {:>10} {:>9} {:>8.2} {:>8} {:>9.1} {:>6} {:>5} {:>22}",
+            "{:<24} {:>10} {:>9} {:>8.2} {:>8} {:>9.1} {:>6} {:>5} {:>22}",
             name,
             f(m.mean_abs_distance_error_m),
             f(m.rms_distance_error_m),
@@ -148,7 +169,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let intro = format!(
         "<p>tether's full pipeline (laser legs, upper-body camera model, Covariance Intersection, tracking, \
          virtual spring, safety) in the loop of every built-in scenario, seed {}. The robot is driven by tether's \
-         own estimates; laser-only and vision-only pipelines ride along on the same data for comparison.</p>",
+         own estimates; laser-only and vision-only pipelines ride along on the same data for comparison. Then \
+         every scenario again, driven by the laser alone (<code>-laser-only</code>).</p>",
         args.seed
     );
     let html = report::html(

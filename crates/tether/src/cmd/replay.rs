@@ -7,12 +7,16 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use tether::ego::{EgoMotion, PoseSource, ScanOdometry};
 use tether::plot::{Plot, Series};
 use tether::recording::{self, Sample, Topics};
 use tether::report::simple_page;
 use tether::results::ResultWriter;
+use tether::target_log::TargetLog;
 use tether_core::{Pose2, Robot, Stamp, World};
+use tether_fusion::TargetStats;
 use tether_pipeline::{Pipeline, Tick};
+use tether_scanmatch::{MotionPrior, ScanMatcherConfig};
 use tether_sim::svg::xml_escape;
 
 use super::track::{Camera, CameraArgs};
@@ -29,10 +33,15 @@ pub struct Args {
     /// JPEG/PNG): its frames go through the Haar cascade and the monocular model.
     #[arg(long, value_name = "TOPIC")]
     pub image_topic: Option<String>,
-    /// A `nav_msgs/Odometry` topic: the robot's motion. Without it the robot is taken
-    /// to stand still and positions come out in its own frame.
+    /// A `nav_msgs/Odometry` topic: the robot's motion. Without it the motion comes
+    /// from the scans (see `--ego-motion`).
     #[arg(long, value_name = "TOPIC")]
     pub odom_topic: Option<String>,
+    /// Where the robot's motion comes from: `auto` (the odometry topic if given, else
+    /// scan matching), `odom`, `scans` (even with odometry), `none` (the robot stands
+    /// still; positions in its own frame).
+    #[arg(long, value_enum, default_value_t = EgoMotion::Auto)]
+    pub ego_motion: EgoMotion,
     /// A pipeline configuration (TOML; every table optional).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
@@ -71,11 +80,14 @@ struct Summary {
     robot_path: Vec<(f64, f64)>,
     target_ids: Vec<u64>,
     start: Option<Stamp>,
+    target: TargetLog,
 }
 
 impl Summary {
     fn record(&mut self, tick: &Tick, world_from_robot: Pose2<World, Robot>) {
         let start = *self.start.get_or_insert(tick.stamp);
+        self.target
+            .record(tick.stamp, &tick.target.state, &tick.refusals);
         let robot = world_from_robot.translation();
         self.robot_path.push((robot.x, robot.y));
         let target = tick
@@ -179,7 +191,7 @@ impl Summary {
         s
     }
 
-    fn html(&self, recording: &Path, frame: &str) -> String {
+    fn html(&self, recording: &Path, frame: &str, counts: TargetStats) -> String {
         let duration = self.ticks.last().map_or(0.0, |r| r.t_s);
         let locked = self
             .ticks
@@ -227,6 +239,10 @@ impl Summary {
         let sections = vec![
             ("Map".to_string(), self.map_svg()),
             (
+                "Target: locks, losses and why".to_string(),
+                self.target.html(counts),
+            ),
+            (
                 "Over time".to_string(),
                 [target, commands, tracks]
                     .iter()
@@ -248,12 +264,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = config;
     config.fusion.use_vision = camera.is_some();
     let intrinsics = config.camera.intrinsics;
+    let source = args
+        .ego_motion
+        .resolve(args.odom_topic.is_some())
+        .map_err(anyhow::Error::msg)?;
+    let mut scan_odometry = (source == PoseSource::Scans).then(|| {
+        ScanOdometry::new(
+            ScanMatcherConfig::default(),
+            config.laser.robot_from_laser(),
+        )
+    });
     let mut pipeline = Pipeline::new(config, None)?;
-    let frame = if args.odom_topic.is_some() {
-        "odom"
-    } else {
-        "base_link"
-    };
+    let frame = source.frame();
     let mut output = match &args.out {
         Some(path) => Some(
             ResultWriter::create(path, frame)
@@ -267,7 +289,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         odom: args.odom_topic.clone(),
     };
     let mut pose: Option<Pose2<World, Robot>> =
-        args.odom_topic.is_none().then_some(Pose2::IDENTITY);
+        (source != PoseSource::Odometry).then_some(Pose2::IDENTITY);
     let mut summary = Summary::default();
     let stats = recording::read(&args.recording, &topics, &mut |sample| {
         let (tick, world_from_robot) = match sample {
@@ -275,11 +297,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 world_from_robot, ..
             } => {
                 summary.odom += 1;
-                pose = Some(world_from_robot);
+                if source == PoseSource::Odometry {
+                    pose = Some(world_from_robot);
+                }
                 return Ok(());
             }
             Sample::Scan(scan) => {
                 summary.scans += 1;
+                if let Some(odometry) = scan_odometry.as_mut() {
+                    let people = pipeline
+                        .tracker()
+                        .tracks()
+                        .iter()
+                        .map(|t| t.position().mean);
+                    pose = Some(odometry.update(&scan, MotionPrior::ConstantVelocity, people));
+                }
                 let Some(p) = pose else {
                     summary.waiting_for_odom += 1;
                     return Ok(());
@@ -315,7 +347,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             summary.waiting_for_odom
         );
     }
+    if let Some(odometry) = &scan_odometry {
+        tracing::info!("{}", odometry.summary());
+    }
     let ps = pipeline.stats();
+    let target_counts = pipeline.selector().stats();
     if ps.out_of_order_ticks > 0 {
         tracing::warn!(
             "{} inputs arrived out of order and were kept out of the tracks",
@@ -326,7 +362,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         out.finish()
             .with_context(|| format!("writing {}", path.display()))?;
         let report = path.with_extension("html");
-        std::fs::write(&report, summary.html(&args.recording, frame))
+        std::fs::write(&report, summary.html(&args.recording, frame, target_counts))
             .with_context(|| format!("writing {}", report.display()))?;
         println!(
             "results -> {}, report -> {}",
@@ -336,13 +372,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     println!(
         "{} scans, {} camera frames ({} detections), {} odometry messages: {} people tracked, \
-         target track ids {:?}",
+         target track ids {:?}; {}",
         summary.scans,
         summary.frames,
         summary.boxes,
         summary.odom,
         summary.trails.len(),
-        summary.target_ids
+        summary.target_ids,
+        summary.target.one_line(target_counts)
     );
     Ok(())
 }

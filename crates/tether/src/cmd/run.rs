@@ -15,6 +15,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
+use tether::ego::EgoMotion;
 use tether::live::base::{CommandLine, CommandSink, CreateBase, JsonLines, WheelLines};
 use tether::live::camera::{FolderFrames, FrameSource};
 use tether::live::clock::MonotonicClock;
@@ -25,6 +26,7 @@ use tether_io::scip::{
     Clock, DriverConfig, DriverEvent, Link, UrgDriver, connect_tcp, open_serial,
 };
 use tether_pipeline::{Pipeline, PipelineConfig};
+use tether_scanmatch::ScanMatcherConfig;
 
 use super::track::{Camera, CameraArgs};
 
@@ -37,6 +39,12 @@ pub struct Args {
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long, value_name = "S")]
     pub duration: Option<f64>,
+    /// Where the robot's motion comes from: `auto` or `scans` (the dead reckoning of
+    /// the commands corrected by matching each scan against the static scene), `odom`
+    /// (dead reckoning of the commands alone). `none` is refused: a robot that drives
+    /// cannot be taken to stand still.
+    #[arg(long, value_enum, default_value_t = EgoMotion::Auto)]
+    pub ego_motion: EgoMotion,
 }
 
 /// Scans and frames waiting for the main loop; a sensor thread blocks when it is full.
@@ -300,6 +308,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(s) => anyhow::bail!("--duration must be a positive number of seconds, got {s}"),
         None => None,
     };
+    // The base reports no odometry: the commands' dead reckoning, corrected by the scans
+    // unless asked not to be.
+    let scan_odometry = match args.ego_motion {
+        EgoMotion::Auto | EgoMotion::Scans => Some(ScanMatcherConfig::default()),
+        EgoMotion::Odom => None,
+        EgoMotion::None => anyhow::bail!(
+            "--ego-motion none: a robot that drives cannot be taken to stand still; use \
+             scans (the default) or odom (dead reckoning of the commands)"
+        ),
+    };
     let pipeline_config = config
         .pipeline_config()
         .map_err(|e| anyhow::anyhow!("config {}: {e}", args.config.display()))?;
@@ -350,6 +368,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         control_period: Duration::from_millis(50),
         duration,
         track_width_m,
+        scan_odometry,
     };
     let summary = run_loop::run(
         &mut pipeline,
@@ -387,6 +406,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.clamped_stamps,
         stats.out_of_order_ticks
     );
+    tracing::info!("{}", summary.target.one_line(pipeline.selector().stats()));
     for (output, error) in &summary.final_stop_failures {
         problems.push(format!("the final stop to {output} failed: {error}"));
     }

@@ -7,6 +7,8 @@ use std::path::PathBuf;
 use anyhow::Context;
 use serde::Serialize;
 use tether::recording::Topics;
+use tether::results::TargetStateLine;
+use tether::target_log::TargetLog;
 use tether::tracking::{CameraBoxes, ScanStep, Step, run_recording};
 use tether_core::{CameraIntrinsics, GrayImage, PixelBox};
 use tether_pipeline::{Pipeline, PipelineConfig};
@@ -72,6 +74,8 @@ struct Line<'a> {
     frame: &'a str,
     people: Vec<PersonLine>,
     target: Option<u64>,
+    /// Locked, lost (and why) or searching, and the candidates refused.
+    target_state: TargetStateLine,
 }
 
 /// Reads a pipeline configuration file.
@@ -174,6 +178,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut out = std::io::BufWriter::new(file);
     let (mut scans, mut with_target) = (0usize, 0usize);
     let mut ids = std::collections::BTreeSet::new();
+    let mut target_log = TargetLog::new();
     let mut boxes = camera
         .as_mut()
         .map(|c| move |image: &GrayImage| c.boxes(image, &intrinsics));
@@ -210,7 +215,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 frame: &scan.frame_id,
                 people,
                 target,
+                target_state: TargetStateLine::of(tick),
             };
+            target_log.record(tick.stamp, &tick.target.state, &tick.refusals);
             serde_json::to_writer(&mut out, &line)?;
             out.write_all(b"\n")?;
             scans += 1;
@@ -239,5 +246,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ids.len(),
         args.out.display()
     );
+    println!("{}", target_log.one_line(pipeline.selector().stats()));
     Ok(())
 }

@@ -63,6 +63,10 @@ pub struct CommandLine {
     pub stop: Option<&'static str>,
     /// The locked target.
     pub target: Option<TargetLine>,
+    /// The target's state: locked, lost (and why) or searching, and the candidates
+    /// refused at this tick (absent on the final stop).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target_state: Option<crate::results::TargetStateLine>,
 }
 
 /// The locked target in a [`CommandLine`].
@@ -99,6 +103,7 @@ impl CommandLine {
             right_mps: v_mps + half,
             stop: None,
             target: None,
+            target_state: None,
         }
     }
 

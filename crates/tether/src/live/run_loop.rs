@@ -26,7 +26,10 @@ use tether_pipeline::{Pipeline, Tick, TickInput};
 
 use super::base::{CommandLine, CommandSink, TargetLine};
 use super::odometry::DeadReckoning;
-use crate::results::ResultWriter;
+use crate::ego::ScanOdometry;
+use crate::results::{ResultWriter, TargetStateLine};
+use crate::target_log::TargetLog;
+use tether_scanmatch::{MotionPrior, ScanMatcherConfig};
 
 /// What the sensor threads send.
 #[derive(Debug)]
@@ -58,6 +61,9 @@ pub struct LoopConfig {
     pub duration: Option<Duration>,
     /// Track width, for the wheel speeds of the outputs, m.
     pub track_width_m: f64,
+    /// Correct the dead reckoning of the commands by matching each scan against the
+    /// static scene (the commands' motion as the prior); `None`: dead reckoning alone.
+    pub scan_odometry: Option<ScanMatcherConfig>,
 }
 
 /// Why the run ended.
@@ -119,6 +125,8 @@ pub struct RunSummary {
     pub final_stop_failures: Vec<(String, String)>,
     /// Distance driven by dead reckoning, m.
     pub distance_m: f64,
+    /// The target's locks, losses (with reasons) and refusals.
+    pub target: TargetLog,
 }
 
 /// The MCAP recording of a live run: the scans (`/scan`), the dead-reckoned odometry
@@ -183,6 +191,11 @@ struct Live<'a, W: std::io::Write + std::io::Seek> {
     sinks: &'a mut [Box<dyn CommandSink>],
     recorder: Option<&'a mut Recorder<W>>,
     odometry: DeadReckoning,
+    /// Scan matching and its state: the dead-reckoned pose at the last scan, and the
+    /// correction that takes dead-reckoned poses to scan-matched ones.
+    scan_odometry: Option<ScanOdometry>,
+    dead_reckoned_at_last_scan: Option<Pose2<World, Robot>>,
+    correction: Pose2<World, World>,
     config: &'a LoopConfig,
     last_stamp: Stamp,
     summary: RunSummary,
@@ -211,7 +224,25 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
             r.scan(&scan, self.scan_period_s)
                 .map_err(recording_failed)?;
         }
-        let pose = self.odometry.pose_at(scan.stamp);
+        let dead_reckoned = self.odometry.pose_at(scan.stamp);
+        let pose = match self.scan_odometry.as_mut() {
+            Some(matcher) => {
+                let increment = self
+                    .dead_reckoned_at_last_scan
+                    .map_or(Pose2::IDENTITY, |last| last.inverse() * dead_reckoned);
+                self.dead_reckoned_at_last_scan = Some(dead_reckoned);
+                let people = self
+                    .pipeline
+                    .tracker()
+                    .tracks()
+                    .iter()
+                    .map(|t| t.position().mean);
+                let matched = matcher.update(&scan, MotionPrior::Increment(increment), people);
+                self.correction = matched * dead_reckoned.inverse();
+                matched
+            }
+            None => dead_reckoned,
+        };
         scan.stamp = self.pipeline_stamp(scan.stamp);
         let tick = self.pipeline.on_scan(&scan, pose);
         self.summary.scans += 1;
@@ -219,7 +250,7 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
     }
 
     fn camera(&mut self, stamp: Stamp, boxes: &[PixelBox]) -> Result<(), Ending> {
-        let pose = self.odometry.pose_at(stamp);
+        let pose = self.correction * self.odometry.pose_at(stamp);
         let stamp = self.pipeline_stamp(stamp);
         let tick = self.pipeline.on_camera_boxes(stamp, boxes, pose);
         self.summary.frames += 1;
@@ -228,7 +259,7 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
 
     fn timer(&mut self, now: Stamp) -> Result<(), Ending> {
         let stamp = self.pipeline_stamp(now);
-        let pose = self.odometry.pose_at(stamp);
+        let pose = self.correction * self.odometry.pose_at(stamp);
         let tick = self.pipeline.on_timer(stamp, pose);
         self.emit(&tick, pose)
     }
@@ -255,6 +286,10 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
             self.config.track_width_m,
         );
         line.stop = tick.stop.map(|s| s.name());
+        line.target_state = Some(TargetStateLine::of(tick));
+        self.summary
+            .target
+            .record(tick.stamp, &tick.target.state, &tick.refusals);
         if let (Some(id), Some(estimate)) = (tick.target.state.locked_track(), tick.target.estimate)
         {
             self.summary.ticks_with_target += 1;
@@ -394,12 +429,19 @@ pub fn run<W: std::io::Write + std::io::Seek>(
     scan_period_s: f64,
 ) -> RunSummary {
     let start = Stamp::from_ns(clock.now_ns());
+    let pipeline_mount = pipeline.config().laser.robot_from_laser();
     let mut live = Live {
         pipeline,
         clock,
         sinks,
         recorder,
         odometry: DeadReckoning::new(start),
+        scan_odometry: config
+            .scan_odometry
+            .clone()
+            .map(|c| ScanOdometry::new(c, pipeline_mount)),
+        dead_reckoned_at_last_scan: None,
+        correction: Pose2::IDENTITY,
         config,
         last_stamp: start,
         summary: RunSummary {
@@ -412,6 +454,7 @@ pub fn run<W: std::io::Write + std::io::Seek>(
             ticks_with_target: 0,
             final_stop_failures: Vec::new(),
             distance_m: 0.0,
+            target: TargetLog::new(),
         },
         scan_period_s,
         travelled_to: tether_core::Point2::ORIGIN,
@@ -471,6 +514,7 @@ mod tests {
             control_period: Duration::from_millis(50),
             duration: duration_ms.map(Duration::from_millis),
             track_width_m: 0.3,
+            scan_odometry: Some(ScanMatcherConfig::default()),
         }
     }
 

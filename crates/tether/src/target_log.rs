@@ -1,0 +1,434 @@
+//! What happened to the target over a run: when it was locked, lost (and why), taken up
+//! again, and which candidates were refused while it was lost (and why). `track`,
+//! `replay`, `run` and the simulator's report all keep one, so every output says the
+//! same thing in the same words (the names of [`TargetState::name`],
+//! [`LossReason::name`] and [`Refusal::name`]).
+
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+
+use serde::Serialize;
+use tether_core::Stamp;
+use tether_fusion::{LossReason, Refusal, TargetState, TargetStats};
+use tether_sim::svg::xml_escape;
+
+/// One change of the target's state, or a first refusal of a candidate during a loss.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TargetEvent {
+    /// Time since the first recorded tick, s.
+    pub t_s: f64,
+    /// What happened.
+    #[serde(flatten)]
+    pub kind: EventKind,
+}
+
+/// What a [`TargetEvent`] says.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum EventKind {
+    /// A target was chosen (from searching).
+    Locked {
+        /// Its track.
+        track: u64,
+    },
+    /// The target was lost.
+    Lost {
+        /// The track that was followed.
+        track: u64,
+        /// Why.
+        reason: LossReason,
+    },
+    /// The lost target was taken up again.
+    Reacquired {
+        /// The track followed now (the old id, or a new track on the same person).
+        track: u64,
+        /// How long it was lost, s.
+        after_s: f64,
+    },
+    /// The lost target's search was given up (a user's track id that vanished).
+    Searching,
+    /// A track was refused as the lost target (the first time for this track and
+    /// reason during this loss).
+    Refused {
+        /// The refused track.
+        track: u64,
+        /// Why.
+        refusal: Refusal,
+    },
+}
+
+/// Time spent in each state and what the selector counted.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct TargetSummary {
+    /// Time locked on a target, s.
+    pub locked_s: f64,
+    /// Time with the target lost, s.
+    pub lost_s: f64,
+    /// Time searching before any target was chosen (or after giving up), s.
+    pub searching_s: f64,
+    /// Longest single loss, s.
+    pub longest_loss_s: f64,
+    /// Ticks in each state.
+    pub locked_ticks: u64,
+    /// Ticks lost.
+    pub lost_ticks: u64,
+    /// Ticks searching.
+    pub searching_ticks: u64,
+    /// The selector's counters (locks, losses by reason, re-acquisitions, refusals).
+    #[serde(flatten)]
+    pub counts: TargetStats,
+}
+
+/// Keeps the target's timeline over a run.
+#[derive(Debug, Clone, Default)]
+pub struct TargetLog {
+    start: Option<Stamp>,
+    last: Option<(Stamp, TargetState)>,
+    lost_since: Option<Stamp>,
+    refused: BTreeSet<(u64, Refusal)>,
+    events: Vec<TargetEvent>,
+    summary: TargetSummary,
+}
+
+impl TargetLog {
+    /// An empty log.
+    pub fn new() -> Self {
+        TargetLog::default()
+    }
+
+    /// Records one tick's state and refusals (ticks must come in stamp order; a tick
+    /// whose stamp went backwards only updates the state).
+    pub fn record(&mut self, stamp: Stamp, state: &TargetState, refusals: &[(u64, Refusal)]) {
+        let start = *self.start.get_or_insert(stamp);
+        let t_s = stamp.secs_since(start);
+        if let Some((prev_stamp, prev)) = &self.last {
+            let dt_s = stamp.secs_since(*prev_stamp).max(0.0);
+            match prev {
+                TargetState::Locked { .. } => self.summary.locked_s += dt_s,
+                TargetState::Lost { .. } => self.summary.lost_s += dt_s,
+                TargetState::Searching => self.summary.searching_s += dt_s,
+            }
+        }
+        match state {
+            TargetState::Locked { .. } => self.summary.locked_ticks += 1,
+            TargetState::Lost { .. } => self.summary.lost_ticks += 1,
+            TargetState::Searching => self.summary.searching_ticks += 1,
+        }
+        let prev = self.last.map(|(_, s)| s).unwrap_or(TargetState::Searching);
+        let event = match (prev, *state) {
+            (TargetState::Searching, TargetState::Locked { track }) => {
+                Some(EventKind::Locked { track })
+            }
+            (TargetState::Locked { .. }, TargetState::Lost { track, reason, .. })
+            | (TargetState::Searching, TargetState::Lost { track, reason, .. }) => {
+                self.lost_since = Some(stamp);
+                self.refused.clear();
+                Some(EventKind::Lost { track, reason })
+            }
+            (TargetState::Lost { .. }, TargetState::Locked { track }) => {
+                let after_s = self.end_loss(stamp);
+                Some(EventKind::Reacquired { track, after_s })
+            }
+            (TargetState::Lost { .. }, TargetState::Searching) => {
+                self.end_loss(stamp);
+                Some(EventKind::Searching)
+            }
+            (TargetState::Locked { track: a }, TargetState::Locked { track: b }) if a != b => {
+                // A user's id, or a lock carried over: say so rather than hide it.
+                Some(EventKind::Locked { track: b })
+            }
+            _ => None,
+        };
+        if let Some(kind) = event {
+            self.events.push(TargetEvent { t_s, kind });
+        }
+        if let TargetState::Lost { .. } = state {
+            for &(track, refusal) in refusals {
+                if self.refused.insert((track, refusal)) {
+                    self.events.push(TargetEvent {
+                        t_s,
+                        kind: EventKind::Refused { track, refusal },
+                    });
+                }
+            }
+        }
+        self.last = Some((stamp, *state));
+    }
+
+    fn end_loss(&mut self, stamp: Stamp) -> f64 {
+        let after_s = self
+            .lost_since
+            .take()
+            .map_or(0.0, |since| stamp.secs_since(since).max(0.0));
+        self.summary.longest_loss_s = self.summary.longest_loss_s.max(after_s);
+        self.refused.clear();
+        after_s
+    }
+
+    /// The events so far, in time order.
+    pub fn events(&self) -> &[TargetEvent] {
+        &self.events
+    }
+
+    /// The summary, with the selector's counters.
+    pub fn summary(&self, counts: TargetStats) -> TargetSummary {
+        let mut s = self.summary;
+        if let (Some(since), Some((now, _))) = (self.lost_since, self.last) {
+            s.longest_loss_s = s.longest_loss_s.max(now.secs_since(since).max(0.0));
+        }
+        s.counts = counts;
+        s
+    }
+
+    /// The selector's counters as far as the events tell them (for a run whose
+    /// selector is gone: the simulator's log). Ambiguity counts each refused track.
+    pub fn counts_from_events(&self) -> TargetStats {
+        let mut c = TargetStats::default();
+        let mut lost_track = None;
+        for e in &self.events {
+            match e.kind {
+                EventKind::Locked { .. } => c.locks += 1,
+                EventKind::Lost { track, reason } => {
+                    lost_track = Some(track);
+                    c.losses += 1;
+                    *match reason {
+                        LossReason::Unseen => &mut c.lost_unseen,
+                        LossReason::LeftView => &mut c.lost_left_view,
+                        LossReason::SensorGap => &mut c.lost_sensor_gap,
+                        LossReason::TrackDropped => &mut c.lost_track_dropped,
+                    } += 1;
+                }
+                EventKind::Reacquired { track, .. } => {
+                    c.reacquisitions += 1;
+                    c.reacquired_same_track += u64::from(lost_track == Some(track));
+                }
+                EventKind::Searching => {}
+                EventKind::Refused { refusal, .. } => {
+                    *match refusal {
+                        Refusal::OutOfReach => &mut c.refused_out_of_reach,
+                        Refusal::SomebodyElse => &mut c.refused_somebody_else,
+                        Refusal::CameraDoesNotVouch => &mut c.refused_camera_does_not_vouch,
+                        Refusal::NoLegPair => &mut c.refused_no_leg_pair,
+                        Refusal::NotWalking => &mut c.refused_not_walking,
+                        Refusal::StaticClutter => &mut c.refused_static_clutter,
+                        Refusal::Ambiguous => &mut c.ambiguous,
+                    } += 1;
+                }
+            }
+        }
+        c
+    }
+
+    /// One line for a command's closing message.
+    pub fn one_line(&self, counts: TargetStats) -> String {
+        let s = self.summary(counts);
+        let mut reasons = Vec::new();
+        for (name, n) in [
+            (LossReason::Unseen.name(), s.counts.lost_unseen),
+            (LossReason::LeftView.name(), s.counts.lost_left_view),
+            (LossReason::SensorGap.name(), s.counts.lost_sensor_gap),
+            (LossReason::TrackDropped.name(), s.counts.lost_track_dropped),
+        ] {
+            if n > 0 {
+                reasons.push(format!("{n} {name}"));
+            }
+        }
+        let reasons = if reasons.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", reasons.join(", "))
+        };
+        format!(
+            "target locked {:.1} s, lost {:.1} s in {} losses{reasons}, {} re-acquired, \
+             {} ambiguous",
+            s.locked_s, s.lost_s, s.counts.losses, s.counts.reacquisitions, s.counts.ambiguous
+        )
+    }
+
+    /// The report's section: a state band over time and the table of events.
+    pub fn html(&self, counts: TargetStats) -> String {
+        let s = self.summary(counts);
+        let mut h = String::new();
+        let _ = write!(
+            h,
+            "<p>Locked {:.1} s, lost {:.1} s, searching {:.1} s; {} locks, {} losses, {} \
+             re-acquisitions ({} onto the same track), {} ambiguous candidate sets; longest \
+             loss {:.1} s.</p>",
+            s.locked_s,
+            s.lost_s,
+            s.searching_s,
+            s.counts.locks,
+            s.counts.losses,
+            s.counts.reacquisitions,
+            s.counts.reacquired_same_track,
+            s.counts.ambiguous,
+            s.longest_loss_s
+        );
+        h.push_str(&self.band_svg());
+        let _ = write!(
+            h,
+            "<table class=\"target-events\"><tr><th>t (s)</th><th>event</th><th>track</th>\
+             <th>why</th></tr>"
+        );
+        for e in &self.events {
+            let (what, track, why) = match &e.kind {
+                EventKind::Locked { track } => ("locked", Some(*track), String::new()),
+                EventKind::Lost { track, reason } => {
+                    ("lost", Some(*track), reason.name().to_string())
+                }
+                EventKind::Reacquired { track, after_s } => {
+                    ("re-acquired", Some(*track), format!("after {after_s:.1} s"))
+                }
+                EventKind::Searching => ("searching", None, "gave up".to_string()),
+                EventKind::Refused { track, refusal } => {
+                    ("refused", Some(*track), refusal.name().to_string())
+                }
+            };
+            let _ = write!(
+                h,
+                "<tr class=\"{}\"><td>{:.1}</td><td>{what}</td><td>{}</td><td>{}</td></tr>",
+                what.replace(' ', "-"),
+                e.t_s,
+                track.map_or(String::from("-"), |t| t.to_string()),
+                xml_escape(&why)
+            );
+        }
+        h.push_str("</table>");
+        h
+    }
+
+    /// A band over the run: green while locked, red while lost, grey while searching.
+    fn band_svg(&self) -> String {
+        let end_s = self
+            .last
+            .zip(self.start)
+            .map_or(0.0, |((now, _), start)| now.secs_since(start));
+        let (width, height) = (720.0, 18.0);
+        let mut s = format!(
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{width}\" height=\"{}\" \
+             class=\"target-band\">",
+            height + 14.0
+        );
+        let _ = write!(
+            s,
+            "<rect x=\"0\" y=\"0\" width=\"{width}\" height=\"{height}\" fill=\"#bbbbbb\"/>"
+        );
+        if end_s > 0.0 {
+            let k = width / end_s;
+            let mut state = ("#bbbbbb", 0.0);
+            let mut spans = Vec::new();
+            for e in &self.events {
+                let color = match e.kind {
+                    EventKind::Locked { .. } | EventKind::Reacquired { .. } => "#2ca02c",
+                    EventKind::Lost { .. } => "#d62728",
+                    EventKind::Searching => "#bbbbbb",
+                    EventKind::Refused { .. } => continue,
+                };
+                spans.push((state.0, state.1, e.t_s));
+                state = (color, e.t_s);
+            }
+            spans.push((state.0, state.1, end_s));
+            for (color, a, b) in spans {
+                if b > a {
+                    let _ = write!(
+                        s,
+                        "<rect x=\"{:.1}\" y=\"0\" width=\"{:.1}\" height=\"{height}\" \
+                         fill=\"{color}\"/>",
+                        a * k,
+                        (b - a) * k
+                    );
+                }
+            }
+        }
+        let _ = write!(
+            s,
+            "<text x=\"0\" y=\"{}\" font-size=\"11\">0 s; green: locked, red: lost, grey: \
+             searching; {end_s:.1} s</text></svg>",
+            height + 12.0
+        );
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tether_core::{Cov2, Gaussian2, Point2, Vector2, World};
+
+    fn at(ms: i64) -> Stamp {
+        Stamp::from_ns(ms * 1_000_000)
+    }
+
+    fn lost(track: u64, reason: LossReason) -> TargetState {
+        TargetState::Lost {
+            track,
+            reason,
+            since: at(0),
+            last: Gaussian2::<World>::new(Point2::new(1.0, 0.0), Cov2::isotropic(0.01).unwrap())
+                .unwrap(),
+            velocity: Vector2::ZERO,
+            velocity_sigma_mps: 0.1,
+        }
+    }
+
+    #[test]
+    fn the_timeline_says_when_and_why() {
+        let mut log = TargetLog::new();
+        log.record(at(0), &TargetState::Searching, &[]);
+        log.record(at(100), &TargetState::Locked { track: 3 }, &[]);
+        log.record(at(1100), &lost(3, LossReason::Unseen), &[]);
+        let refusals = [(5, Refusal::NotWalking)];
+        log.record(at(1200), &lost(3, LossReason::Unseen), &refusals);
+        log.record(at(1300), &lost(3, LossReason::Unseen), &refusals);
+        log.record(at(1600), &TargetState::Locked { track: 5 }, &[]);
+        log.record(at(2600), &TargetState::Locked { track: 5 }, &[]);
+        let kinds: Vec<&EventKind> = log.events().iter().map(|e| &e.kind).collect();
+        assert_eq!(
+            kinds,
+            [
+                &EventKind::Locked { track: 3 },
+                &EventKind::Lost {
+                    track: 3,
+                    reason: LossReason::Unseen
+                },
+                &EventKind::Refused {
+                    track: 5,
+                    refusal: Refusal::NotWalking
+                },
+                &EventKind::Reacquired {
+                    track: 5,
+                    after_s: 0.5
+                },
+            ]
+        );
+        let s = log.summary(TargetStats::default());
+        assert!((s.locked_s - 2.0).abs() < 1e-9, "{s:?}");
+        assert!((s.lost_s - 0.5).abs() < 1e-9);
+        assert!((s.searching_s - 0.1).abs() < 1e-9);
+        assert!((s.longest_loss_s - 0.5).abs() < 1e-9);
+        assert_eq!((s.locked_ticks, s.lost_ticks, s.searching_ticks), (3, 3, 1));
+        let counts = log.counts_from_events();
+        assert_eq!((counts.locks, counts.losses, counts.lost_unseen), (1, 1, 1));
+        assert_eq!(
+            (counts.reacquisitions, counts.reacquired_same_track),
+            (1, 0)
+        );
+        assert_eq!(counts.refused_not_walking, 1);
+        let html = log.html(counts);
+        assert!(
+            html.contains("unseen") && html.contains("not_walking"),
+            "{html}"
+        );
+        assert!(html.contains("after 0.5 s"));
+    }
+
+    #[test]
+    fn a_loss_still_open_counts_as_the_longest() {
+        let mut log = TargetLog::new();
+        log.record(at(0), &TargetState::Locked { track: 1 }, &[]);
+        log.record(at(1000), &lost(1, LossReason::SensorGap), &[]);
+        log.record(at(4000), &lost(1, LossReason::SensorGap), &[]);
+        assert!((log.summary(TargetStats::default()).longest_loss_s - 3.0).abs() < 1e-9);
+        assert!(log.one_line(TargetStats::default()).contains("lost 3.0 s"));
+    }
+}
