@@ -101,3 +101,58 @@ fn scan_and_camera_tick(bencher: divan::Bencher) {
         divan::black_box(out)
     });
 }
+
+/// A laser-only tick as a robot without odometry runs it (issue 14 goal: under 100 us):
+/// the scan matched against the static scene (the people tracked left out) for the
+/// robot's pose, then detection, tracking with the physical gate and the clutter map,
+/// and the target's reachable region.
+#[divan::bench]
+fn scan_tick_with_scan_matching(bencher: divan::Bencher) {
+    use tether_scanmatch::{
+        ExclusionZone, MotionPrior, ScanMatcher, ScanMatcherConfig, ScanPoints,
+    };
+    let data = inputs();
+    let mut config = data.config.clone();
+    config.fusion.use_vision = false;
+    let mount = config.laser.robot_from_laser();
+    let fresh = || {
+        (
+            Pipeline::new(config.clone(), None).expect("valid config"),
+            ScanMatcher::new(ScanMatcherConfig::default()),
+        )
+    };
+    let (mut pipeline, mut matcher) = fresh();
+    let mut points = ScanPoints::default();
+    let mut zones: Vec<ExclusionZone> = Vec::new();
+    let mut pose = tether_core::Pose2::IDENTITY;
+    let mut step = |pipeline: &mut Pipeline, matcher: &mut ScanMatcher, k: usize| {
+        let (scan, _) = &data.scans[k];
+        let robot_from_world = pose.inverse();
+        zones.clear();
+        zones.extend(pipeline.tracker().tracks().iter().map(|t| ExclusionZone {
+            center: robot_from_world * t.position().mean,
+            radius_m: 0.6,
+        }));
+        points
+            .fill_from_scan(scan, mount)
+            .expect("a simulated scan reads");
+        pose = matcher
+            .update(scan.stamp, &points, MotionPrior::ConstantVelocity, &zones)
+            .world_from_robot;
+        pipeline.on_scan(scan, pose).command
+    };
+    let mut k = 0usize;
+    while k < 40 {
+        step(&mut pipeline, &mut matcher, k);
+        k += 1;
+    }
+    bencher.bench_local(|| {
+        if k >= data.scans.len() {
+            (pipeline, matcher) = fresh();
+            k = 0;
+        }
+        let out = step(&mut pipeline, &mut matcher, k);
+        k += 1;
+        divan::black_box(out)
+    });
+}
