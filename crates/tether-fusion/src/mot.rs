@@ -1,10 +1,15 @@
 //! CLEAR MOT metrics (Bernardin and Stiefelhagen 2008) for evaluating people tracking,
 //! with a match threshold of 0.75 m as Leigh et al. (ICRA 2015) used.
 //!
-//! Per frame: correspondences of the previous frame are kept while the pair stays
-//! within the threshold; the remaining objects and hypotheses are matched by the
-//! Hungarian method on distance (pairs beyond the threshold forbidden). A match whose
-//! hypothesis differs from the one last matched to that object is an identity switch.
+//! Per frame, as py-motmetrics' `MOTAccumulator.update` does it (the reference the
+//! tests compare with): first, in the order the objects are given, each object keeps
+//! the hypothesis it was last matched to (in any earlier frame, not only the previous
+//! one) if that hypothesis is present, not taken, and within the threshold; then the
+//! remaining objects and hypotheses are matched by the Hungarian method on distance
+//! (pairs beyond the threshold forbidden; as many pairs as possible, then the least
+//! total distance). A match whose hypothesis differs from the one last matched to that
+//! object is an identity switch. Distances are Euclidean, a pair at exactly the
+//! threshold matches.
 //!
 //! `MOTA = 1 - (misses + false positives + switches) / objects`,
 //! `MOTP = mean distance of the matches`.
@@ -76,9 +81,9 @@ impl ClearMot {
         let t = self.threshold_m;
         let mut matched_o = vec![None::<usize>; objects.len()];
         let mut used_h = vec![false; hypotheses.len()];
-        // Keep last frame's correspondences that still hold.
+        // Keep the last correspondence of each object that still holds.
         for (oi, (oid, op)) in objects.iter().enumerate() {
-            if let Some(hid) = self.previous.get(oid)
+            if let Some(hid) = self.last_match.get(oid)
                 && let Some(hi) = hypotheses.iter().position(|(h, _)| h == hid)
                 && !used_h[hi]
                 && hypotheses[hi].1.distance_m(*op) <= t
@@ -205,6 +210,22 @@ mod tests {
             (3, 2, 1, 1, 1)
         );
         assert!((s.mota - (1.0 - 3.0 / 3.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn keeps_a_correspondence_across_a_missed_frame() {
+        // Object 1 matched to 10, then missed (10 too far), then 10 is back within the
+        // threshold with 11 nearer: 10 is kept, no switch (py-motmetrics' rule).
+        let mut m = ClearMot::new(0.75);
+        m.add_frame(&[(1, p(0.0, 0.0))], &[(10, p(0.1, 0.0))]);
+        m.add_frame(&[(1, p(0.0, 0.0))], &[(10, p(2.0, 0.0))]);
+        m.add_frame(
+            &[(1, p(0.0, 0.0))],
+            &[(10, p(0.5, 0.0)), (11, p(0.05, 0.0))],
+        );
+        let s = m.summary();
+        assert_eq!((s.matches, s.misses, s.id_switches), (2, 1, 0));
+        assert_eq!(m.current_matches().get(&1), Some(&10));
     }
 
     #[test]

@@ -11,3 +11,5 @@ pub mod report;
 pub mod results;
 pub mod target_log;
 pub mod target_metrics;
+pub mod track_eval;
+pub mod tracking;

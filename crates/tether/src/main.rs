@@ -38,6 +38,8 @@ enum Command {
     Replay(cmd::replay::Args),
     /// Measure fusion and tracking over many simulated seeds (RMSE, NEES, CLEAR MOT).
     EvalFusion(cmd::eval_fusion::Args),
+    /// Measure tracking and the target on an annotated recording (CLEAR MOT, target share).
+    EvalTrack(cmd::eval_track::Args),
     /// Measure the target lock over many simulated seeds, per sensor mode.
     EvalTarget(cmd::eval_target::Args),
     /// Detect objects with an OpenCV Haar cascade (prints opencv_reference.py's JSON).
@@ -76,6 +78,7 @@ fn main() -> std::process::ExitCode {
         Command::Track(args) => cmd::track::run(args),
         Command::Replay(args) => cmd::replay::run(args),
         Command::EvalFusion(args) => cmd::eval_fusion::run(args),
+        Command::EvalTrack(args) => cmd::eval_track::run(args),
         Command::EvalTarget(args) => cmd::eval_target::run(args),
         Command::Detect(args) => cmd::detect::run(args),
         Command::TrainCascade(args) => cmd::train_cascade::run(args),

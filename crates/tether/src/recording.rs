@@ -10,7 +10,7 @@
 use std::path::Path;
 
 use anyhow::Context;
-use tether_core::{GrayImage, LaserScan, Pose2, Robot, Stamp, World};
+use tether_core::{GrayImage, Laser, LaserScan, Point2, Pose2, Robot, Stamp, World};
 use tether_io::mcap::{self, CompressedImageMsg, ImageMsg, McapFile, OdometryMsg, Ros2Message};
 use tether_io::rosbag::{self, Bag, RosMessage};
 use tether_vision::imread::decode_gray;
@@ -55,6 +55,37 @@ pub enum Sample {
         /// Pose of the robot (`child_frame_id`) in the odometry frame.
         world_from_robot: Pose2<World, Robot>,
     },
+}
+
+/// A message of an annotation topic: labelled people in the scan's frame, as
+/// `tether eval-track` reads them. Two message types carry labels:
+/// `leg_tracker/PersonArray` (each person with an `id`) and `geometry_msgs/PoseArray`
+/// (positions only, e.g. leg_tracker's `/leg_cluster_positions`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LabelMessage {
+    /// Header stamp (zero in leg_tracker's extracted training bags).
+    pub stamp: Stamp,
+    /// Header frame.
+    pub frame_id: String,
+    /// Each label: its id (PersonArray) or `None` (PoseArray), and its position on the
+    /// ground plane of the frame, m.
+    pub labels: Vec<(Option<u32>, Point2<Laser>)>,
+}
+
+impl LabelMessage {
+    fn from_poses<'a>(
+        stamp: Stamp,
+        frame_id: String,
+        poses: impl Iterator<Item = (Option<u32>, &'a rosbag::Pose3)>,
+    ) -> Self {
+        LabelMessage {
+            stamp,
+            frame_id,
+            labels: poses
+                .map(|(id, p)| (id, Point2::new(p.position_m[0], p.position_m[1])))
+                .collect(),
+        }
+    }
 }
 
 /// What a reading skipped.
@@ -136,9 +167,29 @@ pub fn read(
     on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
 ) -> anyhow::Result<ReadStats> {
     if is_mcap(path)? {
-        read_mcap(path, topics, on_sample)
+        read_mcap(path, topics, on_sample, None)
     } else {
-        read_bag(path, topics, on_sample)
+        read_bag(path, topics, on_sample, None)
+    }
+}
+
+/// Like [`read`], and also hands every message of `labels_topic` (see
+/// [`LabelMessage`]) to `on_labels`, in log order among the samples.
+pub fn read_with_labels(
+    path: &Path,
+    topics: &Topics,
+    labels_topic: &str,
+    on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
+    on_labels: &mut dyn FnMut(LabelMessage) -> anyhow::Result<()>,
+) -> anyhow::Result<ReadStats> {
+    let sink = LabelSink {
+        topic: labels_topic,
+        on_labels,
+    };
+    if is_mcap(path)? {
+        read_mcap(path, topics, on_sample, Some(sink))
+    } else {
+        read_bag(path, topics, on_sample, Some(sink))
     }
 }
 
@@ -151,6 +202,7 @@ trait Stored {
     fn odometry(&self) -> anyhow::Result<OdometryMsg>;
     fn compressed(&self) -> anyhow::Result<CompressedImageMsg>;
     fn image(&self) -> anyhow::Result<ImageMsg>;
+    fn labels(&self) -> anyhow::Result<LabelMessage>;
 
     fn sample(&self, topics: &Topics) -> anyhow::Result<Sample> {
         let topic = self.topic();
@@ -186,6 +238,29 @@ impl Stored for mcap::RawMessage {
     fn image(&self) -> anyhow::Result<ImageMsg> {
         Ok(self.decode()?)
     }
+    fn labels(&self) -> anyhow::Result<LabelMessage> {
+        let name = self.channel.type_name();
+        if name == mcap::PersonArrayMsg::TYPE || name == "leg_tracker/PersonArray" {
+            let m = self.decode::<mcap::PersonArrayMsg>()?;
+            Ok(LabelMessage::from_poses(
+                m.header.stamp,
+                m.header.frame_id,
+                m.people.iter().map(|(id, p)| (Some(*id), p)),
+            ))
+        } else if name == mcap::PoseArrayMsg::TYPE || name == "geometry_msgs/PoseArray" {
+            let m = self.decode::<mcap::PoseArrayMsg>()?;
+            Ok(LabelMessage::from_poses(
+                m.header.stamp,
+                m.header.frame_id,
+                m.poses.iter().map(|p| (None, p)),
+            ))
+        } else {
+            anyhow::bail!(
+                "labels of type {name}: tether reads leg_tracker/msg/PersonArray or \
+                 geometry_msgs/msg/PoseArray"
+            )
+        }
+    }
 }
 
 impl Stored for rosbag::RawMessage {
@@ -206,6 +281,51 @@ impl Stored for rosbag::RawMessage {
     }
     fn image(&self) -> anyhow::Result<ImageMsg> {
         Ok(self.decode()?)
+    }
+    fn labels(&self) -> anyhow::Result<LabelMessage> {
+        let name = self.connection.msg_type.as_str();
+        if name == <rosbag::PersonArrayMsg as RosMessage>::TYPE {
+            let m = self.decode::<rosbag::PersonArrayMsg>()?;
+            Ok(LabelMessage::from_poses(
+                m.header.stamp,
+                m.header.frame_id,
+                m.people.iter().map(|p| (Some(p.id), &p.pose)),
+            ))
+        } else if name == <rosbag::PoseArrayMsg as RosMessage>::TYPE {
+            let m = self.decode::<rosbag::PoseArrayMsg>()?;
+            Ok(LabelMessage::from_poses(
+                m.header.stamp,
+                m.header.frame_id,
+                m.poses.iter().map(|p| (None, p)),
+            ))
+        } else {
+            anyhow::bail!(
+                "labels of type {name}: tether reads leg_tracker/PersonArray or \
+                 geometry_msgs/PoseArray"
+            )
+        }
+    }
+}
+
+/// Where the messages of an annotation topic go, besides the samples.
+struct LabelSink<'a> {
+    topic: &'a str,
+    on_labels: &'a mut dyn FnMut(LabelMessage) -> anyhow::Result<()>,
+}
+
+/// Hands `raw`'s labels to the sink, or skips and counts them.
+fn deliver_labels(
+    raw: &impl Stored,
+    at: &dyn std::fmt::Display,
+    sink: &mut LabelSink<'_>,
+    stats: &mut ReadStats,
+) -> anyhow::Result<()> {
+    match raw.labels() {
+        Ok(l) => (sink.on_labels)(l),
+        Err(e) => {
+            skip(stats, raw.topic(), at, &format_args!("{e:#}"));
+            Ok(())
+        }
     }
 }
 
@@ -230,15 +350,19 @@ fn read_mcap(
     path: &Path,
     topics: &Topics,
     on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
+    mut labels: Option<LabelSink<'_>>,
 ) -> anyhow::Result<ReadStats> {
     let file = McapFile::open(path)?;
-    let wanted = topics.all();
+    let mut wanted = topics.all();
+    wanted.extend(labels.as_ref().map(|l| l.topic));
     check_topics(path, &wanted, &file.topics())?;
     let mut stats = ReadStats::default();
     let mut messages = file.messages();
     for raw in &mut messages {
         let raw = raw?;
-        if wanted.contains(&raw.topic()) {
+        if let Some(sink) = labels.as_mut().filter(|l| l.topic == raw.topic()) {
+            deliver_labels(&raw, &raw.at, sink, &mut stats)?;
+        } else if wanted.contains(&raw.topic()) {
             deliver(&raw, &raw.at, topics, &mut stats, on_sample)?;
         }
     }
@@ -250,15 +374,21 @@ fn read_bag(
     path: &Path,
     topics: &Topics,
     on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
+    mut labels: Option<LabelSink<'_>>,
 ) -> anyhow::Result<ReadStats> {
     let mut bag = Bag::open(path)?;
-    let wanted = topics.all();
+    let mut wanted = topics.all();
+    wanted.extend(labels.as_ref().map(|l| l.topic));
     check_topics(path, &wanted, &bag.topics())?;
     let mut stats = ReadStats::default();
     let mut messages = bag.messages().only_topics(&wanted);
     for raw in &mut messages {
         let raw = raw?;
-        deliver(&raw, &raw.at, topics, &mut stats, on_sample)?;
+        if let Some(sink) = labels.as_mut().filter(|l| l.topic == raw.topic()) {
+            deliver_labels(&raw, &raw.at, sink, &mut stats)?;
+        } else {
+            deliver(&raw, &raw.at, topics, &mut stats, on_sample)?;
+        }
     }
     stats.unattributed = messages.skipped_count();
     Ok(stats)

@@ -31,8 +31,8 @@ mod writer;
 pub use error::{DecodeError, EncodeError, Location, McapError};
 pub use msgs::{
     CompressedFormat, CompressedImageMsg, Header, ImageMsg, ImageMsgError, LaserScanMsg,
-    OdometryMsg, PixelEncoding, Pose3, PoseArrayMsg, PoseWithCovarianceStampedMsg, RawLaserScan,
-    Ros2Message, StringMsg, TwistMsg, from_cdr, to_cdr,
+    OdometryMsg, PersonArrayMsg, PixelEncoding, Pose3, PoseArrayMsg, PoseWithCovarianceStampedMsg,
+    RawLaserScan, Ros2Message, StringMsg, TwistMsg, from_cdr, to_cdr,
 };
 pub use reader::{
     BadMessage, Channel, Decoded, MAGIC, McapFile, Message, Messages, RawMessage, Schema,

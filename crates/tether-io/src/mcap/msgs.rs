@@ -758,6 +758,55 @@ impl Ros2Message for PoseArrayMsg {
     }
 }
 
+/// `leg_tracker/msg/PersonArray` (ROS 2 form of leg_tracker's `PersonArray.msg`):
+/// `std_msgs/Header header`, `Person[] people` with `Person` = `geometry_msgs/Pose pose`,
+/// `uint32 id`. Annotations in leg_tracker's format give the labelled people this way.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PersonArrayMsg {
+    /// ROS header (stamp and the frame of the poses).
+    pub header: Header,
+    /// `(id, pose)` of each person.
+    pub people: Vec<(u32, Pose3)>,
+}
+
+impl Ros2Message for PersonArrayMsg {
+    const TYPE: &'static str = "leg_tracker/msg/PersonArray";
+    const DEFINITION: &'static str = concat!(
+        "std_msgs/Header header\n",
+        "Person[] people\n",
+        header_def!(),
+        sep!("leg_tracker/Person"),
+        "geometry_msgs/Pose pose\n",
+        "uint32 id\n",
+        pose_def!()
+    );
+
+    fn write_cdr(&self, w: &mut CdrWriter) -> Result<(), EncodeError> {
+        self.header.write(w)?;
+        w.count("people", self.people.len())?;
+        for (id, pose) in &self.people {
+            write_pose(w, pose);
+            w.u32(*id);
+        }
+        Ok(())
+    }
+
+    fn read_cdr(r: &mut CdrReader<'_>) -> Result<Self, DecodeError> {
+        let header = Header::read(r)?;
+        let n = r.count("people", 7 * 8 + 4)?;
+        let mut people = Vec::with_capacity(n);
+        for _ in 0..n {
+            let pose = read_pose(r, "people.pose")?;
+            people.push((r.u32("people.id")?, pose));
+        }
+        Ok(PersonArrayMsg { header, people })
+    }
+
+    fn header_stamp(&self) -> Option<Stamp> {
+        Some(self.header.stamp)
+    }
+}
+
 /// Index of `(row, col)` in a row-major 6x6 covariance over
 /// `(x, y, z, rotation about x, rotation about y, rotation about z)`.
 const fn cov6(row: usize, col: usize) -> usize {

@@ -10,6 +10,13 @@
 //! file order and yields [`RawMessage`]s; [`Bag::decoded`] decodes the messages of
 //! chosen topics ([`LaserScanMsg`], [`PoseArrayMsg`], or any [`RosMessage`]).
 //!
+//! [`BagWriter`] writes bags in the same format (uncompressed chunks, indexed), with
+//! each connection's full message definition and the MD5 sum computed from it
+//! ([`definition_md5`]); [`RosMessageOut`] is what a message type needs to be written
+//! (LaserScan, PoseArray, Odometry, leg_tracker's Person and PersonArray).
+//! [`Bag::open_salvaging`] reads a bag whose index is missing or cut off by walking its
+//! records, up to where the file was cut.
+//!
 //! Damage to the structure (a truncated file, a record whose header contradicts the
 //! format, a chunk that does not decompress) is a [`BagError`] naming the byte offset
 //! and the kind of record. Damage to one message (an unknown connection, a payload that
@@ -18,17 +25,24 @@
 
 mod dataset;
 mod error;
+mod md5;
 mod msg;
 mod reader;
 mod record;
 #[cfg(test)]
 pub(crate) mod testbag;
+mod writer;
 
 pub use crate::mcap::{CompressedImageMsg, ImageMsg, OdometryMsg};
 pub use dataset::{LabelledScan, LabelledScans, ScanSet, read_labelled_scans, read_scans};
 pub use error::{BagError, DecodeError, Location};
-pub use msg::{Header, LaserScanMsg, Pose3, PoseArrayMsg, RawLaserScan, RosMessage};
+pub use md5::{DefinitionError, definition_md5, md5_hex};
+pub use msg::{
+    Header, LaserScanMsg, PersonArrayMsg, PersonMsg, Pose3, PoseArrayMsg, RawLaserScan, RosMessage,
+    RosMessageOut,
+};
 pub use reader::{
     BadMessage, Bag, BagMessage, ChunkInfo, Connection, Decoded, Messages, RawMessage,
     SkippedRecord,
 };
+pub use writer::{BagWriteError, BagWriter, ConnectionId, DEFAULT_CHUNK_BYTES};

@@ -435,6 +435,343 @@ impl RosMessage for OdometryMsg {
     }
 }
 
+/// A ROS 1 message type this crate can also write (see [`super::BagWriter`]).
+pub trait RosMessageOut: RosMessage {
+    /// The full definition as `rosbag record` stores it in a connection record: the
+    /// type's own fields, then each type it uses after a line of 80 `=` and
+    /// `MSG: pkg/Type`. [`super::definition_md5`] of it is [`RosMessage::MD5SUM`].
+    const DEFINITION: &'static str;
+    /// Appends the ROS 1 serialisation of the message to `out`.
+    fn encode(&self, out: &mut Vec<u8>);
+}
+
+macro_rules! section {
+    ($name:literal, $text:expr) => {
+        concat!(
+            "================================================================================\n",
+            "MSG: ",
+            $name,
+            "\n",
+            $text
+        )
+    };
+}
+
+/// Appends ROS 1 wire values.
+struct Out<'a>(&'a mut Vec<u8>);
+
+impl Out<'_> {
+    fn u32(&mut self, v: u32) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f32(&mut self, v: f32) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f64(&mut self, v: f64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    /// A ROS time: seconds and nanoseconds as `u32`; stamps before 1970 or after 2106
+    /// are clamped to the range (the writer refuses such record times itself).
+    fn time(&mut self, stamp: Stamp) {
+        let ns = stamp
+            .ns()
+            .clamp(0, i64::from(u32::MAX) * tether_core::NS_PER_S);
+        self.u32((ns / tether_core::NS_PER_S) as u32);
+        self.u32((ns % tether_core::NS_PER_S) as u32);
+    }
+    /// A string (length-prefixed); longer than 4 GiB cannot be a frame id and is cut.
+    fn string(&mut self, s: &str) {
+        let bytes = &s.as_bytes()[..s.len().min(u32::MAX as usize)];
+        self.u32(bytes.len() as u32);
+        self.0.extend_from_slice(bytes);
+    }
+    fn header(&mut self, seq: u32, stamp: Stamp, frame_id: &str) {
+        self.u32(seq);
+        self.time(stamp);
+        self.string(frame_id);
+    }
+    fn pose(&mut self, p: &Pose3) {
+        for v in p.position_m.iter().chain(p.orientation.iter()) {
+            self.f64(*v);
+        }
+    }
+    fn f32_array(&mut self, values: &[f32]) {
+        self.u32(values.len() as u32);
+        for v in values {
+            self.f32(*v);
+        }
+    }
+}
+
+impl RosMessageOut for RawLaserScan {
+    const DEFINITION: &'static str = concat!(
+        "std_msgs/Header header\nfloat32 angle_min\nfloat32 angle_max\nfloat32 angle_increment\n",
+        "float32 time_increment\nfloat32 scan_time\nfloat32 range_min\nfloat32 range_max\n",
+        "float32[] ranges\nfloat32[] intensities\n",
+        section!(
+            "std_msgs/Header",
+            "uint32 seq\ntime stamp\nstring frame_id\n"
+        ),
+    );
+
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut o = Out(out);
+        o.header(self.header.seq, self.header.stamp, &self.header.frame_id);
+        for v in [
+            self.angle_min,
+            self.angle_max,
+            self.angle_increment,
+            self.time_increment,
+            self.scan_time,
+            self.range_min,
+            self.range_max,
+        ] {
+            o.f32(v);
+        }
+        o.f32_array(&self.ranges);
+        o.f32_array(&self.intensities);
+    }
+}
+
+impl RawLaserScan {
+    /// The message of a tether scan: `angle_max = angle_min + (n - 1) increment`; "no
+    /// return" beams are written as `+inf` (REP 117).
+    pub fn from_scan(seq: u32, scan: &LaserScan, time_increment_s: f64, scan_time_s: f64) -> Self {
+        RawLaserScan {
+            header: Header {
+                seq,
+                stamp: scan.stamp,
+                frame_id: scan.frame_id.clone(),
+            },
+            angle_min: scan.angle_min_rad as f32,
+            angle_max: scan.angle_max_rad() as f32,
+            angle_increment: scan.angle_increment_rad as f32,
+            time_increment: time_increment_s as f32,
+            scan_time: scan_time_s as f32,
+            range_min: scan.range_min_m as f32,
+            range_max: scan.range_max_m as f32,
+            ranges: scan.ranges_m().to_vec(),
+            intensities: Vec::new(),
+        }
+    }
+}
+
+impl RosMessageOut for LaserScanMsg {
+    const DEFINITION: &'static str = RawLaserScan::DEFINITION;
+
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut raw = RawLaserScan::from_scan(
+            self.seq,
+            &self.scan,
+            self.time_increment_s,
+            self.scan_time_s,
+        );
+        raw.angle_max = self.angle_max_rad as f32;
+        raw.intensities.clone_from(&self.intensities);
+        raw.encode(out);
+    }
+}
+
+impl RosMessageOut for PoseArrayMsg {
+    const DEFINITION: &'static str = concat!(
+        "std_msgs/Header header\ngeometry_msgs/Pose[] poses\n",
+        section!(
+            "std_msgs/Header",
+            "uint32 seq\ntime stamp\nstring frame_id\n"
+        ),
+        section!(
+            "geometry_msgs/Pose",
+            "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n"
+        ),
+        section!("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n"),
+        section!(
+            "geometry_msgs/Quaternion",
+            "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"
+        ),
+    );
+
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut o = Out(out);
+        o.header(self.header.seq, self.header.stamp, &self.header.frame_id);
+        o.u32(self.poses.len() as u32);
+        for p in &self.poses {
+            o.pose(p);
+        }
+    }
+}
+
+impl RosMessageOut for OdometryMsg {
+    const DEFINITION: &'static str = concat!(
+        "std_msgs/Header header\nstring child_frame_id\n",
+        "geometry_msgs/PoseWithCovariance pose\ngeometry_msgs/TwistWithCovariance twist\n",
+        section!(
+            "std_msgs/Header",
+            "uint32 seq\ntime stamp\nstring frame_id\n"
+        ),
+        section!(
+            "geometry_msgs/PoseWithCovariance",
+            "geometry_msgs/Pose pose\nfloat64[36] covariance\n"
+        ),
+        section!(
+            "geometry_msgs/Pose",
+            "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n"
+        ),
+        section!("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n"),
+        section!(
+            "geometry_msgs/Quaternion",
+            "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"
+        ),
+        section!(
+            "geometry_msgs/TwistWithCovariance",
+            "geometry_msgs/Twist twist\nfloat64[36] covariance\n"
+        ),
+        section!(
+            "geometry_msgs/Twist",
+            "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n"
+        ),
+        section!("geometry_msgs/Vector3", "float64 x\nfloat64 y\nfloat64 z\n"),
+    );
+
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut o = Out(out);
+        o.header(0, self.header.stamp, &self.header.frame_id);
+        o.string(&self.child_frame_id);
+        o.pose(&self.pose);
+        for v in self
+            .pose_covariance
+            .iter()
+            .chain(self.twist.linear_mps.iter())
+            .chain(self.twist.angular_radps.iter())
+            .chain(self.twist_covariance.iter())
+        {
+            o.f64(*v);
+        }
+    }
+}
+
+/// `leg_tracker/Person` (github.com/angusleigh/leg_tracker, `msg/Person.msg`): a
+/// tracked or labelled person, `geometry_msgs/Pose pose` and `uint32 id`. It has no
+/// header of its own: the frame and stamp are the enclosing [`PersonArrayMsg`]'s.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PersonMsg {
+    /// Pose of the person in the array's frame.
+    pub pose: Pose3,
+    /// Identity of the person (a track id, or a label id in annotations).
+    pub id: u32,
+}
+
+impl PersonMsg {
+    fn read(w: &mut Wire<'_>) -> Result<Self, DecodeError> {
+        let mut v = [0.0; 7];
+        for x in &mut v {
+            *x = w.f64("people.pose")?;
+        }
+        Ok(PersonMsg {
+            pose: Pose3 {
+                position_m: [v[0], v[1], v[2]],
+                orientation: [v[3], v[4], v[5], v[6]],
+            },
+            id: w.u32("people.id")?,
+        })
+    }
+
+    fn write(&self, o: &mut Out<'_>) {
+        o.pose(&self.pose);
+        o.u32(self.id);
+    }
+}
+
+impl RosMessage for PersonMsg {
+    const TYPE: &'static str = "leg_tracker/Person";
+    const MD5SUM: &'static str = "4f334171b5664340c323a1982b554a22";
+
+    fn decode(data: &[u8]) -> Result<Self, DecodeError> {
+        let mut w = Wire::new(data);
+        let p = PersonMsg::read(&mut w)?;
+        w.finish()?;
+        Ok(p)
+    }
+}
+
+impl RosMessageOut for PersonMsg {
+    const DEFINITION: &'static str = concat!(
+        "# Pose of a person\ngeometry_msgs/Pose pose\nuint32 id\n",
+        section!(
+            "geometry_msgs/Pose",
+            "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n"
+        ),
+        section!("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n"),
+        section!(
+            "geometry_msgs/Quaternion",
+            "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"
+        ),
+    );
+
+    fn encode(&self, out: &mut Vec<u8>) {
+        self.write(&mut Out(out));
+    }
+}
+
+/// `leg_tracker/PersonArray` (`msg/PersonArray.msg`): `std_msgs/Header header` and
+/// `Person[] people`. leg_tracker publishes its tracked people this way; annotations in
+/// that format give each labelled person's `id` and pose in the scan's frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PersonArrayMsg {
+    /// ROS header (stamp and the frame of the poses).
+    pub header: Header,
+    /// The people.
+    pub people: Vec<PersonMsg>,
+}
+
+impl RosMessage for PersonArrayMsg {
+    const TYPE: &'static str = "leg_tracker/PersonArray";
+    const MD5SUM: &'static str = "7b54bf6148ab21083b85a27eec643002";
+
+    fn decode(data: &[u8]) -> Result<Self, DecodeError> {
+        let mut w = Wire::new(data);
+        let header = Header::read(&mut w)?;
+        let n = w.count("people", 7 * 8 + 4)?;
+        let mut people = Vec::with_capacity(n);
+        for _ in 0..n {
+            people.push(PersonMsg::read(&mut w)?);
+        }
+        w.finish()?;
+        Ok(PersonArrayMsg { header, people })
+    }
+}
+
+impl RosMessageOut for PersonArrayMsg {
+    const DEFINITION: &'static str = concat!(
+        "# Array of person positions\nstd_msgs/Header header\nPerson[] people\n",
+        section!(
+            "std_msgs/Header",
+            "uint32 seq\ntime stamp\nstring frame_id\n"
+        ),
+        section!(
+            "leg_tracker/Person",
+            "# Pose of a person\ngeometry_msgs/Pose pose\nuint32 id\n"
+        ),
+        section!(
+            "geometry_msgs/Pose",
+            "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n"
+        ),
+        section!("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n"),
+        section!(
+            "geometry_msgs/Quaternion",
+            "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"
+        ),
+    );
+
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut o = Out(out);
+        o.header(self.header.seq, self.header.stamp, &self.header.frame_id);
+        o.u32(self.people.len() as u32);
+        for p in &self.people {
+            p.write(&mut o);
+        }
+    }
+}
+
 /// Serialises messages the way ROS 1 does; used to build test bags.
 #[cfg(test)]
 pub(crate) mod encode {

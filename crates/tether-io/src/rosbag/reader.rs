@@ -145,6 +145,8 @@ pub struct Bag<R> {
     index_pos: u64,
     connections: BTreeMap<u32, Arc<Connection>>,
     chunk_infos: Vec<ChunkInfo>,
+    /// Why the index was not used, when the bag is read by walking its records.
+    salvaged: Option<String>,
 }
 
 impl Bag<BufReader<File>> {
@@ -156,6 +158,19 @@ impl Bag<BufReader<File>> {
             source,
         })?;
         Bag::from_reader(BufReader::with_capacity(1 << 16, file))
+    }
+
+    /// Opens the bag at `path` like [`Bag::open`], but a bag whose index is missing or
+    /// cut off (a recording that was interrupted, a copy cut short) is read by walking
+    /// its records from the start instead of being refused; see
+    /// [`Bag::from_reader_salvaging`].
+    pub fn open_salvaging(path: impl AsRef<Path>) -> Result<Self, BagError> {
+        let path = path.as_ref();
+        let file = File::open(path).map_err(|source| BagError::Open {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Bag::from_reader_salvaging(BufReader::with_capacity(1 << 16, file))
     }
 }
 
@@ -184,7 +199,37 @@ impl OuterRecord {
 
 impl<R: Read + Seek> Bag<R> {
     /// Reads the header and index of a bag from any seekable source.
-    pub fn from_reader(mut reader: R) -> Result<Self, BagError> {
+    pub fn from_reader(reader: R) -> Result<Self, BagError> {
+        Self::from_reader_with(reader, false)
+    }
+
+    /// Like [`Bag::from_reader`], but when the index cannot be used (`index_pos` is 0,
+    /// points past the end of the file, or the index section is damaged or cut) the
+    /// bag is opened anyway, without chunk infos, and [`Bag::messages`] walks the
+    /// records from the start to the end of the file (as `rosbag reindex` does):
+    /// connections come from the connection records inside the chunks, and a record cut
+    /// by the end of the file ends the walk with a counted skip
+    /// ([`Messages::skipped`]) instead of an error. Of an uncompressed chunk that is
+    /// cut, the complete records before the cut are still read. [`Bag::salvaged`] says
+    /// why the index was not used. The bag header itself must be whole.
+    pub fn from_reader_salvaging(reader: R) -> Result<Self, BagError> {
+        Self::from_reader_with(reader, true)
+    }
+
+    /// Why the index was not used (see [`Bag::from_reader_salvaging`]); `None` when it
+    /// was.
+    pub fn salvaged(&self) -> Option<&str> {
+        self.salvaged.as_deref()
+    }
+
+    fn salvage(&mut self, reason: String) {
+        self.connections.clear();
+        self.chunk_infos.clear();
+        self.index_pos = self.file_len;
+        self.salvaged = Some(reason);
+    }
+
+    fn from_reader_with(mut reader: R, salvage: bool) -> Result<Self, BagError> {
         let file_len = reader
             .seek(SeekFrom::End(0))
             .map_err(|source| BagError::Io {
@@ -198,6 +243,7 @@ impl<R: Read + Seek> Bag<R> {
             index_pos: 0,
             connections: BTreeMap::new(),
             chunk_infos: Vec::new(),
+            salvaged: None,
         };
         let magic_len = MAGIC.len() as u64;
         let head = bag.read_at(0, magic_len.min(file_len))?;
@@ -223,6 +269,21 @@ impl<R: Read + Seek> Bag<R> {
             .u32("chunk_count")
             .map_err(|e| header.corrupt(e))?;
         bag.data_start = header.end();
+        if salvage {
+            let usable = index_pos != 0 && index_pos <= file_len && index_pos >= bag.data_start;
+            if !usable {
+                bag.salvage(format!(
+                    "index_pos {index_pos} in the bag header does not point into the file \
+                     ({file_len} bytes)"
+                ));
+                return Ok(bag);
+            }
+            bag.index_pos = index_pos;
+            if let Err(e) = bag.read_index(conn_count, chunk_count) {
+                bag.salvage(format!("the index is unusable: {e}"));
+            }
+            return Ok(bag);
+        }
         if index_pos == 0 {
             return Err(BagError::NotIndexed { at: header.at });
         }
@@ -382,6 +443,31 @@ impl<R: Read + Seek> Bag<R> {
             data_at: at + 4 + header_len + 4,
             data_len,
         })
+    }
+
+    /// The data bytes present of an uncompressed chunk record at `at` that the end of
+    /// the file cuts; `None` when the record is not such a chunk or its header is cut.
+    fn read_cut_chunk(&mut self, at: u64) -> Result<Option<Vec<u8>>, BagError> {
+        let end = self.file_len;
+        if end.saturating_sub(at) < 4 {
+            return Ok(None);
+        }
+        let len = self.read_at(at, 4)?;
+        let header_len = u64::from(u32::from_le_bytes([len[0], len[1], len[2], len[3]]));
+        let data_at = at + 4 + header_len + 4;
+        if data_at > end {
+            return Ok(None);
+        }
+        let header = self.read_at(at + 4, header_len)?;
+        let Ok(fields) = Fields::parse(&header) else {
+            return Ok(None);
+        };
+        let is_plain_chunk = fields.op().ok() == Some(Op::Chunk)
+            && fields.get("compression") == Some(b"none".as_slice());
+        if !is_plain_chunk {
+            return Ok(None);
+        }
+        self.read_at(data_at, end - data_at).map(Some)
     }
 
     /// Reads the connection and chunk info records from `index_pos` to the end.
@@ -547,6 +633,8 @@ struct OpenChunk {
     at: u64,
     data: Vec<u8>,
     pos: usize,
+    /// The chunk was cut by the end of the file: its last record may be incomplete.
+    cut: bool,
 }
 
 /// What an inner record turned out to be.
@@ -669,6 +757,11 @@ impl<R: Read + Seek> Messages<'_, R> {
         let parsed = parse_inner_record(&chunk.data, start, at);
         let (op, fields, data_range) = match parsed {
             Ok(p) => p,
+            // The cut itself was counted when the chunk was opened.
+            Err(BagError::Truncated { .. }) if chunk.cut => {
+                self.chunk = None;
+                return Some(Ok(Inner::Other));
+            }
             Err(e) => return Some(Err(e)),
         };
         chunk.pos = data_range.end;
@@ -690,7 +783,35 @@ impl<R: Read + Seek> Messages<'_, R> {
         if self.pos >= self.bag.index_pos {
             return Ok(None);
         }
-        let rec = self.bag.read_record(self.pos, self.bag.index_pos)?;
+        let rec = match self.bag.read_record(self.pos, self.bag.index_pos) {
+            Ok(rec) => rec,
+            Err(BagError::Truncated {
+                record,
+                needed,
+                available,
+                ..
+            }) if self.bag.salvaged.is_some() => {
+                let at = self.pos;
+                self.pos = self.bag.index_pos;
+                if let Some(data) = self.bag.read_cut_chunk(at)? {
+                    self.chunk = Some(OpenChunk {
+                        at,
+                        data,
+                        pos: 0,
+                        cut: true,
+                    });
+                }
+                self.skip(
+                    Location::File(at),
+                    format!(
+                        "the bag ends inside this {record} ({available} of {needed} bytes \
+                         there); what follows in it is lost"
+                    ),
+                );
+                return Ok(Some(Inner::Other));
+            }
+            Err(e) => return Err(e),
+        };
         self.pos = rec.end();
         match rec.op {
             Op::Chunk => {
@@ -699,6 +820,7 @@ impl<R: Read + Seek> Messages<'_, R> {
                     at: rec.at,
                     data,
                     pos: 0,
+                    cut: false,
                 });
                 Ok(Some(Inner::Other))
             }
@@ -719,6 +841,8 @@ impl<R: Read + Seek> Messages<'_, R> {
                     &data,
                 )))
             }
+            // Walking a bag whose index was not used: its index section is passed over.
+            Op::ChunkInfo if self.bag.salvaged.is_some() => Ok(Some(Inner::Other)),
             Op::BagHeader | Op::ChunkInfo => Err(rec.corrupt(format!(
                 "found in the data section (before index_pos {})",
                 self.bag.index_pos

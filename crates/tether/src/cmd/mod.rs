@@ -8,6 +8,7 @@ pub mod eval_cascade;
 pub mod eval_fusion;
 pub mod eval_legs;
 pub mod eval_target;
+pub mod eval_track;
 pub mod legs;
 pub mod replay;
 pub mod run;

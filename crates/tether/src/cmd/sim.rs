@@ -8,10 +8,14 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tether::closed_loop::{self, RunError};
 use tether::metrics::measure;
 use tether::results::ResultWriter;
+use tether_core::Stamp;
 use tether_io::mcap::{Header, LaserScanMsg, McapError, OdometryMsg};
+use tether_io::rosbag::{
+    self, BagWriteError, BagWriter, ConnectionId, PersonArrayMsg, PersonMsg, Pose3,
+};
 use tether_pipeline::Tick;
 use tether_sim::record::RunRecorder;
-use tether_sim::{Event, Scenario, SensorData, StaticWorld, run_to_dir};
+use tether_sim::{Event, Scenario, SensorData, Simulation, StaticWorld, run_to_dir};
 
 /// Who drives the simulated robot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -53,6 +57,125 @@ pub struct Args {
     /// `NAME-laser-only`, as in `tether demo`.
     #[arg(long)]
     pub laser_only: bool,
+    /// Also write the run as a ROS 1 bag in leg_tracker's annotation format, for
+    /// `tether eval-track` and any other tracker: `/scan` (sensor_msgs/LaserScan, frame
+    /// `laser`), `/odom` (nav_msgs/Odometry, perfect; see `--bag-without-odom`) and
+    /// `/people_truth` (leg_tracker/PersonArray, frame `laser`, stamped like the scan and
+    /// recorded right after it): the people at least one beam of the scan hits, with
+    /// their simulated ids (the target's id is printed; it is the scenario's person
+    /// marked `target`).
+    #[arg(long, value_name = "FILE.bag")]
+    pub record_bag: Option<PathBuf>,
+    /// Leave `/odom` out of `--record-bag` (a recording without odometry).
+    #[arg(long, requires = "record_bag")]
+    pub bag_without_odom: bool,
+}
+
+/// Writes a simulated run as a ROS 1 bag (see `--record-bag`).
+struct BagRecorder {
+    writer: BagWriter<std::io::BufWriter<std::fs::File>>,
+    scan: ConnectionId,
+    odom: Option<ConnectionId>,
+    people: ConnectionId,
+    seq: u32,
+    /// The first write error; nothing more is written after it.
+    error: Option<BagWriteError>,
+    target_id: Option<u32>,
+}
+
+/// The frame of the recorded scans and labels.
+const BAG_LASER_FRAME: &str = "laser";
+
+impl BagRecorder {
+    fn create(path: &std::path::Path, with_odom: bool) -> Result<Self, BagWriteError> {
+        let mut writer = BagWriter::create(path)?;
+        let odom = if with_odom {
+            Some(writer.add_connection::<OdometryMsg>("/odom")?)
+        } else {
+            None
+        };
+        let scan = writer.add_connection::<rosbag::LaserScanMsg>("/scan")?;
+        let people = writer.add_connection::<PersonArrayMsg>("/people_truth")?;
+        Ok(BagRecorder {
+            writer,
+            scan,
+            odom,
+            people,
+            seq: 0,
+            error: None,
+            target_id: None,
+        })
+    }
+
+    fn record(&mut self, event: &Event) {
+        if self.error.is_none()
+            && let Err(e) = self.try_record(event)
+        {
+            self.error = Some(e);
+        }
+    }
+
+    /// Per scan: odometry (so that a reader knows the pose at the scan), the scan, then
+    /// the people it sees in the laser frame, `p_laser = laser_from_world * p_world`,
+    /// heading less the laser's yaw, recorded 1 us after the scan.
+    fn try_record(&mut self, event: &Event) -> Result<(), BagWriteError> {
+        let SensorData::Scan(scan) = &event.data else {
+            return Ok(());
+        };
+        let truth = &event.truth;
+        let stamp = scan.stamp;
+        if let Some(odom) = self.odom {
+            let msg = OdometryMsg::planar(
+                Header::new(stamp, "odom"),
+                "base_link",
+                truth.world_from_robot,
+                truth.robot_velocity.v_mps,
+                truth.robot_velocity.w_radps,
+            );
+            self.writer.write(odom, stamp, &msg)?;
+        }
+        let mut scan = scan.clone();
+        scan.frame_id = BAG_LASER_FRAME.to_string();
+        let raw = rosbag::RawLaserScan::from_scan(self.seq, &scan, 0.1 / 1024.0, 0.1);
+        self.writer.write(self.scan, stamp, &raw)?;
+        let laser_from_world = truth.world_from_laser.inverse();
+        let people = truth
+            .people
+            .iter()
+            .filter(|p| p.laser_beams.is_some_and(|b| b > 0))
+            .map(|p| {
+                let q = laser_from_world * p.position;
+                PersonMsg {
+                    pose: Pose3::planar(q.x, q.y, p.heading_rad - truth.world_from_laser.yaw),
+                    id: p.id,
+                }
+            })
+            .collect();
+        if let Some(t) = truth.target() {
+            self.target_id = Some(t.id);
+        }
+        let msg = PersonArrayMsg {
+            header: rosbag::Header {
+                seq: self.seq,
+                stamp,
+                frame_id: BAG_LASER_FRAME.to_string(),
+            },
+            people,
+        };
+        self.writer
+            .write(self.people, Stamp::from_ns(stamp.ns() + 1_000), &msg)?;
+        self.seq = self.seq.wrapping_add(1);
+        Ok(())
+    }
+
+    /// Finishes the bag; the target's id, if the scenario has a target.
+    fn finish(self) -> Result<Option<u32>, BagWriteError> {
+        if let Some(e) = self.error {
+            return Err(e);
+        }
+        self.writer.finish()?;
+        Ok(self.target_id)
+    }
 }
 
 /// Writes a simulated event (odometry and ground truth first, then the sensor data, so
@@ -127,7 +250,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     };
     let context = || format!("simulating `{}` into {}", scenario.name, args.out.display());
+    let mut bag = match &args.record_bag {
+        Some(path) => Some(
+            BagRecorder::create(path, !args.bag_without_odom)
+                .with_context(|| format!("cannot create {}", path.display()))?,
+        ),
+        None => None,
+    };
     let summary = match args.driver {
+        DriverChoice::Scenario if bag.is_some() => {
+            // run_to_dir, with every event also going to the bag.
+            let mut sim = Simulation::new(&scenario, args.seed).with_context(context)?;
+            let mut driver = tether_sim::driver::driver_for(&scenario);
+            let mut recorder =
+                RunRecorder::create(&args.out, &scenario, args.seed).with_context(context)?;
+            tether_sim::record::run(&mut sim, driver.as_mut(), |event, _| {
+                show(event.truth.stamp.ns());
+                if let Some(bag) = bag.as_mut() {
+                    bag.record(event);
+                }
+                recorder.record(event)
+            })
+            .with_context(context)?;
+            recorder
+                .finish(&scenario, sim.world(), sim.collisions(), &source)
+                .with_context(context)?
+        }
         DriverChoice::Scenario => run_to_dir(&scenario, &source, args.seed, &args.out, |now, _| {
             show(now.ns())
         })
@@ -159,6 +307,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     if let Some(out) = mcap.as_mut() {
                         record_event(out, event, tick, with_odometry)?;
                     }
+                    if let Some(bag) = bag.as_mut() {
+                        bag.record(event);
+                    }
                     recorder.record(event).map_err(RunError::from)
                 },
             )
@@ -179,6 +330,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     };
     bar.finish_and_clear();
+    if let (Some(bag), Some(path)) = (bag, &args.record_bag) {
+        let target = bag
+            .finish()
+            .with_context(|| format!("writing {}", path.display()))?;
+        match target {
+            Some(id) => println!(
+                "bag -> {} (/scan, {}/people_truth; the target is person {id})",
+                path.display(),
+                if args.bag_without_odom { "" } else { "/odom, " }
+            ),
+            None => println!("bag -> {} (the scenario has no target)", path.display()),
+        }
+    }
     println!(
         "{}: {:.1} s simulated, seed {}, {} scans, {} camera frames ({} boxes), {} collisions -> {}",
         summary.scenario,

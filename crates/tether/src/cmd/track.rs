@@ -6,10 +6,11 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use serde::Serialize;
-use tether::recording::{self, Sample, Topics};
+use tether::recording::Topics;
 use tether::results::TargetStateLine;
 use tether::target_log::TargetLog;
-use tether_core::{CameraIntrinsics, GrayImage, PixelBox, Pose2, Robot, World};
+use tether::tracking::{CameraBoxes, ScanStep, Step, run_recording};
+use tether_core::{CameraIntrinsics, GrayImage, PixelBox};
 use tether_pipeline::{Pipeline, PipelineConfig};
 use tether_vision::{Cascade, DetectParams, Detector};
 
@@ -152,9 +153,9 @@ impl Camera {
 }
 
 /// Runs the pipeline over the recording's scans (and camera frames, with
-/// `--image-topic`), in log order. The recording is taken as seen from a still sensor:
-/// the scan's frame is the robot's and the world's, so positions and velocities come
-/// out in the scan's frame.
+/// `--image-topic`), in log order ([`tether::tracking::run_recording`]). The recording
+/// is taken as seen from a still sensor: the scan's frame is the robot's and the
+/// world's, so positions and velocities come out in the scan's frame.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = load_config(args.config.as_ref())?;
     config.laser.mount.x_m = 0.0;
@@ -175,56 +176,55 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let file = std::fs::File::create(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut out = std::io::BufWriter::new(file);
-    let still: Pose2<World, Robot> = Pose2::IDENTITY;
     let (mut scans, mut with_target) = (0usize, 0usize);
     let mut ids = std::collections::BTreeSet::new();
     let mut target_log = TargetLog::new();
-    let stats = recording::read(&args.bag, &topics, &mut |sample| {
-        let scan = match sample {
-            Sample::Scan(scan) => scan,
-            Sample::Camera { stamp, image } => {
-                if let Some(camera) = camera.as_mut() {
-                    let boxes = camera.boxes(&image, &intrinsics)?;
-                    pipeline.on_camera_boxes(stamp, &boxes, still);
-                }
+    let mut boxes = camera
+        .as_mut()
+        .map(|c| move |image: &GrayImage| c.boxes(image, &intrinsics));
+    let counts = run_recording(
+        &args.bag,
+        &topics,
+        None,
+        &mut pipeline,
+        boxes.as_mut().map(|b| b as &mut CameraBoxes<'_>),
+        &mut |step| {
+            let Step::Scan(ScanStep { scan, tick, .. }) = step else {
                 return Ok(());
-            }
-            Sample::Odom { .. } => return Ok(()),
-        };
-        let scan = &scan;
-        let tick = pipeline.on_scan(scan, still);
-        let people: Vec<PersonLine> = tick
-            .tracks
-            .iter()
-            .filter(|t| t.confirmed)
-            .map(|t| {
-                ids.insert(t.id);
-                PersonLine {
-                    id: t.id,
-                    x: t.position.mean.x,
-                    y: t.position.mean.y,
-                    vx: t.velocity.x,
-                    vy: t.velocity.y,
-                    cov: t.position.cov.to_array(),
-                }
-            })
-            .collect();
-        let target = tick.target.state.locked_track();
-        with_target += usize::from(target.is_some());
-        let line = Line {
-            stamp_ns: scan.stamp.ns(),
-            frame: &scan.frame_id,
-            people,
-            target,
-            target_state: TargetStateLine::of(&tick),
-        };
-        target_log.record(tick.stamp, &tick.target.state, &tick.refusals);
-        serde_json::to_writer(&mut out, &line)?;
-        out.write_all(b"\n")?;
-        scans += 1;
-        Ok(())
-    })?;
-    let skipped = stats.bad_messages + stats.unattributed;
+            };
+            let people: Vec<PersonLine> = tick
+                .tracks
+                .iter()
+                .filter(|t| t.confirmed)
+                .map(|t| {
+                    ids.insert(t.id);
+                    PersonLine {
+                        id: t.id,
+                        x: t.position.mean.x,
+                        y: t.position.mean.y,
+                        vx: t.velocity.x,
+                        vy: t.velocity.y,
+                        cov: t.position.cov.to_array(),
+                    }
+                })
+                .collect();
+            let target = tick.target.state.locked_track();
+            with_target += usize::from(target.is_some());
+            let line = Line {
+                stamp_ns: scan.stamp.ns(),
+                frame: &scan.frame_id,
+                people,
+                target,
+                target_state: TargetStateLine::of(tick),
+            };
+            target_log.record(tick.stamp, &tick.target.state, &tick.refusals);
+            serde_json::to_writer(&mut out, &line)?;
+            out.write_all(b"\n")?;
+            scans += 1;
+            Ok(())
+        },
+    )?;
+    let skipped = counts.read.bad_messages + counts.read.unattributed;
     out.flush()
         .with_context(|| format!("writing {}", args.out.display()))?;
     let stats = pipeline.stats();
