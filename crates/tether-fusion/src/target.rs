@@ -707,6 +707,7 @@ mod tests {
             birth_position: Point2::new(x - 1.0, y),
             walked_m: 1.0,
             pair_hits: 5,
+            duplicate_since: None,
         }
     }
 

@@ -227,6 +227,16 @@ pub struct TrackerConfig {
     pub vision_min_separation_m: f64,
     /// What people can do: the physical gate of every track.
     pub motion: MotionBounds,
+    /// No new track starts closer than this to a confirmed track, m: two people's
+    /// centres are never closer than about a body width, so what is found there is the
+    /// tracked person's other leg, or a false positive at their feet (0: no rule).
+    pub spawn_separation_m: f64,
+    /// Two confirmed tracks closer than this for `duplicate_after_s` are one person
+    /// tracked twice (its legs seen apart): the younger is dropped, m (0: no rule).
+    pub duplicate_distance_m: f64,
+    /// How long two tracks must stay within `duplicate_distance_m` to be one person, s
+    /// (two people passing close by stay that close for a moment only).
+    pub duplicate_after_s: f64,
 }
 
 impl Default for TrackerConfig {
@@ -236,7 +246,7 @@ impl Default for TrackerConfig {
             accel_noise: 0.5,
             initial_speed_sigma_mps: 1.0,
             confirm_hits: 3,
-            tentative_timeout_s: 0.6,
+            tentative_timeout_s: 0.35,
             max_coast_s: 2.0,
             max_position_sigma_m: 1.5,
             max_observation_sigma_m: 3.0,
@@ -245,6 +255,9 @@ impl Default for TrackerConfig {
             laser_support_s: 0.5,
             vision_min_separation_m: 0.5,
             motion: MotionBounds::default(),
+            spawn_separation_m: 0.45,
+            duplicate_distance_m: 0.45,
+            duplicate_after_s: 0.8,
         }
     }
 }
@@ -276,6 +289,9 @@ impl TrackerConfig {
         for (field, value) in [
             ("laser_support_s", self.laser_support_s),
             ("vision_min_separation_m", self.vision_min_separation_m),
+            ("spawn_separation_m", self.spawn_separation_m),
+            ("duplicate_distance_m", self.duplicate_distance_m),
+            ("duplicate_after_s", self.duplicate_after_s),
         ] {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(TrackerConfigError {
@@ -335,6 +351,9 @@ pub struct Track {
     pub walked_m: f64,
     /// Updates by a pair of legs.
     pub pair_hits: u32,
+    /// Since when this track has stayed within `duplicate_distance_m` of an older
+    /// confirmed track.
+    pub duplicate_since: Option<Stamp>,
 }
 
 /// A track's state right after an update.
@@ -413,6 +432,8 @@ pub struct TrackerStats {
     pub tracks_started: u64,
     /// Tracks dropped.
     pub tracks_dropped: u64,
+    /// Of those, tracks dropped as a second track on an already tracked person.
+    pub duplicates_dropped: u64,
     /// Observations inside a track's statistical gate that it could only reach by an
     /// impossible jump (speed or acceleration beyond [`MotionBounds`]).
     pub implausible_jumps: u64,
@@ -665,7 +686,13 @@ impl Tracker {
                 t.filter.mahalanobis_sq(&o.estimate) < gate
                     && t.can_reach(&o.estimate, stamp, &bounds)
             });
-            if near_existing {
+            let sep = self.config.spawn_separation_m;
+            let beside_confirmed = sep > 0.0
+                && self
+                    .tracks
+                    .iter()
+                    .any(|t| t.confirmed && t.position().mean.distance_m(o.estimate.mean) < sep);
+            if near_existing || beside_confirmed {
                 continue;
             }
             let id = self.next_id;
@@ -689,6 +716,7 @@ impl Tracker {
                 birth_position: o.estimate.mean,
                 walked_m: 0.0,
                 pair_hits: u32::from(o.leg_pair),
+                duplicate_since: None,
             });
             self.stats.tracks_started += 1;
             track_of[oi] = Some(id);
@@ -715,6 +743,35 @@ impl Tracker {
                 && t.position().cov.principal_axes().0 <= max_var
         });
         self.stats.tracks_dropped += (before - self.tracks.len()) as u64;
+        // One person tracked twice: the younger of two confirmed tracks that stay
+        // closer than `duplicate_distance_m` goes (tracks are in creation order, so an
+        // older one comes first).
+        if c.duplicate_distance_m > 0.0 {
+            let positions: Vec<(bool, Point2<World>)> = self
+                .tracks
+                .iter()
+                .map(|t| (t.confirmed, t.position().mean))
+                .collect();
+            for (i, t) in self.tracks.iter_mut().enumerate() {
+                let shadowed = t.confirmed
+                    && positions[..i].iter().any(|(confirmed, p)| {
+                        *confirmed && p.distance_m(t.position().mean) < c.duplicate_distance_m
+                    });
+                t.duplicate_since = if shadowed {
+                    t.duplicate_since.or(Some(now))
+                } else {
+                    None
+                };
+            }
+            let before = self.tracks.len();
+            self.tracks.retain(|t| {
+                t.duplicate_since
+                    .is_none_or(|since| now.secs_since(since) < c.duplicate_after_s)
+            });
+            let merged = (before - self.tracks.len()) as u64;
+            self.stats.tracks_dropped += merged;
+            self.stats.duplicates_dropped += merged;
+        }
     }
 }
 

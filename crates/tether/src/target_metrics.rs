@@ -67,7 +67,11 @@ pub fn measure_target_lock(log: &RunLog) -> TargetLockMetrics {
         if step.kind != StepKind::Scan {
             continue;
         }
-        let Some(target) = step.truth.target() else {
+        // Estimates live in the frame of the pose the pipeline was given (dead
+        // reckoning or scan matching without odometry): compare them with the truth
+        // expressed in that frame, as seen from the robot.
+        let truth = step.truth_in_estimate_frame();
+        let Some(target) = truth.target() else {
             continue;
         };
         let t = step.truth.stamp.secs_f64();
@@ -79,7 +83,7 @@ pub fn measure_target_lock(log: &RunLog) -> TargetLockMetrics {
         let visible = target.laser_beams.unwrap_or(0) >= VISIBLE_BEAMS;
         let on_target = locked.is_some_and(|p| {
             let d = (p - target.position).norm();
-            d <= ON_PERSON_M && nearest_other(&step.truth, p).is_none_or(|o| d <= o)
+            d <= ON_PERSON_M && nearest_other(&truth, p).is_none_or(|o| d <= o)
         });
         if !visible {
             if hidden_since.is_none() {
@@ -110,7 +114,7 @@ pub fn measure_target_lock(log: &RunLog) -> TargetLockMetrics {
                 m.reacquired_within_1s += u32::from(t - back <= 1.0);
             }
         } else if let Some(p) = locked
-            && nearest_other(&step.truth, p).is_some_and(|o| o <= ON_PERSON_M)
+            && nearest_other(&truth, p).is_some_and(|o| o <= ON_PERSON_M)
         {
             m.wrong_scans += 1;
         }

@@ -10,8 +10,11 @@ use tether_fusion::{LossReason, TargetState};
 use tether_pipeline::PipelineConfig;
 use tether_sim::Scenario;
 
+/// The fault runs of issue 6 on the ideal laser, so that only the fault changes what
+/// the robot does (the realistic laser's own failures are in the issue-14 tests below).
 fn corridor_run(faults: &[Fault]) -> RunLog {
-    let scenario = Scenario::builtin("corridor").unwrap();
+    let mut scenario = Scenario::builtin("corridor").unwrap();
+    scenario.laser_sim.realistic = false;
     let config = config_for(&scenario, &PipelineConfig::default());
     run(&scenario, 3, &config, &[], faults).unwrap()
 }
@@ -177,11 +180,17 @@ fn a_gap_in_the_scan_stamps_is_a_sensor_gap_not_a_panic() {
             .iter()
             .any(|(t, s)| *t > 7.0 && s.locked_track().is_some())
     );
-    let reasons: Vec<_> = states.iter().filter_map(|(_, s)| s.loss_reason()).collect();
-    assert!(!reasons.is_empty(), "2 s without scans loses the target");
-    assert!(
-        reasons.iter().all(|r| *r == LossReason::SensorGap),
-        "{reasons:?}"
+    // The loss the jump causes (the realistic laser may lose the person elsewhere in
+    // the run for other reasons, each named).
+    let reasons: Vec<_> = states
+        .iter()
+        .filter(|(t, _)| (8.0..11.0).contains(t))
+        .filter_map(|(_, s)| s.loss_reason())
+        .collect();
+    assert_eq!(
+        reasons.first(),
+        Some(&LossReason::SensorGap),
+        "2 s without scans loses the target for a sensor gap: {reasons:?}"
     );
     assert!(
         states

@@ -8,8 +8,13 @@ use tether_fusion::TargetState;
 use tether_pipeline::PipelineConfig;
 use tether_sim::Scenario;
 
+/// The controller's bars (issue 6) are set for the ideal laser: the realistic one's
+/// phantoms, weak legs and dark spells (issue 14) are judged by the target-lock
+/// measures in `target_lock_realistic.rs`, where today's following error does not yet
+/// hold (see the README).
 fn closed_loop(name: &str, seed: u64) -> (RunLog, RunMetrics) {
-    let scenario = Scenario::builtin(name).unwrap();
+    let mut scenario = Scenario::builtin(name).unwrap();
+    scenario.laser_sim.realistic = false;
     let config = config_for(&scenario, &PipelineConfig::default());
     let log = run(&scenario, seed, &config, &[], &[]).unwrap();
     let m = measure(&log);

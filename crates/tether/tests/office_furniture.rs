@@ -14,7 +14,12 @@ const NOBODY_M: f64 = 0.5;
 
 #[test]
 fn furniture_fools_the_arc_test_not_the_learned_classifier() {
-    let scenario = Scenario::builtin("office").expect("office");
+    let mut scenario = Scenario::builtin("office").expect("office");
+    // The furniture alone: the realistic laser's one-scan phantoms and weak returns
+    // (issue 14) fool both detectors alike and are measured against the real
+    // recordings in tether-sim's `realism_vs_real`; here they would hide what the
+    // furniture does.
+    scenario.laser_sim.realistic = false;
     let noise = RangeNoiseModel::default();
     let mut arc = LegDetector::arc(DetectorConfig::default(), noise.clone()).expect("arc detector");
     let model = LegClassifier::default_model().expect("default model");

@@ -24,9 +24,9 @@ pub enum Mode {
 }
 
 impl Mode {
-    /// The driving configuration of `scenario` in this mode.
-    pub fn config(self, scenario: &Scenario) -> PipelineConfig {
-        let (mut c, _) = super::demo::variants(scenario);
+    /// The driving configuration of `scenario` in this mode, from `base`.
+    pub fn config(self, scenario: &Scenario, base: &PipelineConfig) -> PipelineConfig {
+        let mut c = tether::closed_loop::config_for(scenario, base);
         match self {
             Mode::Fused => {}
             Mode::Laser => c.fusion.use_vision = false,
@@ -51,6 +51,10 @@ pub struct Args {
     /// Sensor modes to drive with.
     #[arg(long = "mode", value_enum, default_values_t = [Mode::Fused, Mode::Laser])]
     pub modes: Vec<Mode>,
+    /// A pipeline configuration (TOML) to start from instead of the defaults (the
+    /// scenario's sensors and robot are set on top of it).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<std::path::PathBuf>,
     /// Also write the pooled figures as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub json: Option<std::path::PathBuf>,
@@ -92,9 +96,10 @@ pub fn evaluate(
     scenario: &Scenario,
     mode: Mode,
     seeds: u64,
+    base: &PipelineConfig,
     mut on_run: impl FnMut(),
 ) -> anyhow::Result<Pooled> {
-    let driver = mode.config(scenario);
+    let driver = mode.config(scenario, base);
     let mut p = Pooled {
         scenario: scenario.name.clone(),
         mode,
@@ -165,10 +170,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
+    let base = super::track::load_config(args.config.as_ref())?;
     let mut rows = Vec::new();
     for scenario in &scenarios {
         for &mode in &args.modes {
-            rows.push(evaluate(scenario, mode, args.seeds, || bar.inc(1))?);
+            rows.push(evaluate(scenario, mode, args.seeds, &base, || bar.inc(1))?);
         }
     }
     bar.finish_and_clear();

@@ -1,0 +1,79 @@
+//! The target lock in the closed loop with the realistic laser (issue 14): phantoms,
+//! weak legs with range, dark-clothing spells, merged legs. Per scenario and sensor
+//! mode, over seeds 0-2: the share of the time the target is visible to the laser that
+//! the locked track is on them, and the scans locked on somebody else. The bars are
+//! what holds today (`tether eval-target --seeds 20` gives the full figures); the
+//! issue's own bar (99 %, never a wrong person) is not met everywhere yet, see the
+//! README.
+
+#![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
+
+use tether::closed_loop::{config_for, run};
+use tether::target_metrics::{TargetLockMetrics, measure_target_lock};
+use tether_pipeline::PipelineConfig;
+use tether_sim::Scenario;
+
+fn pooled(name: &str, laser_only: bool, seeds: std::ops::Range<u64>) -> TargetLockMetrics {
+    let scenario = Scenario::builtin(name).unwrap();
+    assert!(
+        scenario.laser_sim.realistic,
+        "{name} runs the realistic laser"
+    );
+    let mut config = config_for(&scenario, &PipelineConfig::default());
+    if laser_only {
+        config.fusion.use_vision = false;
+    }
+    let mut all = TargetLockMetrics::default();
+    for seed in seeds {
+        let m = measure_target_lock(&run(&scenario, seed, &config, &[], &[]).unwrap());
+        all.visible_scans += m.visible_scans;
+        all.on_target_scans += m.on_target_scans;
+        all.wrong_scans += m.wrong_scans;
+        all.reappearances += m.reappearances;
+        all.reacquired_within_1s += m.reacquired_within_1s;
+    }
+    all.on_target_frac = Some(all.on_target_scans as f64 / all.visible_scans.max(1) as f64);
+    println!(
+        "{name} {}: on target {:.4} of {} visible scans, {} wrong",
+        if laser_only { "laser" } else { "fused" },
+        all.on_target_frac.unwrap(),
+        all.visible_scans,
+        all.wrong_scans
+    );
+    all
+}
+
+#[test]
+fn fused_the_target_holds_and_is_never_a_bystander() {
+    for name in ["corridor", "office", "crossing", "stop_and_go", "turns"] {
+        let m = pooled(name, false, 0..3);
+        assert!(m.visible_scans > 300, "{name}: {m:?}");
+        assert!(m.on_target_frac.unwrap() >= 0.97, "{name}: {m:?}");
+        assert_eq!(m.wrong_scans, 0, "{name}: {m:?}");
+    }
+}
+
+#[test]
+fn laser_only_the_target_holds() {
+    for name in ["corridor", "crossing", "stop_and_go", "turns"] {
+        let m = pooled(name, true, 0..3);
+        assert!(m.visible_scans > 300, "{name}: {m:?}");
+        assert!(m.on_target_frac.unwrap() >= 0.95, "{name}: {m:?}");
+        // At most a moment on the bystander as they cross right beside the target.
+        assert!(
+            m.wrong_scans as f64 <= 0.01 * m.visible_scans as f64,
+            "{name}: {m:?}"
+        );
+    }
+}
+
+#[test]
+fn outdoor_follow_without_odometry_holds_the_target_with_the_laser_alone() {
+    let m = pooled("outdoor_follow", true, 0..1);
+    assert!(m.visible_scans > 3000, "{m:?}");
+    assert!(m.on_target_frac.unwrap() >= 0.98, "{m:?}");
+    assert!(
+        m.wrong_scans as f64 <= 0.005 * m.visible_scans as f64,
+        "{m:?}"
+    );
+}
