@@ -58,7 +58,7 @@ impl Default for IcpConfig {
             huber_m: 0.03,
             reuse_correspondences_below_m: 0.02,
             reuse_correspondences_below_rad: 0.02,
-            min_matches: 30,
+            min_matches: 12,
             rotation_scale_m: 1.0,
             degeneracy_min_eigenvalue: 0.005,
         }
