@@ -8,8 +8,10 @@
 //! the world frame) and the scan's labels (in the laser frame) in one frame:
 //! `world_from_laser = world_from_robot * robot_from_laser`.
 
+use crate::ego::ScanOdometry;
 use std::cell::RefCell;
 use std::path::Path;
+use tether_scanmatch::MotionPrior;
 
 use tether_core::{GrayImage, Laser, LaserScan, PixelBox, Pose2, Robot, World};
 use tether_pipeline::{Pipeline, Tick};
@@ -60,16 +62,22 @@ pub struct RunCounts {
 /// Runs `pipeline` over the recording at `path`: its scans (`topics.scan`), camera
 /// frames (`topics.image`, through `camera`; ignored without it) and odometry
 /// (`topics.odom`: the robot's pose for the following inputs; without it the robot
-/// stands still at the identity). With `labels_topic`, that topic's messages are
-/// handed over too, in log order. `on_step` may stop the run by returning an error.
+/// stands still at the identity, or, with `scan_odometry`, moves as scan matching
+/// says: each scan against the static scene, the people being tracked left out). With
+/// `labels_topic`, that topic's messages are handed over too, in log order. `on_step`
+/// may stop the run by returning an error.
 pub fn run_recording(
     path: &Path,
     topics: &Topics,
     labels_topic: Option<&str>,
     pipeline: &mut Pipeline,
     mut camera: Option<&mut CameraBoxes<'_>>,
+    mut scan_odometry: Option<&mut ScanOdometry>,
     on_step: &mut dyn FnMut(Step<'_>) -> anyhow::Result<()>,
 ) -> anyhow::Result<RunCounts> {
+    if topics.odom.is_some() {
+        scan_odometry = None;
+    }
     let robot_from_laser = pipeline.config().laser.robot_from_laser();
     let mut pose: Option<Pose2<World, Robot>> = topics.odom.is_none().then_some(Pose2::IDENTITY);
     let mut counts = RunCounts::default();
@@ -96,6 +104,14 @@ pub fn run_recording(
                 counts.camera_frames += 1;
             }
             Sample::Scan(scan) => {
+                if let Some(odometry) = scan_odometry.as_deref_mut() {
+                    let people = pipeline
+                        .tracker()
+                        .tracks()
+                        .iter()
+                        .map(|t| t.position().mean);
+                    pose = Some(odometry.update(&scan, MotionPrior::ConstantVelocity, people));
+                }
                 let Some(world_from_robot) = pose else {
                     counts.waiting_for_odom += 1;
                     return Ok(());

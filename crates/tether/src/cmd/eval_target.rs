@@ -26,7 +26,7 @@ pub enum Mode {
 impl Mode {
     /// The driving configuration of `scenario` in this mode, from `base`.
     pub fn config(self, scenario: &Scenario, base: &PipelineConfig) -> PipelineConfig {
-        let mut c = tether::closed_loop::config_for(scenario, base);
+        let mut c = closed_loop::config_for(scenario, base);
         match self {
             Mode::Fused => {}
             Mode::Laser => c.fusion.use_vision = false,

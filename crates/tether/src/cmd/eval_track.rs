@@ -25,6 +25,11 @@ pub struct Args {
     /// then places the scans on the robot). Without it the sensor is taken as still.
     #[arg(long, value_name = "TOPIC")]
     pub odom_topic: Option<String>,
+    /// Where the robot's motion comes from when no odometry topic is given: `auto` or
+    /// `scans` (matching each scan against the static scene, the people being tracked
+    /// left out), `none` (the sensor is taken as still).
+    #[arg(long, value_enum, default_value_t = tether::ego::EgoMotion::Auto)]
+    pub ego_motion: tether::ego::EgoMotion,
     /// The labelled person the robot should follow (default: the only label id, when
     /// the labels have one).
     #[arg(long, value_name = "ID")]
@@ -68,6 +73,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         config.laser.mount.yaw_rad = 0.0;
     }
     config.fusion.use_vision = false;
+    let source = args
+        .ego_motion
+        .resolve(args.odom_topic.is_some())
+        .map_err(anyhow::Error::msg)?;
+    let mut scan_odometry = (source == tether::ego::PoseSource::Scans).then(|| {
+        tether::ego::ScanOdometry::new(
+            tether_scanmatch::ScanMatcherConfig::default(),
+            config.laser.robot_from_laser(),
+        )
+    });
     let mut pipeline = Pipeline::new(config, None)?;
     let topics = Topics {
         scan: args.scan_topic.clone(),
@@ -87,6 +102,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(&args.labels_topic),
         &mut pipeline,
         None,
+        scan_odometry.as_mut(),
         &mut |step| {
             match step {
                 Step::Scan(s) => eval.on_scan(&s),

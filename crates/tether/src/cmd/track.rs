@@ -37,6 +37,11 @@ pub struct Args {
     /// `[target]`, `[laser.noise]`...).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
+    /// Where the robot's motion comes from : `auto` or
+    /// `scans` (matching each scan against the static scene, the people being tracked
+    /// left out), `none` (the sensor is taken as still).
+    #[arg(long, value_enum, default_value_t = tether::ego::EgoMotion::Auto)]
+    pub ego_motion: tether::ego::EgoMotion,
     /// Where to write one JSON line per scan message.
     #[arg(long, value_name = "FILE.jsonl")]
     pub out: PathBuf,
@@ -167,6 +172,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     config.fusion.use_vision = camera.is_some();
     let intrinsics = config.camera.intrinsics;
+    let source = args.ego_motion.resolve(false).map_err(anyhow::Error::msg)?;
+    let mut scan_odometry = (source == tether::ego::PoseSource::Scans).then(|| {
+        tether::ego::ScanOdometry::new(
+            tether_scanmatch::ScanMatcherConfig::default(),
+            config.laser.robot_from_laser(),
+        )
+    });
     let mut pipeline = Pipeline::new(config, None)?;
     let topics = Topics {
         scan: args.scan_topic.clone(),
@@ -188,23 +200,35 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None,
         &mut pipeline,
         boxes.as_mut().map(|b| b as &mut CameraBoxes<'_>),
+        scan_odometry.as_mut(),
         &mut |step| {
-            let Step::Scan(ScanStep { scan, tick, .. }) = step else {
+            let Step::Scan(ScanStep {
+                scan,
+                tick,
+                world_from_robot,
+                ..
+            }) = step
+            else {
                 return Ok(());
             };
+            // Positions and velocities in the scan's frame (the mount is zeroed: the
+            // robot's frame is the scan's), whatever the robot's motion.
+            let scan_from_world = world_from_robot.inverse();
             let people: Vec<PersonLine> = tick
                 .tracks
                 .iter()
                 .filter(|t| t.confirmed)
                 .map(|t| {
                     ids.insert(t.id);
+                    let p = t.position.transformed(scan_from_world);
+                    let v = scan_from_world.rotate(t.velocity);
                     PersonLine {
                         id: t.id,
-                        x: t.position.mean.x,
-                        y: t.position.mean.y,
-                        vx: t.velocity.x,
-                        vy: t.velocity.y,
-                        cov: t.position.cov.to_array(),
+                        x: p.mean.x,
+                        y: p.mean.y,
+                        vx: v.x,
+                        vy: v.y,
+                        cov: p.cov.to_array(),
                     }
                 })
                 .collect();
