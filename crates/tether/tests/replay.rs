@@ -35,6 +35,9 @@ fn a_recorded_run_replays_identically_and_finds_the_target() {
         "3",
         "--duration",
         "10",
+        // Replay's bookkeeping on the ideal laser (the realistic one's effect on the
+        // target is measured by `target_lock_realistic`).
+        "--ideal-laser",
         "--out",
         path(&dir.join("sim")),
         "--record",

@@ -55,6 +55,10 @@ pub struct Args {
     /// scenario's sensors and robot are set on top of it).
     #[arg(long, value_name = "FILE")]
     pub config: Option<std::path::PathBuf>,
+    /// The ideal laser (`[laser_sim] realistic = false`): no phantoms, weak legs or dark
+    /// spells, to compare with.
+    #[arg(long)]
+    pub ideal_laser: bool,
     /// Also write the pooled figures as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub json: Option<std::path::PathBuf>,
@@ -87,6 +91,10 @@ pub struct Pooled {
     pub target_swaps: u64,
     /// Mean |d - d0| over the runs, m.
     pub mean_abs_distance_error_m: f64,
+    /// Mean share of the control ticks with the distance in the follower's band.
+    pub time_in_band_frac: f64,
+    /// Mean time without a locked target after the first lock, s.
+    pub target_lost_s: f64,
     /// Seeds with a wrong scan or a swap (to rerun with `tether sim --seed`).
     pub bad_seeds: Vec<u64>,
 }
@@ -113,9 +121,11 @@ pub fn evaluate(
         max_reacquire_s: 0.0,
         target_swaps: 0,
         mean_abs_distance_error_m: f64::NAN,
+        time_in_band_frac: f64::NAN,
+        target_lost_s: 0.0,
         bad_seeds: Vec::new(),
     };
-    let (mut on_target, mut d_err) = (0u64, Vec::new());
+    let (mut on_target, mut d_err, mut band) = (0u64, Vec::new(), Vec::new());
     for seed in 0..seeds {
         let log = closed_loop::run(scenario, seed, &driver, &[], &[])
             .with_context(|| format!("{} seed {seed}", scenario.name))?;
@@ -131,6 +141,8 @@ pub fn evaluate(
         p.max_reacquire_s = p.max_reacquire_s.max(t.max_reacquire_s.unwrap_or(0.0));
         p.target_swaps += u64::from(m.target_swaps);
         d_err.extend(m.mean_abs_distance_error_m);
+        band.extend(m.time_in_band_frac);
+        p.target_lost_s += m.target_lost_s / seeds as f64;
         if t.wrong_scans > 0 || m.target_swaps > 0 {
             tracing::warn!(
                 "{} ({mode:?}) seed {seed}: {} scans on somebody else, {} swaps",
@@ -148,6 +160,9 @@ pub fn evaluate(
     if !d_err.is_empty() {
         p.mean_abs_distance_error_m = d_err.iter().sum::<f64>() / d_err.len() as f64;
     }
+    if !band.is_empty() {
+        p.time_in_band_frac = band.iter().sum::<f64>() / band.len() as f64;
+    }
     Ok(p)
 }
 
@@ -160,10 +175,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         args.scenarios.clone()
     };
-    let scenarios = names
+    let mut scenarios = names
         .iter()
         .map(|n| Scenario::resolve(n).map(|(s, _)| s))
         .collect::<Result<Vec<_>, _>>()?;
+    if args.ideal_laser {
+        for s in &mut scenarios {
+            s.laser_sim.realistic = false;
+        }
+    }
     let bar = ProgressBar::new(args.seeds * (scenarios.len() * args.modes.len()) as u64);
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{bar:30}] {pos}/{len} runs ({elapsed} < {eta})")
@@ -179,7 +199,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     bar.finish_and_clear();
     println!(
-        "{:<16} {:<7} {:>5} {:>7} {:>8} {:>10} {:>6} {:>12} {:>9} {:>6} {:>9}",
+        "{:<16} {:<7} {:>5} {:>7} {:>8} {:>10} {:>6} {:>12} {:>9} {:>6} {:>9} {:>8} {:>8}",
         "scenario",
         "mode",
         "runs",
@@ -190,11 +210,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "reacq <=1 s",
         "max reacq",
         "swaps",
-        "|d-d0|"
+        "|d-d0|",
+        "in band",
+        "lost"
     );
     for p in &rows {
         println!(
-            "{:<16} {:<7} {:>5} {:>7} {:>8} {:>9.2}% {:>6} {:>12} {:>8.1}s {:>6} {:>9.3}",
+            "{:<16} {:<7} {:>5} {:>7} {:>8} {:>9.2}% {:>6} {:>12} {:>8.1}s {:>6} {:>9.3} {:>7.0}% {:>7.1}s",
             p.scenario,
             format!("{:?}", p.mode).to_lowercase(),
             p.runs,
@@ -205,7 +227,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             format!("{}/{}", p.reacquired_within_1s, p.reappearances),
             p.max_reacquire_s,
             p.target_swaps,
-            p.mean_abs_distance_error_m
+            p.mean_abs_distance_error_m,
+            100.0 * p.time_in_band_frac,
+            p.target_lost_s
         );
     }
     if let Some(path) = &args.json {

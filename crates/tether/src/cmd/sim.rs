@@ -57,6 +57,10 @@ pub struct Args {
     /// `NAME-laser-only`, as in `tether demo`.
     #[arg(long)]
     pub laser_only: bool,
+    /// The ideal laser (`[laser_sim] realistic = false`): no phantoms, weak legs or
+    /// dark spells.
+    #[arg(long)]
+    pub ideal_laser: bool,
     /// Also write the run as a ROS 1 bag in leg_tracker's annotation format, for
     /// `tether eval-track` and any other tracker: `/scan` (sensor_msgs/LaserScan, frame
     /// `laser`), `/odom` (nav_msgs/Odometry, perfect; see `--bag-without-odom`) and
@@ -232,6 +236,9 @@ fn progress_bar(name: &str) -> ProgressBar {
 /// Runs the simulation.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let (mut scenario, source) = Scenario::resolve(&args.scenario)?;
+    if args.ideal_laser {
+        scenario.laser_sim.realistic = false;
+    }
     if let Some(duration) = args.duration {
         anyhow::ensure!(
             duration.is_finite() && duration > 0.0 && duration <= 86_400.0,
