@@ -291,7 +291,8 @@ pub struct TargetStats {
 }
 
 impl TargetStats {
-    fn count_loss(&mut self, reason: LossReason) {
+    /// Counts one loss for `reason`.
+    pub fn count_loss(&mut self, reason: LossReason) {
         self.losses += 1;
         *match reason {
             LossReason::Unseen => &mut self.lost_unseen,
@@ -301,7 +302,8 @@ impl TargetStats {
         } += 1;
     }
 
-    fn count_refusal(&mut self, refusal: Refusal) {
+    /// Counts one refusal (an ambiguity counts in `ambiguous`).
+    pub fn count_refusal(&mut self, refusal: Refusal) {
         *match refusal {
             Refusal::OutOfReach => &mut self.refused_out_of_reach,
             Refusal::SomebodyElse => &mut self.refused_somebody_else,

@@ -6,7 +6,7 @@
 
 use tether_core::{Laser, LaserScan, Point2, Pose2, Robot, World};
 use tether_scanmatch::{
-    ExclusionZone, MatcherCounts, MotionPrior, Quality, ScanMatcher, ScanMatcherConfig, ScanPoints,
+    ExclusionZone, MatcherCounts, MotionPrior, ScanMatcher, ScanMatcherConfig, ScanPoints,
 };
 
 /// Returns within this distance of a tracked person's last position are left out of
@@ -74,8 +74,6 @@ pub struct ScanOdometry {
     zones: Vec<ExclusionZone>,
     world_from_robot: Pose2<World, Robot>,
     unusable_scans: u64,
-    degenerate: u64,
-    prior_only: u64,
 }
 
 impl ScanOdometry {
@@ -88,8 +86,6 @@ impl ScanOdometry {
             zones: Vec::new(),
             world_from_robot: Pose2::IDENTITY,
             unusable_scans: 0,
-            degenerate: 0,
-            prior_only: 0,
         }
     }
 
@@ -120,11 +116,6 @@ impl ScanOdometry {
         let estimate = self
             .matcher
             .update(scan.stamp, &self.points, prior, &self.zones);
-        match estimate.quality {
-            Quality::Degenerate { .. } => self.degenerate += 1,
-            Quality::PriorOnly(_) => self.prior_only += 1,
-            Quality::First | Quality::Good => {}
-        }
         if estimate.world_from_robot.is_finite() {
             self.world_from_robot = estimate.world_from_robot;
         }
@@ -147,12 +138,7 @@ impl ScanOdometry {
         format!(
             "scan odometry: {} scans, {} keyframes, {} degenerate (along a corridor's axis the \
              prior), {} on the prior alone, {} gaps that reset the prior, {} unreadable",
-            c.scans,
-            c.keyframes,
-            self.degenerate,
-            self.prior_only,
-            c.prior_resets,
-            self.unusable_scans
+            c.scans, c.keyframes, c.degenerate, c.failed, c.prior_resets, self.unusable_scans
         )
     }
 }

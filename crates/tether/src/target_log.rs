@@ -190,30 +190,14 @@ impl TargetLog {
                 EventKind::Locked { .. } => c.locks += 1,
                 EventKind::Lost { track, reason } => {
                     lost_track = Some(track);
-                    c.losses += 1;
-                    *match reason {
-                        LossReason::Unseen => &mut c.lost_unseen,
-                        LossReason::LeftView => &mut c.lost_left_view,
-                        LossReason::SensorGap => &mut c.lost_sensor_gap,
-                        LossReason::TrackDropped => &mut c.lost_track_dropped,
-                    } += 1;
+                    c.count_loss(reason);
                 }
                 EventKind::Reacquired { track, .. } => {
                     c.reacquisitions += 1;
                     c.reacquired_same_track += u64::from(lost_track == Some(track));
                 }
                 EventKind::Searching => {}
-                EventKind::Refused { refusal, .. } => {
-                    *match refusal {
-                        Refusal::OutOfReach => &mut c.refused_out_of_reach,
-                        Refusal::SomebodyElse => &mut c.refused_somebody_else,
-                        Refusal::CameraDoesNotVouch => &mut c.refused_camera_does_not_vouch,
-                        Refusal::NoLegPair => &mut c.refused_no_leg_pair,
-                        Refusal::NotWalking => &mut c.refused_not_walking,
-                        Refusal::StaticClutter => &mut c.refused_static_clutter,
-                        Refusal::Ambiguous => &mut c.ambiguous,
-                    } += 1;
-                }
+                EventKind::Refused { refusal, .. } => c.count_refusal(refusal),
             }
         }
         c

@@ -32,21 +32,26 @@ fn demo_bag() -> Option<String> {
     None
 }
 
-#[test]
-fn the_target_never_moves_to_another_track_while_its_own_is_tracked() {
-    let Some(bag) = demo_bag() else { return };
-    let dir = scratch("target-real");
-    let out = dir.join("t.jsonl");
+/// Runs `tether COMMAND BAG --scan-topic /scan --out OUT`; its standard output.
+fn on_demo_bag(command: &str, bag: &str, out: &Path) -> String {
     let run = tether(&[
-        "track",
-        &bag,
+        command,
+        bag,
         "--scan-topic",
         "/scan",
         "--out",
         out.to_str().unwrap(),
     ]);
     assert!(run.status.success(), "{}", text(&run.stderr));
-    let stdout = text(&run.stdout);
+    text(&run.stdout)
+}
+
+#[test]
+fn the_target_never_moves_to_another_track_while_its_own_is_tracked() {
+    let Some(bag) = demo_bag() else { return };
+    let dir = scratch("target-real");
+    let out = dir.join("t.jsonl");
+    let stdout = on_demo_bag("track", &bag, &out);
     assert!(stdout.contains("target locked"), "{stdout}");
     let lines: Vec<serde_json::Value> = std::fs::read_to_string(&out)
         .unwrap()
@@ -110,16 +115,7 @@ fn the_replay_report_lists_every_loss_with_its_reason() {
     let Some(bag) = demo_bag() else { return };
     let dir = scratch("target-real-replay");
     let out = dir.join("r.mcap");
-    let run = tether(&[
-        "replay",
-        &bag,
-        "--scan-topic",
-        "/scan",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(run.status.success(), "{}", text(&run.stderr));
-    let stdout = text(&run.stdout);
+    let stdout = on_demo_bag("replay", &bag, &out);
     let losses: usize = stdout
         .split(" in ")
         .nth(1)
