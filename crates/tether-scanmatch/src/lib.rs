@@ -48,7 +48,7 @@ pub use icp::{IcpConfig, IcpScratch, MatchFailure, MatchResult, match_scan};
 pub use linalg::Mat3;
 pub use matcher::{
     ConfigError, Estimate, ExclusionZone, Failure, MatcherCounts, MotionPrior, Quality,
-    ScanMatcher, ScanMatcherConfig, arc,
+    RobotBounds, ScanMatcher, ScanMatcherConfig, arc,
 };
 pub use points::{ScanPoints, ScanPointsError};
 pub use reference::{Line, LineFit, Nearest, NeighbourSearch, Reference};

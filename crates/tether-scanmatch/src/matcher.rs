@@ -35,6 +35,71 @@ pub struct ScanMatcherConfig {
     /// A gap between scans longer than this makes the constant-velocity prior
     /// unreliable: it is replaced by "stationary" and the estimate says so, s.
     pub max_prior_gap_s: f64,
+    /// What the robot can do: a match that would need more is wrong (a false minimum
+    /// in a sparse scene) and falls back to the prior.
+    pub robot: RobotBounds,
+}
+
+/// The motion a ground robot is capable of, in its own frame. A match is taken only if
+/// the velocity it implies over the scan interval, `(x, y, yaw) / dt`, is within these
+/// bounds, and differs from the last trusted velocity by no more than the acceleration
+/// bounds allow over the time since that velocity was measured (plus `slack`, for the
+/// noise of a velocity taken from one increment).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RobotBounds {
+    /// Highest speed, m/s.
+    pub max_speed_mps: f64,
+    /// Highest sideways speed, m/s: a differential-drive or car-like base cannot slide
+    /// sideways; what remains is the turn seen from a scanner mounted off the axle
+    /// (`w * mount_x`) and noise. Raise it for a holonomic base.
+    pub max_lateral_speed_mps: f64,
+    /// Highest turn rate, rad/s.
+    pub max_turn_rate_radps: f64,
+    /// Highest acceleration, m/s^2.
+    pub max_accel_mps2: f64,
+    /// Highest angular acceleration, rad/s^2.
+    pub max_angular_accel_radps2: f64,
+    /// Noise of a velocity measured from one increment, m/s.
+    pub speed_slack_mps: f64,
+    /// Noise of a turn rate measured from one increment, rad/s.
+    pub turn_rate_slack_radps: f64,
+}
+
+impl Default for RobotBounds {
+    fn default() -> Self {
+        // Generous for the small bases tether drives (Create, TurtleBot, Pioneer:
+        // 0.5-1.5 m/s, under 3 rad/s), and far below the jumps of a false match.
+        RobotBounds {
+            max_speed_mps: 2.5,
+            max_lateral_speed_mps: 0.4,
+            max_turn_rate_radps: 3.0,
+            max_accel_mps2: 3.0,
+            max_angular_accel_radps2: 8.0,
+            speed_slack_mps: 0.25,
+            turn_rate_slack_radps: 0.3,
+        }
+    }
+}
+
+impl RobotBounds {
+    /// Whether a robot whose trusted velocity was `trusted` (`(vx, vy, w)`, robot
+    /// frame) `since_s` ago can move at `velocity` now.
+    pub fn allows(
+        &self,
+        velocity: (f64, f64, f64),
+        trusted: (f64, f64, f64),
+        since_s: f64,
+    ) -> bool {
+        let (vx, vy, w) = velocity;
+        let (tx, ty, tw) = trusted;
+        let since = since_s.max(0.0);
+        vx.hypot(vy) <= self.max_speed_mps
+            && vy.abs() <= self.max_lateral_speed_mps
+            && w.abs() <= self.max_turn_rate_radps
+            && (vx - tx).hypot(vy - ty) <= self.max_accel_mps2 * since + self.speed_slack_mps
+            && (w - tw).abs() <= self.max_angular_accel_radps2 * since + self.turn_rate_slack_radps
+    }
 }
 
 /// A setting that cannot work.
@@ -54,7 +119,15 @@ impl ScanMatcherConfig {
     /// `[0, 1)`, at least one iteration and three matches.
     pub fn validate(&self) -> Result<(), ConfigError> {
         let icp = &self.icp;
-        let positive: [(&'static str, f64); 14] = [
+        let r = &self.robot;
+        let positive: [(&'static str, f64); 21] = [
+            ("robot.max_speed_mps", r.max_speed_mps),
+            ("robot.max_lateral_speed_mps", r.max_lateral_speed_mps),
+            ("robot.max_turn_rate_radps", r.max_turn_rate_radps),
+            ("robot.max_accel_mps2", r.max_accel_mps2),
+            ("robot.max_angular_accel_radps2", r.max_angular_accel_radps2),
+            ("robot.speed_slack_mps", r.speed_slack_mps),
+            ("robot.turn_rate_slack_radps", r.turn_rate_slack_radps),
             ("icp.translation_tolerance_m", icp.translation_tolerance_m),
             ("icp.rotation_tolerance_rad", icp.rotation_tolerance_rad),
             ("icp.max_correspondence_m", icp.max_correspondence_m),
@@ -143,6 +216,7 @@ impl Default for ScanMatcherConfig {
             prior_sigma_m_per_s: 0.3,
             prior_sigma_rad_per_s: 0.3,
             max_prior_gap_s: 1.0,
+            robot: RobotBounds::default(),
         }
     }
 }
@@ -212,6 +286,8 @@ pub enum Failure {
     NotFinite,
     /// The stamp is not after the previous scan's: the scan was ignored.
     StampNotIncreasing,
+    /// The match implied a motion the robot cannot make ([`RobotBounds`]).
+    Implausible,
 }
 
 impl From<MatchFailure> for Failure {
@@ -276,6 +352,8 @@ pub struct MatcherCounts {
     pub stamps_not_increasing: u64,
     /// Gaps longer than the prior allows.
     pub prior_resets: u64,
+    /// Of the failed scans, matches refused for a motion the robot cannot make.
+    pub implausible: u64,
     /// Keyframes taken.
     pub keyframes: u64,
 }
@@ -288,6 +366,9 @@ struct State {
     keyframe_from_last: Pose2<Robot, Robot>,
     /// Last increment per second `(x, y, yaw)`.
     velocity: (f64, f64, f64),
+    /// The last velocity measured by a match, and when (`None` before the first match
+    /// and after a gap: a recording may start, or resume, with the robot driving).
+    trusted: Option<((f64, f64, f64), Stamp)>,
 }
 
 /// Estimates the robot's motion from consecutive scans (SPEC 11: ego-motion without
@@ -453,6 +534,21 @@ impl ScanMatcher {
             self.search,
             &mut self.scratch,
         );
+        // A match the robot could not have made is a false minimum.
+        let outcome = outcome.map_err(Failure::from).and_then(|r| {
+            let inc = state.keyframe_from_last.inverse() * r.keyframe_from_robot;
+            let v = (inc.x / dt_s, inc.y / dt_s, wrap_angle_rad(inc.yaw) / dt_s);
+            // Unknown earlier velocity: only the speed limits hold.
+            let (trusted, since_s) = match (state.trusted, prior_reset) {
+                (Some((t, at)), false) => (t, stamp.secs_since(at)),
+                _ => (v, 0.0),
+            };
+            if self.config.robot.allows(v, trusted, since_s) {
+                Ok(r)
+            } else {
+                Err(Failure::Implausible)
+            }
+        });
         let (keyframe_from_now, match_cov, quality, result): (_, _, _, Option<MatchResult>) =
             match outcome {
                 Ok(r) => {
@@ -468,7 +564,8 @@ impl ScanMatcher {
                 }
                 Err(f) => {
                     self.counts.failed += 1;
-                    (guess, prior_cov, Quality::PriorOnly(f.into()), None)
+                    self.counts.implausible += u64::from(f == Failure::Implausible);
+                    (guess, prior_cov, Quality::PriorOnly(f), None)
                 }
             };
         let robot_from_robot =
@@ -492,16 +589,26 @@ impl ScanMatcher {
             robot_from_robot.y / dt_s,
             robot_from_robot.yaw / dt_s,
         );
+        // Only a match that constrained every direction measures the velocity (along a
+        // corridor's axis a degenerate match repeats the prior).
+        let trusted = match (&result, prior_reset) {
+            (Some(_), _) if quality == Quality::Good => Some((velocity, stamp)),
+            (Some(_), _) => state.trusted,
+            (None, true) => None,
+            (None, false) => state.trusted,
+        };
         if new_keyframe {
             self.take_keyframe(scan, stamp, world_from_robot, world_covariance);
             if let Some(s) = self.state.as_mut() {
                 s.velocity = velocity;
+                s.trusted = trusted;
             }
         } else {
             self.state = Some(State {
                 last_stamp: stamp,
                 keyframe_from_last: keyframe_from_now,
                 velocity,
+                trusted,
                 ..state
             });
         }
@@ -554,12 +661,14 @@ impl ScanMatcher {
         self.keyframe
             .rebuild(scan, &self.config.icp.lines, |i| keep[i]);
         let velocity = self.state.as_ref().map_or((0.0, 0.0, 0.0), |s| s.velocity);
+        let trusted = self.state.as_ref().and_then(|s| s.trusted);
         self.state = Some(State {
             last_stamp: stamp,
             world_from_keyframe: world_from_robot,
             world_from_keyframe_cov: cov,
             keyframe_from_last: Pose2::IDENTITY,
             velocity,
+            trusted,
         });
     }
 }

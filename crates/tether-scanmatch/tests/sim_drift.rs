@@ -23,6 +23,8 @@ struct Drift {
     max_error_m: f64,
     scans: usize,
     failed: u64,
+    /// Of the failures, matches refused as a motion the robot cannot make.
+    implausible: u64,
     degenerate: u64,
     keyframes: u64,
 }
@@ -110,6 +112,7 @@ fn drive(name: &str, seed: u64, exclude_people: bool, commanded: bool) -> Drift 
         max_error_m,
         scans,
         failed: c.failed,
+        implausible: c.implausible,
         degenerate: c.degenerate,
         keyframes: c.keyframes,
     }
@@ -162,7 +165,9 @@ fn drift_in_every_scenario_and_under_two_percent_in_office_and_outdoors() {
                 );
             }
             if name == "office" {
-                assert_eq!(d.failed, 0, "{name}: {d:?}");
+                // Every scan has enough structure to match (a false minimum refused
+                // for a motion the base cannot make is not a lack of structure).
+                assert_eq!(d.failed - d.implausible, 0, "{name}: {d:?}");
             }
             if !commanded && d.ratio() > 0.05 {
                 assert!(

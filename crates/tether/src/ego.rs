@@ -14,6 +14,25 @@ use tether_scanmatch::{
 /// legs spread 0.3 m about their centre, m.
 pub const PERSON_EXCLUSION_M: f64 = 0.6;
 
+/// A track is left out of the match when it moves faster than this, m/s...
+pub const MOVING_SPEED_MPS: f64 = 0.3;
+/// ...or has walked this far from where it started, m (a person who stopped for a
+/// moment will walk on).
+pub const MOVING_WALKED_M: f64 = 1.0;
+
+/// Where the people who move are: the tracks whose returns the match must leave out.
+/// Tracks that stay put (a bush, a post, a bin the detector takes for legs, a person
+/// standing) are static structure, and in a sparse scene (a park) they are most of what
+/// there is to match against.
+pub fn moving_people(
+    tracks: &[tether_fusion::tracker::Track],
+) -> impl Iterator<Item = Point2<World>> + '_ {
+    tracks
+        .iter()
+        .filter(|t| t.velocity().norm() > MOVING_SPEED_MPS || t.walked_m >= MOVING_WALKED_M)
+        .map(|t| t.position().mean)
+}
+
 /// How a run learns the robot's motion.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -137,8 +156,15 @@ impl ScanOdometry {
         let c = self.matcher.counts();
         format!(
             "scan odometry: {} scans, {} keyframes, {} degenerate (along a corridor's axis the \
-             prior), {} on the prior alone, {} gaps that reset the prior, {} unreadable",
-            c.scans, c.keyframes, c.degenerate, c.failed, c.prior_resets, self.unusable_scans
+             prior), {} on the prior alone ({} of them matches refused as a motion the robot \
+             cannot make), {} gaps that reset the prior, {} unreadable",
+            c.scans,
+            c.keyframes,
+            c.degenerate,
+            c.failed,
+            c.implausible,
+            c.prior_resets,
+            self.unusable_scans
         )
     }
 }

@@ -105,11 +105,7 @@ pub fn run_recording(
             }
             Sample::Scan(scan) => {
                 if let Some(odometry) = scan_odometry.as_deref_mut() {
-                    let people = pipeline
-                        .tracker()
-                        .tracks()
-                        .iter()
-                        .map(|t| t.position().mean);
+                    let people = crate::ego::moving_people(pipeline.tracker().tracks());
                     pose = Some(odometry.update(&scan, MotionPrior::ConstantVelocity, people));
                 }
                 let Some(world_from_robot) = pose else {

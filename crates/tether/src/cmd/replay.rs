@@ -305,11 +305,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Sample::Scan(scan) => {
                 summary.scans += 1;
                 if let Some(odometry) = scan_odometry.as_mut() {
-                    let people = pipeline
-                        .tracker()
-                        .tracks()
-                        .iter()
-                        .map(|t| t.position().mean);
+                    let people = tether::ego::moving_people(pipeline.tracker().tracks());
                     pose = Some(odometry.update(&scan, MotionPrior::ConstantVelocity, people));
                 }
                 let Some(p) = pose else {

@@ -37,7 +37,12 @@ pub struct Args {
     /// `[target]`, `[laser.noise]`...).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
-    /// Where the robot's motion comes from : `auto` or
+    /// A `nav_msgs/Odometry` topic: the robot's motion (the laser mount of `--config`
+    /// then places the scans on the robot). Without it, `--ego-motion` says where the
+    /// motion comes from.
+    #[arg(long, value_name = "TOPIC")]
+    pub odom_topic: Option<String>,
+    /// Where the robot's motion comes from when no odometry topic is given: `auto` or
     /// `scans` (matching each scan against the static scene, the people being tracked
     /// left out), `none` (the sensor is taken as still).
     #[arg(long, value_enum, default_value_t = tether::ego::EgoMotion::Auto)]
@@ -158,32 +163,39 @@ impl Camera {
 }
 
 /// Runs the pipeline over the recording's scans (and camera frames, with
-/// `--image-topic`), in log order ([`tether::tracking::run_recording`]). The recording
-/// is taken as seen from a still sensor: the scan's frame is the robot's and the
-/// world's, so positions and velocities come out in the scan's frame.
+/// `--image-topic`), in log order ([`tether::tracking::run_recording`]), with the
+/// robot's motion from `--odom-topic`, scan matching or none (`--ego-motion`).
+/// Positions and velocities come out in the scan's frame.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = load_config(args.config.as_ref())?;
-    config.laser.mount.x_m = 0.0;
-    config.laser.mount.y_m = 0.0;
-    config.laser.mount.yaw_rad = 0.0;
+    if args.odom_topic.is_none() {
+        // A still sensor: the scan's frame is the robot's and the world's.
+        config.laser.mount.x_m = 0.0;
+        config.laser.mount.y_m = 0.0;
+        config.laser.mount.yaw_rad = 0.0;
+    }
     let mut camera = match &args.image_topic {
         Some(_) => Some(Camera::new(&args.detector)?),
         None => None,
     };
     config.fusion.use_vision = camera.is_some();
     let intrinsics = config.camera.intrinsics;
-    let source = args.ego_motion.resolve(false).map_err(anyhow::Error::msg)?;
+    let source = args
+        .ego_motion
+        .resolve(args.odom_topic.is_some())
+        .map_err(anyhow::Error::msg)?;
     let mut scan_odometry = (source == tether::ego::PoseSource::Scans).then(|| {
         tether::ego::ScanOdometry::new(
             tether_scanmatch::ScanMatcherConfig::default(),
             config.laser.robot_from_laser(),
         )
     });
+    let laser_from_robot = config.laser.robot_from_laser().inverse();
     let mut pipeline = Pipeline::new(config, None)?;
     let topics = Topics {
         scan: args.scan_topic.clone(),
         image: args.image_topic.clone(),
-        odom: None,
+        odom: args.odom_topic.clone(),
     };
     let file = std::fs::File::create(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
@@ -211,9 +223,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             else {
                 return Ok(());
             };
-            // Positions and velocities in the scan's frame (the mount is zeroed: the
-            // robot's frame is the scan's), whatever the robot's motion.
-            let scan_from_world = world_from_robot.inverse();
+            // Positions and velocities in the scan's frame, whatever the robot's motion.
+            let scan_from_world = laser_from_robot * world_from_robot.inverse();
             let people: Vec<PersonLine> = tick
                 .tracks
                 .iter()

@@ -231,12 +231,7 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
                     .dead_reckoned_at_last_scan
                     .map_or(Pose2::IDENTITY, |last| last.inverse() * dead_reckoned);
                 self.dead_reckoned_at_last_scan = Some(dead_reckoned);
-                let people = self
-                    .pipeline
-                    .tracker()
-                    .tracks()
-                    .iter()
-                    .map(|t| t.position().mean);
+                let people = crate::ego::moving_people(self.pipeline.tracker().tracks());
                 let matched = matcher.update(&scan, MotionPrior::Increment(increment), people);
                 self.correction = matched * dead_reckoned.inverse();
                 matched
