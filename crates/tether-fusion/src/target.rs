@@ -65,9 +65,53 @@ pub struct TargetConfig {
     /// Distance a track must have walked before the laser alone vouches for it when
     /// re-acquiring, m.
     pub min_walked_m: f64,
+    /// Share of a track's (not weak) updates that must be leg pairs before the laser
+    /// alone vouches for it when re-acquiring: a person near the robot shows two legs most of the time
+    /// (over 90 % in the simulated park), a bush or a phantom that now and then looks
+    /// like a pair seldom does.
+    pub min_pair_share: f64,
+    /// Largest share of a track's updates that may be weak (legs the classifier barely
+    /// accepts) for the laser alone to vouch for it.
+    pub max_weak_share: f64,
     /// Margin added to the region where a lost target can be, beyond three standard
     /// deviations of its last estimate and of the candidate's, m.
     pub region_margin_m: f64,
+    /// Another track is somebody else, never the target taken up again, once it has
+    /// been updated at the same instants as the locked target, farther from it than
+    /// `beside_distance_m`, for this long in all, s. One person's legs seen as two
+    /// tracks for a moment, or a track that takes the person's legs while the target's
+    /// own track is led off by clutter, do not add up to that; a bystander walking
+    /// beside the target does.
+    pub beside_s: f64,
+    /// How far apart two tracks updated together must be to count as two people, m.
+    pub beside_distance_m: f64,
+    /// Another track closer than this to the target is a close encounter (a bystander
+    /// passing, a crossing): the tracker may swap the two, so the target's own motion
+    /// is carried on from before the encounter and checked against its track, m.
+    pub encounter_distance_m: f64,
+    /// Longest an encounter is bridged by the target's motion from before it, s.
+    pub encounter_max_s: f64,
+    /// Typical acceleration of a walker, m/s^2: how fast the prediction through an
+    /// encounter spreads (`sigma(dt) = sqrt(sigma_0^2 + (sigma_v dt)^2 + (a dt^2 / 2)^2)`).
+    pub encounter_accel_mps2: f64,
+    /// During an encounter, the target is handed over from its track to another one
+    /// when that track explains the target's motion from before the encounter
+    /// (position and velocity) better by at least this much: the difference of their
+    /// squared normalised distances, `d_track^2 - d_other^2` (twice the log-likelihood
+    /// ratio; 4 is a ratio of e^2, about 7), and better than any third track by as much.
+    pub handover_margin: f64,
+    /// ...and the other track is within this normalised distance of the prediction.
+    pub handover_within_sigma: f64,
+    /// A target's track that has coasted this long while exactly one other track takes
+    /// up the target hands it over ([`TargetSelector`]'s coasting handover), s.
+    pub handover_coast_s: f64,
+    /// The target's track that stays within `led_off_distance_m` of somebody else's
+    /// track for `led_off_after_s` has been led off onto that person: the target is
+    /// lost. Two people passing shoulder to shoulder are closer than half a metre for
+    /// a moment only; two tracks on one person stay within a few centimetres, m.
+    pub led_off_distance_m: f64,
+    /// See `led_off_distance_m`, s.
+    pub led_off_after_s: f64,
 }
 
 impl Default for TargetConfig {
@@ -84,7 +128,19 @@ impl Default for TargetConfig {
             min_leg_pairs: 1,
             min_leg_pairs_standing: 2,
             min_walked_m: 0.5,
+            min_pair_share: 0.5,
+            max_weak_share: 0.5,
             region_margin_m: 0.3,
+            beside_s: 0.5,
+            beside_distance_m: 0.45,
+            encounter_distance_m: 1.0,
+            encounter_max_s: 3.0,
+            encounter_accel_mps2: 0.5,
+            handover_margin: 4.0,
+            handover_within_sigma: 3.0,
+            handover_coast_s: 0.3,
+            led_off_distance_m: 0.3,
+            led_off_after_s: 0.5,
         }
     }
 }
@@ -106,6 +162,18 @@ impl TargetConfig {
         for (name, v) in [
             ("min_walked_m", self.min_walked_m),
             ("region_margin_m", self.region_margin_m),
+            ("beside_s", self.beside_s),
+            ("beside_distance_m", self.beside_distance_m),
+            ("min_pair_share", self.min_pair_share),
+            ("max_weak_share", self.max_weak_share),
+            ("encounter_distance_m", self.encounter_distance_m),
+            ("encounter_max_s", self.encounter_max_s),
+            ("encounter_accel_mps2", self.encounter_accel_mps2),
+            ("handover_margin", self.handover_margin),
+            ("handover_coast_s", self.handover_coast_s),
+            ("handover_within_sigma", self.handover_within_sigma),
+            ("led_off_distance_m", self.led_off_distance_m),
+            ("led_off_after_s", self.led_off_after_s),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(format!("target {name} must be >= 0, got {v}"));
@@ -139,6 +207,9 @@ pub enum LossReason {
     /// The tracker dropped its track (too uncertain or silent too long) before the
     /// selector saw it go silent.
     TrackDropped,
+    /// Its track ran into another person's track and stayed on it: the target was
+    /// occluded by, or crossed, that person and its track took that person's legs.
+    LedOff,
 }
 
 impl LossReason {
@@ -149,6 +220,7 @@ impl LossReason {
             LossReason::LeftView => "left_view",
             LossReason::SensorGap => "sensor_gap",
             LossReason::TrackDropped => "track_dropped",
+            LossReason::LedOff => "led_off",
         }
     }
 }
@@ -163,7 +235,9 @@ pub enum Refusal {
     SomebodyElse,
     /// In the camera's view but not seen by both sensors.
     CameraDoesNotVouch,
-    /// Never seen as a pair of legs.
+    /// Not seen as a pair of legs often enough (too few pairs, pairs in too small a
+    /// share of its updates, or mostly faint legs): what the laser sees of it is not
+    /// a person's steady pair of legs.
     NoLegPair,
     /// Has not walked: it could be a post or a bush.
     NotWalking,
@@ -268,6 +342,8 @@ pub struct TargetStats {
     pub lost_sensor_gap: u64,
     /// Losses by reason: track dropped.
     pub lost_track_dropped: u64,
+    /// Losses by reason: led off onto another person's track.
+    pub lost_led_off: u64,
     /// Times it was re-acquired (same or another track id).
     pub reacquisitions: u64,
     /// Of those, onto the same track id.
@@ -288,6 +364,9 @@ pub struct TargetStats {
     pub refused_not_walking: u64,
     /// ... in static clutter.
     pub refused_static_clutter: u64,
+    /// Times the target was handed over from its track to another during a close
+    /// encounter (the tracker had swapped them, or the target's track was led off).
+    pub handovers: u64,
 }
 
 impl TargetStats {
@@ -299,6 +378,7 @@ impl TargetStats {
             LossReason::LeftView => &mut self.lost_left_view,
             LossReason::SensorGap => &mut self.lost_sensor_gap,
             LossReason::TrackDropped => &mut self.lost_track_dropped,
+            LossReason::LedOff => &mut self.lost_led_off,
         } += 1;
     }
 
@@ -358,6 +438,28 @@ pub struct TargetSelector {
     last_good: Option<crate::tracker::Anchor>,
     /// Confirmed tracks other than the target when it was lost: other people.
     others_at_loss: BTreeSet<u64>,
+    /// For each other track, how long it has been updated together with the locked
+    /// target and apart from it, s.
+    beside: std::collections::BTreeMap<u64, f64>,
+    /// The previous update's stamp.
+    last_now: Option<Stamp>,
+    /// The locked track `beside` is about.
+    beside_of: Option<u64>,
+    /// The target's state the last time it was alone (no other track within
+    /// `encounter_distance_m`): what carries it through a close encounter.
+    alone: Option<crate::tracker::Anchor>,
+    /// For each track that is somebody else, how long the target's track has stayed on
+    /// it, s.
+    on_other: std::collections::BTreeMap<u64, f64>,
+    /// Tracks the selector has seen (to notice births).
+    seen: BTreeSet<u64>,
+    /// Tracks that have been the target: the same person, whatever the tracker has
+    /// done since, until shown otherwise.
+    former: BTreeSet<u64>,
+    /// Tracks born within `encounter_distance_m` of the locked target, or that were
+    /// that near it when it was locked: perhaps the target itself (taken up by a new
+    /// track, or its legs tracked apart).
+    born_at_target: BTreeSet<u64>,
     /// Refusals already counted in this loss (track, reason).
     refused: BTreeSet<(u64, Refusal)>,
     /// The candidate sets already counted as ambiguous in this loss.
@@ -376,6 +478,14 @@ impl TargetSelector {
             stats: TargetStats::default(),
             last_good: None,
             others_at_loss: BTreeSet::new(),
+            beside: std::collections::BTreeMap::new(),
+            last_now: None,
+            beside_of: None,
+            alone: None,
+            on_other: std::collections::BTreeMap::new(),
+            seen: BTreeSet::new(),
+            former: BTreeSet::new(),
+            born_at_target: BTreeSet::new(),
             refused: BTreeSet::new(),
             ambiguous_sets: BTreeSet::new(),
             refusals_now: Vec::new(),
@@ -440,7 +550,25 @@ impl TargetSelector {
         else {
             return false;
         };
-        let sd = last.cov.principal_axes().0.max(0.0).sqrt();
+        let from = crate::tracker::Anchor {
+            stamp: since,
+            position: last,
+            velocity,
+            velocity_sigma_mps,
+        };
+        self.reachable_from(&from, p, p_sigma_m, now)
+    }
+
+    /// Whether a person last seen at `from` could be at `p` (standard deviation
+    /// `p_sigma_m`) at `now`.
+    fn reachable_from(
+        &self,
+        from: &crate::tracker::Anchor,
+        p: Point2<World>,
+        p_sigma_m: f64,
+        now: Stamp,
+    ) -> bool {
+        let sd = from.position.cov.principal_axes().0.max(0.0).sqrt();
         let margin = 3.0 * (sd + p_sigma_m) + self.config.region_margin_m;
         // A lost person is no longer bound by the coasting cap: the region grows with
         // the time lost, but never faster than a walker.
@@ -449,10 +577,10 @@ impl TargetSelector {
             ..self.motion
         };
         bounds.reachable(
-            last.mean,
-            velocity,
-            velocity_sigma_mps,
-            now.secs_since(since),
+            from.position.mean,
+            from.velocity,
+            from.velocity_sigma_mps,
+            now.secs_since(from.stamp),
             margin,
             p,
         )
@@ -472,32 +600,271 @@ impl TargetSelector {
     pub fn update_with_view(&mut self, now: Stamp, tracks: &[Track], view: &View) -> TargetState {
         self.refusals_now.clear();
         let fresh = |t: &Track| now.secs_since(t.last_update) <= self.config.lost_after_s;
+        // Time since the previous update, capped so that a gap in the input does not
+        // count as time seen together.
+        let dt = self
+            .last_now
+            .map_or(0.0, |l| now.secs_since(l).clamp(0.0, 0.2));
+        self.last_now = Some(now);
+        self.beside
+            .retain(|id, _| tracks.iter().any(|t| t.id == *id));
+        self.seen.retain(|id| tracks.iter().any(|t| t.id == *id));
+        self.former.retain(|id| tracks.iter().any(|t| t.id == *id));
+        self.born_at_target
+            .retain(|id| tracks.iter().any(|t| t.id == *id));
+        let target_here = match self.state {
+            TargetState::Locked { track } => tracks
+                .iter()
+                .find(|t| t.id == track)
+                .map(|t| t.position().mean),
+            _ => None,
+        };
+        for t in tracks {
+            if self.seen.insert(t.id)
+                && target_here.is_some_and(|p| {
+                    p.distance_m(t.birth_position) <= self.config.encounter_distance_m
+                })
+            {
+                self.born_at_target.insert(t.id);
+            }
+        }
         self.state = match self.state {
             TargetState::Searching => self.choose(now, tracks, view),
             TargetState::Locked { track } => match tracks.iter().find(|t| t.id == track) {
                 Some(t) if fresh(t) => {
                     self.last_good = Some(t.anchor);
-                    TargetState::Locked { track }
+                    if t.last_pair == Some(now) {
+                        self.count_beside(t, tracks, now, dt);
+                    }
+                    if let Some(u) = self.coasting_handover(now, t, tracks, view) {
+                        self.stats.handovers += 1;
+                        self.last_good = tracks.iter().find(|k| k.id == u).map(|k| k.anchor);
+                        TargetState::Locked { track: u }
+                    } else if self.led_off(t, tracks, now, dt) {
+                        let alone = self
+                            .alone
+                            .filter(|a| now.secs_since(a.stamp) <= self.config.encounter_max_s);
+                        self.last_good = alone.or(self.last_good);
+                        self.lose_led_off(track, tracks)
+                    } else {
+                        self.through_encounter(now, t, tracks, view)
+                    }
                 }
-                found => self.lose(track, found, tracks, view),
+                found => {
+                    // Lost in company: the target's track may have been led off before
+                    // it went silent; the region starts from where it was alone.
+                    let alone = self
+                        .alone
+                        .filter(|a| now.secs_since(a.stamp) <= self.config.encounter_max_s);
+                    if let (Some(a), Some(f)) = (alone, found)
+                        && f.anchor.stamp > a.stamp
+                        && self.off_prediction_sigma(&a, f, f.anchor.stamp)
+                            > self.config.handover_within_sigma
+                    {
+                        self.lose(track, found, Some(a), tracks, view)
+                    } else {
+                        let anchor = found.map(|t| t.anchor).or(self.last_good);
+                        self.lose(track, found, anchor, tracks, view)
+                    }
+                }
             },
             TargetState::Lost { track, .. } => self.reacquire(now, track, tracks, view),
         };
-        if let TargetState::Locked { .. } = self.state {
+        if let TargetState::Locked { track } = self.state {
+            self.former.insert(track);
             self.refused.clear();
             self.ambiguous_sets.clear();
+            if self.beside_of != Some(track) {
+                // Who was seen beside another track says nothing about this one; and
+                // a track already near the new target may be the same person (their
+                // legs tracked apart) as much as one born there.
+                self.beside.clear();
+                self.beside_of = Some(track);
+                if let Some(here) = tracks
+                    .iter()
+                    .find(|t| t.id == track)
+                    .map(|t| t.position().mean)
+                {
+                    for t in tracks {
+                        if t.id != track
+                            && t.position().mean.distance_m(here)
+                                <= self.config.encounter_distance_m
+                        {
+                            self.born_at_target.insert(t.id);
+                        }
+                    }
+                }
+            }
+        } else {
+            self.alone = None;
         }
         self.state
     }
 
+    /// How many standard deviations track `t` is (at `at`) from where the target, alone
+    /// at `a`, would be: `|p_t - (p_a + v_a dt)| / sqrt(sigma_a^2 + sigma_t^2 + (sigma_v
+    /// dt)^2 + (A dt^2 / 2)^2)`, `A` = `encounter_accel_mps2`.
+    fn off_prediction_sigma(&self, a: &crate::tracker::Anchor, t: &Track, at: Stamp) -> f64 {
+        let dt = at.secs_since(a.stamp).max(0.0);
+        let predicted = a.position.mean + a.velocity * dt;
+        let sd2 = |c: &tether_core::Cov2| c.principal_axes().0.max(0.0);
+        let spread = 0.5 * self.config.encounter_accel_mps2 * dt * dt;
+        let var = sd2(&a.position.cov)
+            + sd2(&t.position().cov)
+            + (a.velocity_sigma_mps * dt).powi(2)
+            + spread * spread;
+        t.position().mean.distance_m(predicted) / var.max(1e-6).sqrt()
+    }
+
+    /// The squared normalised distance of track `t` (at `at`) from the target's motion
+    /// when it was alone at `a`: the position term of [`Self::off_prediction_sigma`]
+    /// squared plus `|v_t - v_a|^2 / (sigma_va^2 + sigma_vt^2 + (A dt)^2)`.
+    fn off_motion_sq(&self, a: &crate::tracker::Anchor, t: &Track, at: Stamp) -> f64 {
+        let dt = at.secs_since(a.stamp).max(0.0);
+        let dv = t.velocity() - a.velocity;
+        let sigma_vt = t.anchor.velocity_sigma_mps;
+        let var_v = a.velocity_sigma_mps.powi(2)
+            + sigma_vt * sigma_vt
+            + (self.config.encounter_accel_mps2 * dt).powi(2);
+        self.off_prediction_sigma(a, t, at).powi(2) + dv.norm().powi(2) / var_v.max(1e-6)
+    }
+
+    /// The locked target `t`, carried through close encounters: while another track is
+    /// within `encounter_distance_m`, the target's motion from when it was last alone
+    /// is the reference; a target track that leaves it far behind while exactly one
+    /// other track (a person the laser vouches for, not somebody else) follows it hands
+    /// the target over to that track.
+    fn through_encounter(
+        &mut self,
+        now: Stamp,
+        t: &Track,
+        tracks: &[Track],
+        view: &View,
+    ) -> TargetState {
+        let c = &self.config;
+        let here = t.position().mean;
+        let fresh = |u: &Track| now.secs_since(u.last_update) <= c.lost_after_s;
+        let company = tracks.iter().any(|u| {
+            u.id != t.id && fresh(u) && u.position().mean.distance_m(here) < c.encounter_distance_m
+        });
+        if !company {
+            if t.last_update == now {
+                self.alone = Some(t.anchor);
+            }
+            return TargetState::Locked { track: t.id };
+        }
+        let Some(a) = self
+            .alone
+            .filter(|a| now.secs_since(a.stamp) <= c.encounter_max_s && now > a.stamp)
+        else {
+            return TargetState::Locked { track: t.id };
+        };
+        let d_target = self.off_motion_sq(&a, t, now);
+        let mut others: Vec<(f64, &Track)> = tracks
+            .iter()
+            .filter(|u| u.id != t.id && u.confirmed && u.last_update == now)
+            .map(|u| (self.off_motion_sq(&a, u, now), u))
+            .collect();
+        others.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.id.cmp(&y.1.id)));
+        let margin = c.handover_margin;
+        match others.as_slice() {
+            [(d, u), rest @ ..]
+                if *d <= c.handover_within_sigma.powi(2)
+                    && d_target - d >= margin
+                    && rest.first().is_none_or(|(d2, _)| d2 - d >= margin)
+                    && !self.is_somebody_else(u)
+                    && (!view.laser_in_use || self.laser_refusal(u, view, false).is_none()) =>
+            {
+                self.stats.handovers += 1;
+                self.last_good = Some(u.anchor);
+                TargetState::Locked { track: u.id }
+            }
+            _ => TargetState::Locked { track: t.id },
+        }
+    }
+
+    /// Adds `dt_s` to every other confirmed track seen now as a whole person, apart from
+    /// the target
+    /// (called when the target itself was seen now as a whole person: a pair of legs,
+    /// or by the camera, so that a target led off by clutter does not make the person
+    /// it left somebody else).
+    fn count_beside(&mut self, target: &Track, tracks: &[Track], now: Stamp, dt_s: f64) {
+        let here = target.position().mean;
+        for u in tracks {
+            if u.id != target.id
+                && u.confirmed
+                && u.last_pair == Some(now)
+                && u.position().mean.distance_m(here) > self.config.beside_distance_m
+            {
+                *self.beside.entry(u.id).or_insert(0.0) += dt_s;
+            }
+        }
+    }
+
+    /// Whether `u` was somebody else already when the target was last seen at `a`: a
+    /// track older than that observation, not born at the target nor ever the target,
+    /// and not where the target was last seen.
+    fn there_before(&self, u: &Track, a: &crate::tracker::Anchor) -> bool {
+        u.born <= a.stamp
+            && !self.born_at_target.contains(&u.id)
+            && !self.former.contains(&u.id)
+            && u.position().mean.distance_m(a.position.mean) > self.config.encounter_distance_m
+    }
+
+    /// Whether another track `u` is surely somebody else: both were seen as whole
+    /// people, apart, at the same instants for `beside_s`.
+    fn is_somebody_else(&self, u: &Track) -> bool {
+        self.beside
+            .get(&u.id)
+            .is_some_and(|&s| s >= self.config.beside_s)
+    }
+
+    /// Adds `dt_s` to the time the target's track `t` has spent on each track of
+    /// somebody else (within `led_off_distance_m`); true once one reaches
+    /// `led_off_after_s`.
+    fn led_off(&mut self, t: &Track, tracks: &[Track], now: Stamp, dt_s: f64) -> bool {
+        let here = t.position().mean;
+        let fresh = |u: &Track| now.secs_since(u.last_update) <= self.config.lost_after_s;
+        let on: Vec<u64> = tracks
+            .iter()
+            .filter(|u| u.id != t.id && u.confirmed && fresh(u))
+            .filter(|u| u.position().mean.distance_m(here) < self.config.led_off_distance_m)
+            .filter(|u| self.is_somebody_else(u))
+            .map(|u| u.id)
+            .collect();
+        self.on_other.retain(|id, _| on.contains(id));
+        let mut led = false;
+        for id in on {
+            let s = self.on_other.entry(id).or_insert(0.0);
+            *s += dt_s;
+            led |= *s >= self.config.led_off_after_s;
+        }
+        led
+    }
+
+    /// The target's track `track` was led off onto somebody else: lost, and neither
+    /// that track nor the one it merged with can take the target up again.
+    fn lose_led_off(&mut self, track: u64, tracks: &[Track]) -> TargetState {
+        let others: Vec<u64> = self.on_other.keys().copied().collect();
+        let last = self.last_good;
+        self.stats.count_loss(LossReason::LedOff);
+        let state = self.lose_with(track, LossReason::LedOff, last, tracks);
+        self.others_at_loss.insert(track);
+        self.others_at_loss.extend(others);
+        self.on_other.clear();
+        state
+    }
+
+    /// Lost `track` (`found`: its track, if the tracker still has it), searched for
+    /// from `anchor`.
     fn lose(
         &mut self,
         track: u64,
         found: Option<&Track>,
+        anchor: Option<crate::tracker::Anchor>,
         tracks: &[Track],
         view: &View,
     ) -> TargetState {
-        let anchor = found.map(|t| t.anchor).or(self.last_good);
         let reason = if view.sensor_gap {
             LossReason::SensorGap
         } else if found.is_none() {
@@ -511,14 +878,31 @@ impl TargetSelector {
             LossReason::Unseen
         };
         self.stats.count_loss(reason);
-        // Somebody else: a track seen beside the target, before the target's last
-        // observation. A track born after it may be the target itself, taken up again
-        // by a new track while the old one coasted.
-        let seen_until = anchor.map(|a| a.stamp);
+        self.lose_with(track, reason, anchor, tracks)
+    }
+
+    /// The lost state for `track`, lost for `reason` with `anchor` as its last good
+    /// estimate; notes who is somebody else.
+    fn lose_with(
+        &mut self,
+        track: u64,
+        reason: LossReason,
+        anchor: Option<crate::tracker::Anchor>,
+        tracks: &[Track],
+    ) -> TargetState {
+        // Somebody else: a track seen beside the target, apart from it, for long enough
+        // (`beside_s`), or one already there before the target's last observation, not
+        // born at the target, and away from where the target was last seen. A track
+        // born at the target, or standing where it was lost, may be the target itself,
+        // taken up by a new track while the old one coasted or was led off.
+        let beside_s = self.config.beside_s;
         self.others_at_loss = tracks
             .iter()
             .filter(|t| t.confirmed && t.id != track)
-            .filter(|t| seen_until.is_some_and(|s| t.born <= s))
+            .filter(|t| {
+                self.beside.get(&t.id).is_some_and(|&s| s >= beside_s)
+                    || anchor.is_some_and(|a| self.there_before(t, &a))
+            })
             .map(|t| t.id)
             .collect();
         self.refused.clear();
@@ -548,7 +932,12 @@ impl TargetSelector {
         if self.others_at_loss.contains(&t.id) {
             return Some(Refusal::SomebodyElse);
         }
-        if (view.camera_sees)(p.mean) && self.config.require_both_sensors {
+        self.vouching_refusal(t, now, view)
+    }
+
+    /// Why the sensors do not vouch for `t` as the target taken up again.
+    fn vouching_refusal(&self, t: &Track, now: Stamp, view: &View) -> Option<Refusal> {
+        if (view.camera_sees)(t.position().mean) && self.config.require_both_sensors {
             // Where the camera sees, both sensors vouch (as at the start).
             return (!t.seen_by_both(now, self.config.both_sensors_window_s))
                 .then_some(Refusal::CameraDoesNotVouch);
@@ -557,6 +946,48 @@ impl TargetSelector {
             return None;
         }
         self.laser_refusal(t, view, true)
+    }
+
+    /// While the target's track `t` coasts (no observation for `handover_coast_s`),
+    /// the one other track that takes up the target, if there is exactly one: a track
+    /// updated now, where the target could be from its track's last observation, not
+    /// somebody else, seen by both sensors or vouched for by the laser as a person
+    /// standing would be at the start (the region is small: where the target could
+    /// have gone since its track's last observation). The tracker
+    /// has given the person's observations to another track (the target's track went
+    /// astray, or its person was split in two); waiting for the loss would leave the
+    /// target with a track that runs off.
+    fn coasting_handover(
+        &self,
+        now: Stamp,
+        t: &Track,
+        tracks: &[Track],
+        view: &View,
+    ) -> Option<u64> {
+        if now.secs_since(t.last_update) <= self.config.handover_coast_s {
+            return None;
+        }
+        let a = t.anchor;
+        let mut candidates = tracks.iter().filter(|u| {
+            u.id != t.id
+                && u.confirmed
+                && u.last_update == now
+                && self.reachable_from(
+                    &a,
+                    u.position().mean,
+                    u.position().cov.principal_axes().0.max(0.0).sqrt(),
+                    now,
+                )
+                && !self.is_somebody_else(u)
+                && !self.there_before(u, &a)
+                && (u.seen_by_both(now, self.config.both_sensors_window_s)
+                    || (view.laser_in_use && self.laser_refusal(u, view, false).is_none())
+                    || (!view.laser_in_use && self.vouching_refusal(u, now, view).is_none()))
+        });
+        match (candidates.next(), candidates.next()) {
+            (Some(u), None) => Some(u.id),
+            _ => None,
+        }
     }
 
     /// Why the laser alone does not vouch that `t` is a person (`walking`: it must also
@@ -570,6 +1001,10 @@ impl TargetSelector {
             } else {
                 self.config.min_leg_pairs_standing
             }
+            || (walking
+                && (f64::from(t.pair_hits) < self.config.min_pair_share * f64::from(t.hits)
+                    || f64::from(t.weak_hits)
+                        > self.config.max_weak_share * f64::from(t.hits + t.weak_hits)))
         {
             Some(Refusal::NoLegPair)
         } else if walking && t.walked_m < self.config.min_walked_m {
@@ -591,6 +1026,11 @@ impl TargetSelector {
         let fresh = |t: &Track| now.secs_since(t.last_update) <= lost_after_s;
         let mut candidates = Vec::new();
         for t in tracks.iter().filter(|t| t.confirmed && fresh(t)) {
+            if t.id == track && self.others_at_loss.contains(&t.id) {
+                // Led off onto somebody else: that track is theirs now.
+                self.refuse(t.id, Refusal::SomebodyElse);
+                continue;
+            }
             if t.id == track {
                 // The tracker kept its identity: back, if it is still where the target
                 // could be (a track that ran off after something else is not).
@@ -709,6 +1149,8 @@ mod tests {
             birth_position: Point2::new(x - 1.0, y),
             walked_m: 1.0,
             pair_hits: 5,
+            weak_hits: 0,
+            last_pair: Some(t),
             duplicate_since: None,
         }
     }
@@ -882,25 +1324,57 @@ mod tests {
 
     #[test]
     fn an_old_bystander_near_the_target_does_not_inherit_the_lock() {
-        // A person who was already tracked before the loss is someone else.
+        // A person seen beside the target, apart from it, for long enough is someone
+        // else.
         let mut s = selector();
-        let other = track(2, 2.5, 0.3, 0, true);
-        s.update(
-            at(0),
-            &[track(1, 2.0, 0.0, 0, true), other.clone()],
-            Pose2::IDENTITY,
-        );
-        let mut other_now = other;
-        other_now.last_update = at(1100);
+        for ms in (0..=600).step_by(100) {
+            s.update(
+                at(ms),
+                &[track(1, 2.0, 0.0, ms, true), track(2, 2.6, 0.3, ms, true)],
+                Pose2::IDENTITY,
+            );
+        }
+        let other_now = track(2, 2.6, 0.3, 1700, true);
         let state = s.update(
-            at(1100),
-            &[track(1, 2.0, 0.0, 0, true), other_now.clone()],
+            at(1700),
+            &[track(1, 2.0, 0.0, 600, true), other_now.clone()],
             Pose2::IDENTITY,
         );
         assert!(matches!(state, TargetState::Lost { track: 1, .. }));
-        let state = s.update(at(1200), &[other_now], Pose2::IDENTITY);
+        let state = s.update(at(1800), &[other_now], Pose2::IDENTITY);
         assert!(matches!(state, TargetState::Lost { track: 1, .. }));
         assert_eq!(s.refusals(), &[(2, Refusal::SomebodyElse)]);
+    }
+
+    #[test]
+    fn a_track_seen_beside_the_target_only_for_a_moment_may_take_it_up() {
+        // The person's two legs seen as two tracks for two scans, then the target's own
+        // track goes silent: the other track is the person, not somebody else.
+        let mut s = selector();
+        for ms in (0..=400).step_by(100) {
+            s.update(at(ms), &[track(1, 2.0, 0.0, ms, true)], Pose2::IDENTITY);
+        }
+        for ms in [500, 600] {
+            s.update(
+                at(ms),
+                &[track(1, 2.0, 0.0, ms, true), track(2, 2.0, 0.5, ms, true)],
+                Pose2::IDENTITY,
+            );
+        }
+        let state = s.update(
+            at(1700),
+            &[
+                track(1, 2.0, 0.0, 600, true),
+                track(2, 2.1, 0.4, 1700, true),
+            ],
+            Pose2::IDENTITY,
+        );
+        assert!(
+            matches!(state, TargetState::Lost { track: 1, .. }) || state.locked_track() == Some(2),
+            "{state:?}"
+        );
+        let state = s.update(at(1800), &[track(2, 2.1, 0.4, 1800, true)], Pose2::IDENTITY);
+        assert_eq!(state.locked_track(), Some(2));
     }
 
     #[test]
@@ -960,5 +1434,99 @@ mod tests {
             ..TargetConfig::default()
         };
         assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn a_coasting_target_is_handed_over_to_the_track_that_took_up_its_person() {
+        let mut s = selector();
+        for ms in (0..=300).step_by(100) {
+            s.update(at(ms), &[track(1, 2.0, 0.0, ms, true)], Pose2::IDENTITY);
+        }
+        assert_eq!(s.state().locked_track(), Some(1));
+        // The tracker gives the person's observations to a new track born on them; the
+        // target's own track coasts.
+        let taken = |ms: i64| {
+            let mut u = track(2, 2.1, 0.05, ms, true);
+            u.born = at(400);
+            u.birth_position = Point2::new(2.1, 0.05);
+            u
+        };
+        for ms in [400, 500, 600] {
+            let state = s.update(
+                at(ms),
+                &[track(1, 2.0, 0.0, 300, true), taken(ms)],
+                Pose2::IDENTITY,
+            );
+            assert_eq!(
+                state.locked_track(),
+                Some(1),
+                "{ms} ms: still within a moment"
+            );
+        }
+        let state = s.update(
+            at(700),
+            &[track(1, 2.0, 0.0, 300, true), taken(700)],
+            Pose2::IDENTITY,
+        );
+        assert_eq!(state.locked_track(), Some(2));
+        assert_eq!(s.stats().handovers, 1);
+        assert_eq!(s.stats().losses, 0);
+    }
+
+    #[test]
+    fn a_coasting_target_is_not_handed_to_somebody_else() {
+        let mut s = selector();
+        // A bystander walks beside the target, both seen as whole people.
+        for ms in (0..=600).step_by(100) {
+            s.update(
+                at(ms),
+                &[track(1, 2.0, 0.0, ms, true), track(2, 2.0, 0.8, ms, true)],
+                Pose2::IDENTITY,
+            );
+        }
+        // The target goes silent; the bystander comes to where it was.
+        for ms in (700..=1500).step_by(100) {
+            let state = s.update(
+                at(ms),
+                &[track(1, 2.0, 0.0, 600, true), track(2, 2.0, 0.1, ms, true)],
+                Pose2::IDENTITY,
+            );
+            assert_ne!(state.locked_track(), Some(2), "{ms} ms");
+        }
+        assert_eq!(s.stats().handovers, 0);
+    }
+
+    #[test]
+    fn a_target_led_off_onto_a_bystander_is_lost_and_neither_track_takes_it_up() {
+        let mut s = selector();
+        for ms in (0..=600).step_by(100) {
+            s.update(
+                at(ms),
+                &[track(1, 2.0, 0.0, ms, true), track(2, 2.0, 1.0, ms, true)],
+                Pose2::IDENTITY,
+            );
+        }
+        // The target's track runs onto the bystander and stays on them.
+        let mut lost_at = None;
+        for ms in (700..=1500).step_by(100) {
+            let state = s.update(
+                at(ms),
+                &[track(1, 2.0, 0.92, ms, true), track(2, 2.0, 1.0, ms, true)],
+                Pose2::IDENTITY,
+            );
+            if let TargetState::Lost { reason, .. } = state {
+                assert_eq!(reason, LossReason::LedOff);
+                lost_at.get_or_insert(ms);
+            }
+        }
+        let lost_at = lost_at.expect("led off");
+        assert!(lost_at <= 1300, "lost at {lost_at} ms");
+        assert_eq!(s.stats().lost_led_off, 1);
+        let mut refused: Vec<_> = s.refusals().to_vec();
+        refused.sort();
+        assert_eq!(
+            refused,
+            vec![(1, Refusal::SomebodyElse), (2, Refusal::SomebodyElse)]
+        );
     }
 }

@@ -237,6 +237,14 @@ pub struct TrackerConfig {
     /// How long two tracks must stay within `duplicate_distance_m` to be one person, s
     /// (two people passing close by stay that close for a moment only).
     pub duplicate_after_s: f64,
+    /// A weak observation (a leg the classifier barely accepts) updates only a
+    /// confirmed track updated within `weak_keepalive_s`, or whose prediction is within
+    /// `weak_max_offset_m` of it: it keeps a track going through a dark spell, but a
+    /// track that has been coasting does not jump to it, since a coasting track's reach
+    /// covers a leg-like bush or a bystander's leg as readily as its person's, s.
+    pub weak_keepalive_s: f64,
+    /// See `weak_keepalive_s`, m.
+    pub weak_max_offset_m: f64,
 }
 
 impl Default for TrackerConfig {
@@ -258,6 +266,8 @@ impl Default for TrackerConfig {
             spawn_separation_m: 0.45,
             duplicate_distance_m: 0.45,
             duplicate_after_s: 0.8,
+            weak_keepalive_s: 0.3,
+            weak_max_offset_m: 0.5,
         }
     }
 }
@@ -292,6 +302,8 @@ impl TrackerConfig {
             ("spawn_separation_m", self.spawn_separation_m),
             ("duplicate_distance_m", self.duplicate_distance_m),
             ("duplicate_after_s", self.duplicate_after_s),
+            ("weak_keepalive_s", self.weak_keepalive_s),
+            ("weak_max_offset_m", self.weak_max_offset_m),
         ] {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(TrackerConfigError {
@@ -351,6 +363,11 @@ pub struct Track {
     pub walked_m: f64,
     /// Updates by a pair of legs.
     pub pair_hits: u32,
+    /// Updates by weak observations (legs the classifier barely accepts; not in
+    /// `hits`).
+    pub weak_hits: u32,
+    /// Last update by evidence of a whole person: a pair of legs, or the camera.
+    pub last_pair: Option<Stamp>,
     /// Since when this track has stayed within `duplicate_distance_m` of an older
     /// confirmed track.
     pub duplicate_since: Option<Stamp>,
@@ -543,6 +560,8 @@ impl Tracker {
         // Gated costs: tracks x observations.
         let gate = self.config.gate.threshold;
         let bounds = self.config.motion;
+        let weak_max_offset_m = self.config.weak_max_offset_m;
+        let weak_keepalive_s = self.config.weak_keepalive_s;
         let mut implausible = 0;
         let cost: Vec<Vec<Option<f64>>> = self
             .tracks
@@ -552,7 +571,13 @@ impl Tracker {
                     .iter()
                     .zip(&usable)
                     .map(|(o, &ok)| {
-                        if !ok || (o.weak && !t.confirmed) {
+                        if !ok
+                            || (o.weak
+                                && (!t.confirmed
+                                    || (stamp.secs_since(t.last_update) > weak_keepalive_s
+                                        && t.position().mean.distance_m(o.estimate.mean)
+                                            > weak_max_offset_m)))
+                        {
                             return None;
                         }
                         // Gate on the Mahalanobis distance; assign on the negative log
@@ -663,10 +688,14 @@ impl Tracker {
             self.stats.associated += 1;
             if o.weak {
                 self.stats.weak_updates += 1;
+                t.weak_hits += 1;
                 continue;
             }
             t.hits += 1;
             t.pair_hits += u32::from(o.leg_pair);
+            if o.leg_pair || o.source != Source::Laser {
+                t.last_pair = Some(stamp);
+            }
             t.walked_m = t
                 .walked_m
                 .max(t.anchor.position.mean.distance_m(t.birth_position));
@@ -716,6 +745,8 @@ impl Tracker {
                 birth_position: o.estimate.mean,
                 walked_m: 0.0,
                 pair_hits: u32::from(o.leg_pair),
+                weak_hits: 0,
+                last_pair: (o.leg_pair || o.source != Source::Laser).then_some(stamp),
                 duplicate_since: None,
             });
             self.stats.tracks_started += 1;
@@ -908,5 +939,27 @@ mod tests {
             ..TrackerConfig::default()
         };
         assert!(Tracker::new(c).is_err());
+    }
+
+    #[test]
+    fn a_weak_leg_keeps_a_track_but_does_not_pull_a_coasting_one_across() {
+        let g =
+            |x: f64| Gaussian2::new(Point2::new(x, 0.0), Cov2::isotropic(0.01).unwrap()).unwrap();
+        let mut tr = Tracker::new(TrackerConfig::default()).unwrap();
+        for ms in [0, 100, 200, 300] {
+            tr.process(at(ms), &[Observation::laser(g(2.0), true, false)]);
+        }
+        assert!(tr.tracks()[0].confirmed);
+        // Silent for 0.5 s: a strong observation 0.8 m on is taken (a person can be
+        // there), a weak one is not (a leg-like bush is as likely)...
+        let mut strong = tr.clone();
+        let r = strong.process(at(800), &[Observation::laser(g(2.8), true, false)]);
+        assert!(r.track_of[0].is_some(), "{r:?}");
+        let r = tr.process(at(800), &[Observation::weak_laser(g(2.8))]);
+        assert_eq!(r.track_of, vec![None]);
+        // ...but a weak leg where the track is predicted keeps it going.
+        let r = tr.process(at(900), &[Observation::weak_laser(g(2.1))]);
+        assert!(r.track_of[0].is_some(), "{r:?}");
+        assert_eq!(tr.tracks()[0].weak_hits, 1);
     }
 }

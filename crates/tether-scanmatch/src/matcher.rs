@@ -686,3 +686,32 @@ pub fn arc(v_mps: f64, w_radps: f64, dt_s: f64) -> Pose2<Robot, Robot> {
     let r = v_mps / w_radps;
     Pose2::new(r * th.sin(), r * (1.0 - th.cos()), th)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn robot_bounds_allow_what_a_base_does_and_nothing_more() {
+        let b = RobotBounds::default();
+        let still = (0.0, 0.0, 0.0);
+        // Cruising and turning, from an unknown earlier velocity (only the limits).
+        assert!(b.allows((1.5, 0.1, 1.0), (1.5, 0.1, 1.0), 0.0));
+        assert!(!b.allows((3.0, 0.0, 0.0), (3.0, 0.0, 0.0), 0.0), "too fast");
+        assert!(!b.allows((0.5, 0.8, 0.0), (0.5, 0.8, 0.0), 0.0), "sideways");
+        assert!(
+            !b.allows((0.0, 0.0, 4.0), (0.0, 0.0, 4.0), 0.0),
+            "spins too fast"
+        );
+        // From standing: 0.5 m/s in 0.1 s is within 3 m/s^2 plus the slack, 1 m/s is not,
+        // but it is after half a second.
+        assert!(b.allows((0.5, 0.0, 0.0), still, 0.1));
+        assert!(!b.allows((1.0, 0.0, 0.0), still, 0.1));
+        assert!(b.allows((1.0, 0.0, 0.0), still, 0.5));
+        assert!(
+            !b.allows((0.0, 0.0, 1.5), still, 0.1),
+            "angular acceleration"
+        );
+        assert!(b.allows((0.0, 0.0, 1.5), still, 0.2));
+    }
+}

@@ -440,3 +440,72 @@ fn sparse_outdoor_scene_drifts_under_two_percent() {
     );
     assert!(drift < 0.02, "drift {drift}");
 }
+
+/// A base that cannot slide sideways: in the room, a true sideways step of 0.2 m in one
+/// scan interval (2 m/s) is matched exactly, and refused as a motion the robot cannot
+/// make, so the estimate falls back to the prior; the same step forward is taken; and
+/// a sudden reversal after a trusted forward velocity is refused too.
+#[test]
+fn matches_the_robot_cannot_make_are_refused() {
+    let scene = Scene::room();
+    let model = LaserModel::urg_04lx();
+    let a = Pose2::<World, Robot>::new(0.0, 0.0, 0.0);
+    let run = |step: Pose2<Robot, Robot>| {
+        let mut m = ScanMatcher::new(ScanMatcherConfig::default());
+        m.update(
+            stamp(0),
+            &scene.urg_points(&model, a, SIGMA_M, 1),
+            MotionPrior::Stationary,
+            &[],
+        );
+        let e = m.update(
+            stamp(1),
+            &scene.urg_points(&model, a * step, SIGMA_M, 2),
+            MotionPrior::Stationary,
+            &[],
+        );
+        (e, m.counts())
+    };
+    let (sideways, counts) = run(Pose2::new(0.0, 0.2, 0.0));
+    assert_eq!(
+        sideways.quality,
+        Quality::PriorOnly(tether_scanmatch::Failure::Implausible),
+        "{sideways:?}"
+    );
+    assert_eq!(counts.implausible, 1);
+    assert_eq!(
+        sideways.robot_from_robot,
+        Pose2::IDENTITY,
+        "the prior (stationary)"
+    );
+    let (forward, counts) = run(Pose2::new(0.2, 0.0, 0.0));
+    assert_eq!(forward.quality, Quality::Good, "{forward:?}");
+    assert!((forward.robot_from_robot.x - 0.2).abs() < 0.01);
+    assert_eq!(counts.implausible, 0);
+
+    // Driving forward at 1 m/s, then a match 1 m/s backwards one scan later: a
+    // reversal at 20 m/s^2.
+    let mut m = ScanMatcher::new(ScanMatcherConfig::default());
+    let mut pose = a;
+    for i in 0..4 {
+        m.update(
+            stamp(i),
+            &scene.urg_points(&model, pose, SIGMA_M, 10 + i as u64),
+            MotionPrior::ConstantVelocity,
+            &[],
+        );
+        pose = pose * Pose2::<Robot, Robot>::new(0.1, 0.0, 0.0);
+    }
+    let back = pose * Pose2::<Robot, Robot>::new(-0.2, 0.0, 0.0);
+    let e = m.update(
+        stamp(4),
+        &scene.urg_points(&model, back, SIGMA_M, 20),
+        MotionPrior::ConstantVelocity,
+        &[],
+    );
+    assert_eq!(
+        e.quality,
+        Quality::PriorOnly(tether_scanmatch::Failure::Implausible),
+        "{e:?}"
+    );
+}

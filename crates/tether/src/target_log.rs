@@ -45,6 +45,15 @@ pub enum EventKind {
         /// How long it was lost, s.
         after_s: f64,
     },
+    /// The target moved from one track to another without being lost: the tracker
+    /// had given its person's observations to another track (its track went astray,
+    /// or the person was tracked twice).
+    HandedOver {
+        /// The track followed until then.
+        from: u64,
+        /// The track followed now.
+        track: u64,
+    },
     /// The lost target's search was given up (a user's track id that vanished).
     Searching,
     /// A track was refused as the lost target (the first time for this track and
@@ -134,8 +143,7 @@ impl TargetLog {
                 Some(EventKind::Searching)
             }
             (TargetState::Locked { track: a }, TargetState::Locked { track: b }) if a != b => {
-                // A user's id, or a lock carried over: say so rather than hide it.
-                Some(EventKind::Locked { track: b })
+                Some(EventKind::HandedOver { from: a, track: b })
             }
             _ => None,
         };
@@ -196,6 +204,7 @@ impl TargetLog {
                     c.reacquisitions += 1;
                     c.reacquired_same_track += u64::from(lost_track == Some(track));
                 }
+                EventKind::HandedOver { .. } => c.handovers += 1,
                 EventKind::Searching => {}
                 EventKind::Refused { refusal, .. } => c.count_refusal(refusal),
             }
@@ -212,6 +221,7 @@ impl TargetLog {
             (LossReason::LeftView.name(), s.counts.lost_left_view),
             (LossReason::SensorGap.name(), s.counts.lost_sensor_gap),
             (LossReason::TrackDropped.name(), s.counts.lost_track_dropped),
+            (LossReason::LedOff.name(), s.counts.lost_led_off),
         ] {
             if n > 0 {
                 reasons.push(format!("{n} {name}"));
@@ -224,8 +234,13 @@ impl TargetLog {
         };
         format!(
             "target locked {:.1} s, lost {:.1} s in {} losses{reasons}, {} re-acquired, \
-             {} ambiguous",
-            s.locked_s, s.lost_s, s.counts.losses, s.counts.reacquisitions, s.counts.ambiguous
+             {} ambiguous, {} handed over between tracks",
+            s.locked_s,
+            s.lost_s,
+            s.counts.losses,
+            s.counts.reacquisitions,
+            s.counts.ambiguous,
+            s.counts.handovers
         )
     }
 
@@ -263,6 +278,11 @@ impl TargetLog {
                 EventKind::Reacquired { track, after_s } => {
                     ("re-acquired", Some(*track), format!("after {after_s:.1} s"))
                 }
+                EventKind::HandedOver { from, track } => (
+                    "handed over",
+                    Some(*track),
+                    format!("from track {from}, which had lost the person's legs"),
+                ),
                 EventKind::Searching => ("searching", None, "gave up".to_string()),
                 EventKind::Refused { track, refusal } => {
                     ("refused", Some(*track), refusal.name().to_string())
@@ -303,7 +323,9 @@ impl TargetLog {
             let mut spans = Vec::new();
             for e in &self.events {
                 let color = match e.kind {
-                    EventKind::Locked { .. } | EventKind::Reacquired { .. } => "#2ca02c",
+                    EventKind::Locked { .. }
+                    | EventKind::Reacquired { .. }
+                    | EventKind::HandedOver { .. } => "#2ca02c",
                     EventKind::Lost { .. } => "#d62728",
                     EventKind::Searching => "#bbbbbb",
                     EventKind::Refused { .. } => continue,

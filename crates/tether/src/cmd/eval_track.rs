@@ -112,6 +112,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
     )?;
     let skipped = counts.read.bad_messages + counts.read.unattributed;
+    if let Some(odometry) = &scan_odometry {
+        tracing::info!("{}", odometry.summary());
+    }
     if skipped > 0 {
         tracing::warn!("{skipped} messages could not be decoded and were skipped");
     }

@@ -86,6 +86,16 @@ struct Line<'a> {
     target: Option<u64>,
     /// Locked, lost (and why) or searching, and the candidates refused.
     target_state: TargetStateLine,
+    /// The robot's pose in the odometry frame (`--odom-topic`), in the frame of the
+    /// first scan (scan matching), or the origin (`--ego-motion none`).
+    robot_pose: PoseLine,
+}
+
+#[derive(Serialize)]
+struct PoseLine {
+    x: f64,
+    y: f64,
+    yaw: f64,
 }
 
 /// Reads a pipeline configuration file.
@@ -251,6 +261,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 people,
                 target,
                 target_state: TargetStateLine::of(tick),
+                robot_pose: PoseLine {
+                    x: world_from_robot.x,
+                    y: world_from_robot.y,
+                    yaw: world_from_robot.yaw,
+                },
             };
             target_log.record(tick.stamp, &tick.target.state, &tick.refusals);
             serde_json::to_writer(&mut out, &line)?;
@@ -260,6 +275,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
     )?;
     let skipped = counts.read.bad_messages + counts.read.unattributed;
+    if let Some(odometry) = &scan_odometry {
+        tracing::info!("{}", odometry.summary());
+    }
     out.flush()
         .with_context(|| format!("writing {}", args.out.display()))?;
     let stats = pipeline.stats();
