@@ -1202,6 +1202,16 @@ mod tests {
         Stamp::from_ns(ms * 1_000_000)
     }
 
+    /// The target (track 1 at (2, 0)) and `others` seen together, every 100 ms from 0 to
+    /// `until_ms`.
+    fn seen_together(s: &mut TargetSelector, until_ms: i64, others: &[(u64, f64, f64)]) {
+        for ms in (0..=until_ms).step_by(100) {
+            let mut tracks = vec![track(1, 2.0, 0.0, ms, true)];
+            tracks.extend(others.iter().map(|&(id, x, y)| track(id, x, y, ms, true)));
+            s.update(at(ms), &tracks, Pose2::IDENTITY);
+        }
+    }
+
     fn selector() -> TargetSelector {
         TargetSelector::new(TargetConfig::default(), MotionBounds::default())
     }
@@ -1370,13 +1380,7 @@ mod tests {
         // A person seen beside the target, apart from it, for long enough is someone
         // else.
         let mut s = selector();
-        for ms in (0..=600).step_by(100) {
-            s.update(
-                at(ms),
-                &[track(1, 2.0, 0.0, ms, true), track(2, 2.6, 0.3, ms, true)],
-                Pose2::IDENTITY,
-            );
-        }
+        seen_together(&mut s, 600, &[(2, 2.6, 0.3)]);
         let other_now = track(2, 2.6, 0.3, 1700, true);
         let state = s.update(
             at(1700),
@@ -1520,13 +1524,7 @@ mod tests {
     fn a_coasting_target_is_not_handed_to_somebody_else() {
         let mut s = selector();
         // A bystander walks beside the target, both seen as whole people.
-        for ms in (0..=600).step_by(100) {
-            s.update(
-                at(ms),
-                &[track(1, 2.0, 0.0, ms, true), track(2, 2.0, 0.8, ms, true)],
-                Pose2::IDENTITY,
-            );
-        }
+        seen_together(&mut s, 600, &[(2, 2.0, 0.8)]);
         // The target goes silent; the bystander comes to where it was.
         for ms in (700..=1500).step_by(100) {
             let state = s.update(
@@ -1542,13 +1540,7 @@ mod tests {
     #[test]
     fn a_target_led_off_onto_a_bystander_is_lost_and_neither_track_takes_it_up() {
         let mut s = selector();
-        for ms in (0..=600).step_by(100) {
-            s.update(
-                at(ms),
-                &[track(1, 2.0, 0.0, ms, true), track(2, 2.0, 1.0, ms, true)],
-                Pose2::IDENTITY,
-            );
-        }
+        seen_together(&mut s, 600, &[(2, 2.0, 1.0)]);
         // The target's track runs onto the bystander and stays on them.
         let mut lost_at = None;
         for ms in (700..=1500).step_by(100) {
