@@ -861,8 +861,22 @@ impl TargetSelector {
 
     /// Adds `dt_s` to the time the target's track `t` has spent on each track of
     /// somebody else (within `led_off_distance_m`); true once one reaches
-    /// `led_off_after_s`.
+    /// `led_off_after_s`. While the target's track carries on its motion from when it
+    /// was last alone (within `handover_within_sigma`, [`Self::off_motion_sq`]), it is
+    /// the other track that came onto the target's person (a phantom swept along by
+    /// the robot's turn, a track that lost its own person), not the target that was
+    /// led off: nothing accrues.
     fn led_off(&mut self, t: &Track, tracks: &[Track], now: Stamp, dt_s: f64) -> bool {
+        let on_course = self
+            .alone
+            .filter(|a| now.secs_since(a.stamp) <= self.config.encounter_max_s && now > a.stamp)
+            .is_some_and(|a| {
+                self.off_motion_sq(&a, t, now) <= self.config.handover_within_sigma.powi(2)
+            });
+        if on_course {
+            self.on_other.clear();
+            return false;
+        }
         let here = t.position().mean;
         let fresh = |u: &Track| now.secs_since(u.last_update) <= self.config.lost_after_s;
         let on: Vec<u64> = tracks
@@ -989,15 +1003,22 @@ impl TargetSelector {
     }
 
     /// While the target's track `t` coasts (no observation for `handover_coast_s`),
-    /// the one other track that takes up the target, if there is exactly one: a track
-    /// updated now, within `encounter_distance_m` of the target's track's last
-    /// observation and where the target could have gone since, not
-    /// somebody else, seen by both sensors or vouched for by the laser as a person
-    /// standing would be at the start (the region is small: where the target could
-    /// have gone since its track's last observation). The tracker
-    /// has given the person's observations to another track (the target's track went
-    /// astray, or its person was split in two); waiting for the loss would leave the
-    /// target with a track that runs off.
+    /// the other track that takes up the target, if one clearly does. Candidates are
+    /// tracks updated now, within `encounter_distance_m` of the target's track's last
+    /// observation or of where its walk from when it was last alone leads, where the
+    /// target could have gone since, not somebody else, seen by both sensors or
+    /// vouched for by the laser as a person standing would be at the start. The
+    /// tracker has given the person's observations to another track (the target's
+    /// track went astray, or its person was split in two); waiting for the loss would
+    /// leave the target with a track that runs off.
+    ///
+    /// Alone, the one candidate takes the target. In company (another track came
+    /// within `encounter_distance_m`, `encounter_max_s` ago at most), the target's last
+    /// observation may already be dragged towards the person it met, so the region
+    /// is bounded from its state when it was last alone, and of several candidates the
+    /// one whose motion carries on that state ([`Self::off_motion_sq`]) takes it only
+    /// if it fits better than the next by `handover_margin`: somebody crossing behind
+    /// the target walks another way.
     fn coasting_handover(
         &self,
         now: Stamp,
@@ -1008,12 +1029,27 @@ impl TargetSelector {
         if now.secs_since(t.last_update) <= self.config.handover_coast_s {
             return None;
         }
-        let a = t.anchor;
-        let mut candidates = tracks.iter().filter(|u| {
+        // In company, the target's own last observation may already be dragged off by
+        // the person it met: the reference is its motion when it was last alone, and
+        // the candidates are every track that continues it.
+        let alone = self
+            .alone
+            .filter(|al| now.secs_since(al.stamp) <= self.config.encounter_max_s && now > al.stamp);
+        let a = alone.unwrap_or(t.anchor);
+        // Near where the target was last seen, or where its motion from when it was
+        // alone would have taken it.
+        let r = self.config.encounter_distance_m;
+        let near = |p: Point2<World>| {
+            p.distance_m(t.anchor.position.mean) <= r
+                || alone.is_some_and(|al| {
+                    p.distance_m(al.position.mean + al.velocity * now.secs_since(al.stamp)) <= r
+                })
+        };
+        let candidates = tracks.iter().filter(|u| {
             u.id != t.id
                 && u.confirmed
                 && u.last_update == now
-                && u.position().mean.distance_m(a.position.mean) <= self.config.encounter_distance_m
+                && near(u.position().mean)
                 && self.reachable_from(
                     &a,
                     u.position().mean,
@@ -1022,13 +1058,27 @@ impl TargetSelector {
                 )
                 && !self.is_somebody_else(u)
                 && !self.born_elsewhere.contains(&u.id)
-                && !self.there_before(u, &a)
+                && !self.there_before(u, &t.anchor)
                 && (u.seen_by_both(now, self.config.both_sensors_window_s)
                     || (view.laser_in_use && self.laser_refusal(u, view, false).is_none())
                     || (!view.laser_in_use && self.vouching_refusal(u, now, view).is_none()))
         });
-        match (candidates.next(), candidates.next()) {
-            (Some(u), None) => Some(u.id),
+        let candidates: Vec<&Track> = candidates.collect();
+        let (Some(al), [_, _, ..]) = (alone, candidates.as_slice()) else {
+            return match candidates.as_slice() {
+                [u] => Some(u.id),
+                _ => None,
+            };
+        };
+        // Several tracks where the target could be: the one that carries on its motion
+        // from when it was alone, clearly better than the next.
+        let mut ranked: Vec<(f64, u64)> = candidates
+            .iter()
+            .map(|u| (self.off_motion_sq(&al, u, now), u.id))
+            .collect();
+        ranked.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        match ranked.as_slice() {
+            [(d, u), (d2, _), ..] if d2 - d >= self.config.handover_margin => Some(*u),
             _ => None,
         }
     }
@@ -1520,6 +1570,59 @@ mod tests {
         assert_eq!(s.stats().losses, 0);
     }
 
+    /// Track `id` at `(x, y)` walking at `(vx, vy)`, updated at `ms`.
+    fn walker(id: u64, x: f64, y: f64, v: (f64, f64), ms: i64) -> Track {
+        let mut t = track(id, x, y, ms, true);
+        t.filter.x[2] = v.0;
+        t.filter.x[3] = v.1;
+        t.anchor.velocity = Vector2::new(v.0, v.1);
+        t
+    }
+
+    #[test]
+    fn a_coasting_target_goes_to_the_track_that_carries_on_its_walk_not_to_a_crosser() {
+        let mut s = selector();
+        // The target walks +y at 1.5 m/s; a bystander walks +x across its path just
+        // behind it, seen as single legs only (so never counted beside it as a whole
+        // person).
+        let target_y = |ms: i64| 0.3 + 1.5 * (ms - 1700) as f64 / 1000.0;
+        let crosser = |ms: i64| {
+            let mut u = walker(2, 1.5 + (ms - 1700) as f64 / 1000.0, 0.3, (1.0, 0.0), ms);
+            u.last_pair = None;
+            u
+        };
+        for ms in (0..=1800).step_by(100) {
+            // From 1.4 s the bystander is within a metre; at the end it holds the
+            // target's track back a little.
+            let lag = if ms == 1800 { 0.1 } else { 0.0 };
+            let t = walker(1, 2.0 - lag, target_y(ms) - 2.0 * lag, (0.0, 1.5), ms);
+            s.update(at(ms), &[t, crosser(ms)], Pose2::IDENTITY);
+        }
+        assert_eq!(s.state().locked_track(), Some(1));
+        // The target's track coasts on from 1.8 s (its filter predicts); the target
+        // is taken up by a new track where its walk leads, while the crosser comes to
+        // where the target's track was last updated.
+        let mut handed = None;
+        for ms in (1900..=2700).step_by(100) {
+            let mut coasting = walker(1, 1.9, target_y(ms) - 0.2, (0.0, 1.5), 1800);
+            coasting.anchor.position = Gaussian2::new(
+                Point2::new(1.9, target_y(1800) - 0.2),
+                Cov2::isotropic(0.05).unwrap(),
+            )
+            .unwrap();
+            let mut taken = walker(3, 2.0, target_y(ms), (0.0, 1.5), ms);
+            taken.born = at(1900);
+            taken.birth_position = Point2::new(2.0, target_y(1900));
+            let state = s.update(at(ms), &[coasting, crosser(ms), taken], Pose2::IDENTITY);
+            assert_ne!(state.locked_track(), Some(2), "{ms} ms: the crosser");
+            if state.locked_track() == Some(3) {
+                handed.get_or_insert(ms);
+            }
+        }
+        assert!(handed.is_some(), "never handed over: {:?}", s.state());
+        assert_eq!(s.stats().handovers, 1);
+    }
+
     #[test]
     fn a_coasting_target_is_not_handed_to_somebody_else() {
         let mut s = selector();
@@ -1563,6 +1666,35 @@ mod tests {
             refused,
             vec![(1, Refusal::SomebodyElse), (2, Refusal::SomebodyElse)]
         );
+    }
+
+    #[test]
+    fn a_track_that_comes_onto_the_target_while_it_walks_on_does_not_lead_it_off() {
+        let mut s = selector();
+        // The target walks +x at 1 m/s; somebody else's track walks beside it, 1.2 m
+        // away, both seen as whole people; then that track comes onto the target's
+        // person (a phantom swept along, a track that lost its own person) and rides
+        // on it, while the target's track carries on its walk.
+        let side_y = |ms: i64| match ms {
+            ..=1000 => 1.2,
+            1001..=1300 => 1.2 - 1.05 * (ms - 1000) as f64 / 300.0,
+            _ => 0.15,
+        };
+        for ms in (0..=3000).step_by(100) {
+            let x = ms as f64 / 1000.0;
+            let vy = if (1001..=1300).contains(&ms) {
+                -3.5
+            } else {
+                0.0
+            };
+            let tracks = [
+                walker(1, x, 0.0, (1.0, 0.0), ms),
+                walker(2, x, side_y(ms), (1.0, vy), ms),
+            ];
+            let state = s.update(at(ms), &tracks, Pose2::IDENTITY);
+            assert_eq!(state.locked_track(), Some(1), "{ms} ms: {state:?}");
+        }
+        assert_eq!(s.stats().lost_led_off, 0);
     }
 
     #[test]
