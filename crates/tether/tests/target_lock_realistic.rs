@@ -77,3 +77,14 @@ fn outdoor_follow_without_odometry_holds_the_target_with_the_laser_alone() {
         "{m:?}"
     );
 }
+
+#[test]
+fn outdoor_follow_fused_keeps_the_person_when_another_track_comes_onto_them() {
+    // Seed 3: at 382 s a track swept along by the robot's turn comes onto the target
+    // and rides on it while the target's own track walks on; taking that for the
+    // target being led off lost it for 57 s and then locked a bystander (68 scans).
+    let m = pooled("outdoor_follow", false, 3..4);
+    assert!(m.visible_scans > 5000, "{m:?}");
+    assert!(m.on_target_frac.unwrap() >= 0.99, "{m:?}");
+    assert!(m.wrong_scans <= 5, "{m:?}");
+}
