@@ -117,6 +117,16 @@ pub struct TargetConfig {
     pub led_off_distance_m: f64,
     /// See `led_off_distance_m`, s.
     pub led_off_after_s: f64,
+    /// After the target has been lost this long, s, it is taken up again as at the
+    /// start: the one person standing in front of the robot (within
+    /// `max_select_range_m` and `max_select_bearing_rad`, vouched for as at the start)
+    /// for `restart_dwell_s` (0: never). By then the region where the target can be
+    /// covers everything in view, and a verdict that a track is somebody else may rest
+    /// on a lock that had gone astray; the followed person comes back in front of the
+    /// robot, a passer-by does not stay there.
+    pub restart_after_s: f64,
+    /// See `restart_after_s`, s.
+    pub restart_dwell_s: f64,
 }
 
 impl Default for TargetConfig {
@@ -146,6 +156,8 @@ impl Default for TargetConfig {
             handover_coast_s: 0.3,
             led_off_distance_m: 0.3,
             led_off_after_s: 0.5,
+            restart_after_s: 10.0,
+            restart_dwell_s: 3.0,
         }
     }
 }
@@ -179,6 +191,8 @@ impl TargetConfig {
             ("handover_within_sigma", self.handover_within_sigma),
             ("led_off_distance_m", self.led_off_distance_m),
             ("led_off_after_s", self.led_off_after_s),
+            ("restart_after_s", self.restart_after_s),
+            ("restart_dwell_s", self.restart_dwell_s),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(format!("target {name} must be >= 0, got {v}"));
@@ -372,6 +386,8 @@ pub struct TargetStats {
     /// Times the target was handed over from its track to another during a close
     /// encounter (the tracker had swapped them, or the target's track was led off).
     pub handovers: u64,
+    /// Times a target lost for `restart_after_s` was taken up again as at the start.
+    pub restarts: u64,
 }
 
 impl TargetStats {
@@ -473,6 +489,9 @@ pub struct TargetSelector {
     ambiguous_sets: BTreeSet<Vec<u64>>,
     /// This tick's refusals.
     refusals_now: Vec<(u64, Refusal)>,
+    /// While lost for `restart_after_s`: the one track standing in front of the robot,
+    /// and since when.
+    presented: Option<(u64, Stamp)>,
 }
 
 impl TargetSelector {
@@ -497,6 +516,7 @@ impl TargetSelector {
             refused: BTreeSet::new(),
             ambiguous_sets: BTreeSet::new(),
             refusals_now: Vec::new(),
+            presented: None,
         }
     }
 
@@ -1149,7 +1169,7 @@ impl TargetSelector {
                 self.last_good = Some(one.anchor);
                 TargetState::Locked { track: one.id }
             }
-            [] => self.state,
+            [] => self.restart(now, tracks, view).unwrap_or(self.state),
             several => {
                 let ids: Vec<u64> = several.iter().map(|t| t.id).collect();
                 for &id in &ids {
@@ -1163,26 +1183,87 @@ impl TargetSelector {
         }
     }
 
+    /// Lost for `restart_after_s`: the target taken up again as at the start, by the
+    /// one track that has stood alone in the start's window for `restart_dwell_s`.
+    fn restart(&mut self, now: Stamp, tracks: &[Track], view: &View) -> Option<TargetState> {
+        let c = &self.config;
+        let TargetState::Lost { since, .. } = self.state else {
+            return None;
+        };
+        if c.restart_after_s <= 0.0 || now.secs_since(since) < c.restart_after_s {
+            self.presented = None;
+            return None;
+        }
+        let robot_from_world = view.world_from_robot.inverse();
+        let in_front: Vec<&Track> = self
+            .eligible_at_start(now, tracks, view)
+            .into_iter()
+            .filter(|t| {
+                let p = robot_from_world * t.position().mean;
+                p.range_m() <= c.max_select_range_m
+                    && wrap_angle_rad(p.bearing_rad()).abs() <= c.max_select_bearing_rad
+            })
+            .collect();
+        let one = match in_front.as_slice() {
+            [t] => *t,
+            _ => {
+                self.presented = None;
+                return None;
+            }
+        };
+        let (id, anchor) = (one.id, one.anchor);
+        let from = match self.presented {
+            Some((p, from)) if p == id => from,
+            _ => {
+                self.presented = Some((id, now));
+                now
+            }
+        };
+        if now.secs_since(from) < self.config.restart_dwell_s {
+            return None;
+        }
+        self.presented = None;
+        self.stats.restarts += 1;
+        self.stats.locks += 1;
+        self.last_good = Some(anchor);
+        Some(TargetState::Locked { track: id })
+    }
+
+    /// The tracks that could be chosen at the start: confirmed, fresh and vouched for
+    /// (seen by both sensors, or by the laser as a pair of legs outside static clutter).
+    fn eligible_at_start<'t>(
+        &self,
+        now: Stamp,
+        tracks: &'t [Track],
+        view: &View,
+    ) -> Vec<&'t Track> {
+        let c = &self.config;
+        tracks
+            .iter()
+            .filter(|t| t.confirmed && now.secs_since(t.last_update) <= c.lost_after_s)
+            .filter(|t| {
+                if c.require_both_sensors {
+                    t.seen_by_both(now, c.both_sensors_window_s)
+                } else if view.laser_in_use {
+                    // The user stands in front of the robot to start: a pair of legs
+                    // outside static clutter, walking or not.
+                    self.laser_refusal(t, view, false).is_none()
+                } else {
+                    true
+                }
+            })
+            .collect()
+    }
+
     fn choose(&mut self, now: Stamp, tracks: &[Track], view: &View) -> TargetState {
         let c = &self.config;
         let chosen = if let Some(id) = c.track_id {
             tracks.iter().find(|t| t.id == id)
         } else {
             let robot_from_world = view.world_from_robot.inverse();
-            let eligible = tracks
-                .iter()
-                .filter(|t| t.confirmed && now.secs_since(t.last_update) <= c.lost_after_s)
-                .filter(|t| {
-                    if c.require_both_sensors {
-                        t.seen_by_both(now, c.both_sensors_window_s)
-                    } else if view.laser_in_use {
-                        // The user stands in front of the robot to start: a pair of
-                        // legs outside static clutter, walking or not.
-                        self.laser_refusal(t, view, false).is_none()
-                    } else {
-                        true
-                    }
-                })
+            let eligible = self
+                .eligible_at_start(now, tracks, view)
+                .into_iter()
                 .map(|t| (robot_from_world * t.position().mean, t));
             match c.near_point_m {
                 Some([x, y]) => {
@@ -1695,6 +1776,66 @@ mod tests {
             assert_eq!(state.locked_track(), Some(1), "{ms} ms: {state:?}");
         }
         assert_eq!(s.stats().lost_led_off, 0);
+    }
+
+    #[test]
+    fn after_a_long_loss_the_one_person_standing_in_front_is_taken_up_as_at_the_start() {
+        let mut s = selector();
+        // Track 2 is somebody else: seen apart from the target, both whole people.
+        seen_together(&mut s, 500, &[(2, 2.0, 1.5)]);
+        // The target is gone; track 2 walks off and later stands in front of the
+        // robot (the lock had gone astray, say, and 2 is the person after all).
+        let mut locked_at = None;
+        for ms in (600..=16_000).step_by(100) {
+            let tracks = if ms < 11_000 {
+                vec![track(2, -3.0, 3.0, ms, true)]
+            } else {
+                vec![track(2, 1.5, 0.2, ms, true)]
+            };
+            let state = s.update(at(ms), &tracks, Pose2::IDENTITY);
+            if state.locked_track() == Some(2) {
+                locked_at.get_or_insert(ms);
+            }
+        }
+        // Lost at 1.5 s (the last update at 0.5 s); 10 s later, after 3 s in front.
+        let locked_at = locked_at.expect("taken up again");
+        assert!((13_500..=14_200).contains(&locked_at), "at {locked_at} ms");
+        assert_eq!(s.stats().restarts, 1);
+    }
+
+    #[test]
+    fn after_a_long_loss_a_passer_by_or_two_people_in_front_are_not_taken() {
+        for two in [false, true] {
+            let mut s = selector();
+            // Tracks 3 and 4 are somebody else (otherwise, with the region grown over
+            // everything, the usual re-acquisition takes up any vouched person).
+            seen_together(&mut s, 500, &[(3, 2.0, 1.5), (4, 2.0, -1.5)]);
+            for ms in (600..=20_000).step_by(100) {
+                // Both stay tracked, behind the robot, while the target is lost.
+                let mut tracks = vec![
+                    track(3, -3.0, 3.0, ms, true),
+                    track(4, -3.0, -3.0, ms, true),
+                ];
+                if ms >= 11_000 {
+                    tracks.clear();
+                    if two {
+                        // Two people standing in front: ambiguous.
+                        tracks.push(track(3, 2.0, 0.5, ms, true));
+                        tracks.push(track(4, 1.5, -0.3, ms, true));
+                    } else {
+                        // Crosses the window in front (|bearing| <= 0.6 rad) at 1 m/s.
+                        let y = -3.0 + (ms - 11_000) as f64 / 1000.0;
+                        tracks.push(track(3, 2.0, y, ms, true));
+                    }
+                }
+                if !two && ms > 15_000 {
+                    tracks.clear();
+                }
+                let state = s.update(at(ms), &tracks, Pose2::IDENTITY);
+                assert_eq!(state.locked_track(), None, "two: {two}, {ms} ms");
+            }
+            assert_eq!(s.stats().restarts, 0);
+        }
     }
 
     #[test]

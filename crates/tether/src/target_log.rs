@@ -232,9 +232,17 @@ impl TargetLog {
         } else {
             format!(" ({})", reasons.join(", "))
         };
+        let restarts = if s.counts.restarts > 0 {
+            format!(
+                ", {} taken up again as at the start after a long loss",
+                s.counts.restarts
+            )
+        } else {
+            String::new()
+        };
         format!(
             "target locked {:.1} s, lost {:.1} s in {} losses{reasons}, {} re-acquired, \
-             {} ambiguous, {} handed over between tracks",
+             {} ambiguous, {} handed over between tracks{restarts}",
             s.locked_s,
             s.lost_s,
             s.counts.losses,
