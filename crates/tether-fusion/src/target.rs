@@ -1198,11 +1198,7 @@ impl TargetSelector {
         let in_front: Vec<&Track> = self
             .eligible_at_start(now, tracks, view)
             .into_iter()
-            .filter(|t| {
-                let p = robot_from_world * t.position().mean;
-                p.range_m() <= c.max_select_range_m
-                    && wrap_angle_rad(p.bearing_rad()).abs() <= c.max_select_bearing_rad
-            })
+            .filter(|t| self.in_start_window(robot_from_world * t.position().mean))
             .collect();
         let one = match in_front.as_slice() {
             [t] => *t,
@@ -1227,6 +1223,13 @@ impl TargetSelector {
         self.stats.locks += 1;
         self.last_good = Some(anchor);
         Some(TargetState::Locked { track: id })
+    }
+
+    /// Whether `p` (robot frame) is where the target is chosen at the start: within
+    /// `max_select_range_m` and `max_select_bearing_rad` of the heading.
+    fn in_start_window(&self, p: Point2<Robot>) -> bool {
+        p.range_m() <= self.config.max_select_range_m
+            && wrap_angle_rad(p.bearing_rad()).abs() <= self.config.max_select_bearing_rad
     }
 
     /// The tracks that could be chosen at the start: confirmed, fresh and vouched for
@@ -1275,11 +1278,8 @@ impl TargetSelector {
                         .map(|(_, t)| t)
                 }
                 None => eligible
-                    .filter_map(|(p, t)| {
-                        let bearing = wrap_angle_rad(p.bearing_rad()).abs();
-                        (p.range_m() <= c.max_select_range_m && bearing <= c.max_select_bearing_rad)
-                            .then_some((bearing, t))
-                    })
+                    .filter(|(p, _)| self.in_start_window(*p))
+                    .map(|(p, t)| (wrap_angle_rad(p.bearing_rad()).abs(), t))
                     .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.id.cmp(&b.1.id)))
                     .map(|(_, t)| t),
             }
