@@ -50,6 +50,8 @@ enum Command {
     EvalCascade(cmd::eval_cascade::Args),
     /// Run the live robot: laser, optional camera, pipeline, base (see configs/robot.example.toml).
     Run(cmd::run::Args),
+    /// Run tether as a ROS 2 node: scans from `scan`, commands to `cmd_vel` (no ROS installation needed).
+    Ros2(cmd::ros2::Args),
     /// Emulate a Hokuyo URG-04LX (SCIP 2.0) on a pseudo-terminal or TCP, serving simulated scans.
     UrgEmulator(cmd::urg_emulator::Args),
     /// Calibrate a sensor from measurements.
@@ -66,9 +68,24 @@ enum Calibrate {
 }
 
 fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
+    // `--ros-args ... [--]` is ROS 2's, not clap's: taken out before clap parses the rest.
+    let raw: Vec<String> = std::env::args().collect();
+    let (ros, rest) = match tether_ros2::RosArgs::parse(&raw) {
+        Ok(parsed) => parsed,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return std::process::ExitCode::FAILURE;
+        }
+    };
+    let had_ros_args = raw.len() != rest.len();
+    let cli = Cli::parse_from(rest);
     init_logging(cli.verbose);
     let result = match cli.command {
+        Command::Ros2(mut args) => {
+            args.ros = ros;
+            cmd::ros2::run(args)
+        }
+        _ if had_ros_args => Err(anyhow::anyhow!("--ros-args only applies to `tether ros2`")),
         Command::Scenarios(args) => cmd::scenarios::run(args),
         Command::Sim(args) => cmd::sim::run(args),
         Command::Demo(args) => cmd::demo::run(args),

@@ -76,6 +76,87 @@ pub fn target_state_json(tick: &Tick) -> String {
     serde_json::to_string(&TargetStateLine::of(tick)).unwrap_or_default()
 }
 
+/// A PoseArray of points on the ground in `frame`.
+fn poses(stamp: Stamp, frame: &str, points: impl Iterator<Item = (f64, f64)>) -> PoseArrayMsg {
+    PoseArrayMsg {
+        header: Header::new(stamp, frame),
+        poses: points.map(|(x, y)| Pose3::planar(x, y, 0.0)).collect(),
+    }
+}
+
+/// One tick as the messages of the table above: what the MCAP results hold and what
+/// `tether ros2` publishes.
+#[derive(Debug, Clone)]
+pub struct TickMessages {
+    /// `/tether/people`: the confirmed tracks.
+    pub people: PoseArrayMsg,
+    /// `/tether/laser_people` or `/tether/vision_people` (the topic with it), on scans
+    /// and camera frames.
+    pub observed: Option<(&'static str, PoseArrayMsg)>,
+    /// `/tether/target`, while locked.
+    pub target: Option<PoseWithCovarianceStampedMsg>,
+    /// `/tether/target_state`.
+    pub target_state: StringMsg,
+    /// The command.
+    pub cmd_vel: TwistMsg,
+}
+
+impl TickMessages {
+    /// The tracks' topic.
+    pub const PEOPLE: &'static str = "/tether/people";
+    /// The laser observations' topic.
+    pub const LASER_PEOPLE: &'static str = "/tether/laser_people";
+    /// The camera observations' topic.
+    pub const VISION_PEOPLE: &'static str = "/tether/vision_people";
+    /// The target's topic.
+    pub const TARGET: &'static str = "/tether/target";
+    /// The target state's topic.
+    pub const TARGET_STATE: &'static str = "/tether/target_state";
+
+    /// The messages of `tick`, positions in `frame`.
+    pub fn of(tick: &Tick, frame: &str) -> TickMessages {
+        let stamp = tick.stamp;
+        let people = poses(
+            stamp,
+            frame,
+            tick.tracks
+                .iter()
+                .filter(|t| t.confirmed)
+                .map(|t| (t.position.mean.x, t.position.mean.y)),
+        );
+        let observed = match tick.input {
+            TickInput::Camera => Some((Self::VISION_PEOPLE, &tick.vision_people)),
+            TickInput::Scan => Some((Self::LASER_PEOPLE, &tick.laser_people)),
+            _ => None,
+        }
+        .map(|(topic, observed)| {
+            let points = observed.iter().map(|g| (g.mean.x, g.mean.y));
+            (topic, poses(stamp, frame, points))
+        });
+        let target = match (tick.target.state.locked_track(), tick.target.estimate) {
+            (Some(_), Some(estimate)) => {
+                let heading = tick.target.velocity.map_or(0.0, |v| v.y.atan2(v.x));
+                Some(PoseWithCovarianceStampedMsg::from_gaussian(
+                    Header::new(stamp, frame),
+                    &estimate,
+                    heading,
+                    std::f64::consts::PI.powi(2),
+                ))
+            }
+            _ => None,
+        };
+        TickMessages {
+            people,
+            observed,
+            target,
+            target_state: StringMsg {
+                data: target_state_json(tick),
+            },
+            cmd_vel: TwistMsg::unicycle(tick.command.v_mps, tick.command.w_radps),
+        }
+    }
+}
+
 /// Writes pipeline ticks as ROS 2 messages.
 pub struct ResultWriter<W: std::io::Write + std::io::Seek> {
     writer: McapWriter<W>,
@@ -113,49 +194,23 @@ impl<W: std::io::Write + std::io::Seek> ResultWriter<W> {
 
     /// A PoseArray of points on the ground, in the writer's frame.
     pub fn poses(&self, stamp: Stamp, points: impl Iterator<Item = (f64, f64)>) -> PoseArrayMsg {
-        PoseArrayMsg {
-            header: Header::new(stamp, self.frame.clone()),
-            poses: points.map(|(x, y)| Pose3::planar(x, y, 0.0)).collect(),
-        }
+        poses(stamp, &self.frame, points)
     }
 
     /// Writes one tick's tracks, observations, target and command.
     pub fn write_tick(&mut self, tick: &Tick) -> Result<(), McapError> {
         let stamp = tick.stamp;
-        let people = self.poses(
-            stamp,
-            tick.tracks
-                .iter()
-                .filter(|t| t.confirmed)
-                .map(|t| (t.position.mean.x, t.position.mean.y)),
-        );
-        self.writer.write("/tether/people", stamp, &people)?;
-        let observed = match tick.input {
-            TickInput::Camera => Some(("/tether/vision_people", &tick.vision_people)),
-            TickInput::Scan => Some(("/tether/laser_people", &tick.laser_people)),
-            _ => None,
-        };
-        if let Some((topic, observed)) = observed {
-            let msg = self.poses(stamp, observed.iter().map(|g| (g.mean.x, g.mean.y)));
-            self.writer.write(topic, stamp, &msg)?;
+        let m = TickMessages::of(tick, &self.frame);
+        self.writer.write(TickMessages::PEOPLE, stamp, &m.people)?;
+        if let Some((topic, observed)) = &m.observed {
+            self.writer.write(topic, stamp, observed)?;
         }
-        if let (Some(_), Some(estimate)) = (tick.target.state.locked_track(), tick.target.estimate)
-        {
-            let heading = tick.target.velocity.map_or(0.0, |v| v.y.atan2(v.x));
-            let msg = PoseWithCovarianceStampedMsg::from_gaussian(
-                Header::new(stamp, self.frame.clone()),
-                &estimate,
-                heading,
-                std::f64::consts::PI.powi(2),
-            );
-            self.writer.write("/tether/target", stamp, &msg)?;
+        if let Some(target) = &m.target {
+            self.writer.write(TickMessages::TARGET, stamp, target)?;
         }
-        let state = StringMsg {
-            data: target_state_json(tick),
-        };
-        self.writer.write("/tether/target_state", stamp, &state)?;
-        let cmd = TwistMsg::unicycle(tick.command.v_mps, tick.command.w_radps);
-        self.writer.write("/tether/cmd_vel", stamp, &cmd)
+        self.writer
+            .write(TickMessages::TARGET_STATE, stamp, &m.target_state)?;
+        self.writer.write("/tether/cmd_vel", stamp, &m.cmd_vel)
     }
 
     /// Writes the summary and closes the file.

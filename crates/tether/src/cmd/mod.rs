@@ -11,6 +11,7 @@ pub mod eval_target;
 pub mod eval_track;
 pub mod legs;
 pub mod replay;
+pub mod ros2;
 pub mod run;
 pub mod scenarios;
 pub mod sim;

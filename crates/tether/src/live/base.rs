@@ -122,6 +122,11 @@ pub trait CommandSink {
     fn name(&self) -> &str;
     /// Sends one command.
     fn send(&mut self, command: &CommandLine) -> io::Result<()>;
+    /// Everything else the tick produced (tracks, observations, the target), just
+    /// before its command, for outputs that publish it; most outputs ignore it.
+    fn tick(&mut self, _tick: &tether_pipeline::Tick) -> io::Result<()> {
+        Ok(())
+    }
     /// Sends the final stop (`command` is a [`CommandLine::final_stop`]) and leaves the
     /// output in a safe state.
     fn finish(&mut self, command: &CommandLine) -> io::Result<()> {

@@ -371,8 +371,25 @@ impl RobotConfig {
         Self::parse(&text, path)
     }
 
+    /// Reads and checks a config for `tether ros2`: the scans come from a topic, so
+    /// `[laser]` needs only its mount (a `serial` or `tcp` there is accepted and not
+    /// used).
+    pub fn load_for_ros2(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Read {
+            path: path.to_path_buf(),
+            error,
+        })?;
+        Self::parse_checked(&text, path, false)
+    }
+
     /// Parses and checks a config; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
+        Self::parse_checked(text, path, true)
+    }
+
+    /// Parses and checks a config; `laser_link`: whether `[laser]` must say where the
+    /// scanner is plugged in.
+    fn parse_checked(text: &str, path: &Path, laser_link: bool) -> Result<Self, ConfigError> {
         let parse_error = |message: String| ConfigError::Parse {
             path: path.to_path_buf(),
             message: message.trim_end().to_owned(),
@@ -396,7 +413,7 @@ impl RobotConfig {
         }
         let config: RobotConfig = toml::from_str(text).map_err(|e| parse_error(e.to_string()))?;
         config
-            .validate()
+            .validate(laser_link)
             .map_err(|(field, message)| ConfigError::Invalid {
                 path: path.to_path_buf(),
                 field,
@@ -412,7 +429,7 @@ impl RobotConfig {
         Ok(config)
     }
 
-    fn validate(&self) -> Result<(), (String, String)> {
+    fn validate(&self, laser_link: bool) -> Result<(), (String, String)> {
         let r = &self.robot;
         positive("robot.radius_m", r.radius_m)?;
         positive("robot.track_width_m", r.track_width_m)?;
@@ -427,7 +444,7 @@ impl RobotConfig {
                     "has both `serial` and `tcp`: the laser is on one of them".into(),
                 ));
             }
-            (None, None) => {
+            (None, None) if laser_link => {
                 return Err((
                     "laser".into(),
                     "needs `serial = \"/dev/ttyACM0\"` or `tcp = \"host:port\"`".into(),

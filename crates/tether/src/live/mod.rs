@@ -1,4 +1,4 @@
-//! The live robot (`tether run`): its configuration, the main loop, the base adapters,
+//! The live robot (`tether run`, `tether ros2`): its configuration, the main loop, the base adapters,
 //! camera frame sources and dead reckoning.
 
 pub mod base;
@@ -6,4 +6,5 @@ pub mod camera;
 pub mod clock;
 pub mod config;
 pub mod odometry;
+pub mod ros2;
 pub mod run_loop;

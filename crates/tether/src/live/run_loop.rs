@@ -301,10 +301,12 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
             r.tick(tick, pose, tick.command).map_err(recording_failed)?;
         }
         for sink in self.sinks.iter_mut() {
-            sink.send(&line).map_err(|e| Ending::OutputFailed {
-                output: sink.name().to_owned(),
-                error: e.to_string(),
-            })?;
+            sink.tick(tick)
+                .and_then(|()| sink.send(&line))
+                .map_err(|e| Ending::OutputFailed {
+                    output: sink.name().to_owned(),
+                    error: e.to_string(),
+                })?;
         }
         Ok(())
     }

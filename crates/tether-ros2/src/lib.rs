@@ -1,0 +1,15 @@
+//! tether on a ROS 2 graph, without a ROS installation.
+//!
+//! A DDS participant from `ros2-client` (pure Rust, on RustDDS) that rclcpp and rclpy
+//! nodes see as a node, the command line ROS users type (`--ros-args`,
+//! `ROS_DOMAIN_ID`), and tether's messages on the wire with the same CDR codec its MCAP
+//! files use ([`wire`]). The live loop that runs the pipeline on what arrives here is
+//! the `tether` crate's (`tether ros2`); this crate knows nothing of tracking.
+
+pub mod args;
+pub mod node;
+pub mod wire;
+
+pub use args::{ArgsError, ParamValue, Remap, RosArgs, domain_id};
+pub use node::{NodeIdentity, Received, Ros2Error, RosNode, offer, qos, spawn_reader};
+pub use wire::Wire;

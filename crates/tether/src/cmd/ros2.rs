@@ -1,0 +1,262 @@
+//! `tether ros2 [--config robot.toml] [--ros-args ...]`: tether as a node on a ROS 2
+//! robot's graph, with no ROS installation (a pure-Rust DDS participant).
+//!
+//! It subscribes to the scans, runs the same loop as `tether run` (the pipeline on every
+//! scan and on a 20 Hz timer, its watchdog, a final stop on every exit), and publishes
+//! the commands on `cmd_vel` and its results on `tether/...` as the MCAP results name
+//! them. Names are relative, so `__ns:=/robot1` puts them all under `/robot1`.
+//!
+//! | topic | type | QoS |
+//! |---|---|---|
+//! | `scan` (in) | `sensor_msgs/msg/LaserScan` | best effort, keep last 5 (matches reliable and best-effort publishers) |
+//! | `cmd_vel` (out) | `geometry_msgs/msg/Twist` | reliable, keep last 10 |
+//! | `tether/people`, `tether/laser_people` (out) | `geometry_msgs/msg/PoseArray` | reliable, keep last 10 |
+//! | `tether/target` (out) | `geometry_msgs/msg/PoseWithCovarianceStamped` | reliable, keep last 10 |
+//! | `tether/target_state` (out) | `std_msgs/msg/String` (JSON) | reliable, keep last 10 |
+//!
+//! Parameters (`-p NAME:=VALUE`): `fixed_frame` (default `odom`: the frame of the
+//! results), `follow_distance` (m, the spring's free length), `use_sim_time` (only
+//! `false` so far).
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::time::Duration;
+
+use anyhow::Context;
+use tether::ego::EgoMotion;
+use tether::live::base::CommandSink;
+use tether::live::clock::MonotonicClock;
+use tether::live::config::RobotConfig;
+use tether::live::ros2::{OutputTopics, RosOutputs, ScanCounters, start_scan_reader};
+use tether::live::run_loop::{self, Ending, LoopConfig, Recorder};
+use tether::results::TickMessages;
+use tether_pipeline::{Pipeline, PipelineConfig};
+use tether_ros2::{NodeIdentity, ParamValue, RosArgs, RosNode};
+use tether_scanmatch::ScanMatcherConfig;
+
+/// Options of `tether ros2`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The robot's configuration, the same TOML as `tether run` (its `[laser]` needs
+    /// only the mount; `[base]` is not used: the commands go to `cmd_vel`). Default: a
+    /// TurtleBot 4-sized base (track 0.235 m, radius 0.17 m, 0.3 m/s) with the laser at
+    /// the centre of the wheel axis.
+    #[arg(long, value_name = "robot.toml")]
+    pub config: Option<PathBuf>,
+    /// Stop after this many seconds (default: until Ctrl-C or SIGTERM).
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+    /// Where the robot's motion comes from: `auto` or `scans` (the dead reckoning of the
+    /// commands corrected by matching each scan against the static scene), `odom` (dead
+    /// reckoning of the commands alone).
+    #[arg(long, value_enum, default_value_t = EgoMotion::Auto)]
+    pub ego_motion: EgoMotion,
+    /// The `--ros-args` block (filled in before clap sees the command line).
+    #[arg(skip)]
+    pub ros: RosArgs,
+}
+
+/// The parameters `tether ros2` reads.
+const PARAMETERS: [&str; 3] = ["fixed_frame", "follow_distance", "use_sim_time"];
+
+/// A TurtleBot 4 (iRobot Create 3 base): what the node assumes without `--config`.
+fn turtlebot_pipeline() -> PipelineConfig {
+    let mut p = PipelineConfig::default();
+    p.limits.track_width_m = 0.235;
+    p.limits.max_speed_mps = 0.3;
+    p.limits.max_wheel_speed_mps = 0.306;
+    p.limits.max_reverse_mps = 0.0;
+    p.safety.robot_radius_m = 0.17;
+    p
+}
+
+fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<String> {
+    for name in ros.params.keys() {
+        if !PARAMETERS.contains(&name.as_str()) {
+            tracing::warn!(
+                "parameter {name} is not one of tether's ({}); ignored",
+                PARAMETERS.join(", ")
+            );
+        }
+    }
+    let mut fixed_frame = "odom".to_owned();
+    if let Some(v) = ros.params.get("fixed_frame") {
+        match v.as_str() {
+            Some(f) if !f.is_empty() => f.clone_into(&mut fixed_frame),
+            _ => anyhow::bail!("parameter fixed_frame must be a frame name, got {v:?}"),
+        }
+    }
+    if let Some(v) = ros.params.get("follow_distance") {
+        match v.as_f64() {
+            Some(d) if d.is_finite() && d > 0.0 => pipeline.follower.follow_distance_m = d,
+            _ => {
+                anyhow::bail!("parameter follow_distance must be a positive length in m, got {v:?}")
+            }
+        }
+    }
+    match ros.params.get("use_sim_time") {
+        None | Some(ParamValue::Bool(false)) => {}
+        Some(ParamValue::Bool(true)) => anyhow::bail!(
+            "use_sim_time:=true is not supported yet: tether ros2 runs on the host's clock \
+             (leave it false, or run the simulator in real time)"
+        ),
+        Some(v) => anyhow::bail!("parameter use_sim_time must be true or false, got {v:?}"),
+    }
+    Ok(fixed_frame)
+}
+
+/// Runs the node.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let duration = match args.duration {
+        Some(s) if s.is_finite() && s > 0.0 && s <= 1e6 => Some(Duration::from_secs_f64(s)),
+        Some(s) => anyhow::bail!("--duration must be a positive number of seconds, got {s}"),
+        None => None,
+    };
+    let scan_odometry = match args.ego_motion {
+        EgoMotion::Auto | EgoMotion::Scans => Some(ScanMatcherConfig::default()),
+        EgoMotion::Odom => None,
+        EgoMotion::None => anyhow::bail!(
+            "--ego-motion none: a robot that drives cannot be taken to stand still; use \
+             scans (the default) or odom (dead reckoning of the commands)"
+        ),
+    };
+    let mut pipeline_config = match &args.config {
+        Some(path) => RobotConfig::load_for_ros2(path)?
+            .pipeline_config()
+            .map_err(|e| anyhow::anyhow!("config {}: {e}", path.display()))?,
+        None => turtlebot_pipeline(),
+    };
+    if pipeline_config.fusion.use_vision && args.config.is_some() {
+        tracing::warn!(
+            "the config's [camera] is not used: tether ros2 reads no camera topic yet, so it \
+             runs on the laser alone"
+        );
+    }
+    // No camera topic yet: the laser alone vouches for people.
+    pipeline_config.fusion.use_vision = false;
+    let fixed_frame = parameters(&args.ros, &mut pipeline_config)?;
+    let domain_id = tether_ros2::domain_id(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
+    let identity = NodeIdentity {
+        name: args
+            .ros
+            .node_name
+            .clone()
+            .unwrap_or_else(|| "tether".into()),
+        namespace: args.ros.namespace.clone().unwrap_or_else(|| "/".into()),
+        domain_id,
+    };
+    let topic = |name: &str| args.ros.topic(name, &identity.name, &identity.namespace);
+    let scan_topic = topic("scan");
+    let outputs = OutputTopics {
+        cmd_vel: topic("cmd_vel"),
+        results: [
+            TickMessages::PEOPLE,
+            TickMessages::LASER_PEOPLE,
+            TickMessages::VISION_PEOPLE,
+            TickMessages::TARGET,
+            TickMessages::TARGET_STATE,
+        ]
+        .map(|t| topic(t.trim_start_matches('/'))),
+    };
+    let mut pipeline = Pipeline::new(pipeline_config, None)?;
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
+        .context("cannot catch Ctrl-C, so the robot could not be stopped cleanly")?;
+
+    let mut node = RosNode::start(identity.clone())?;
+    let mut sinks: Vec<Box<dyn CommandSink>> = vec![Box::new(RosOutputs::new(
+        &mut node,
+        &outputs,
+        &fixed_frame,
+    )?)];
+    let clock = MonotonicClock::new();
+    let (tx, rx) = mpsc::sync_channel(32);
+    let (stop_reader, reader_stops) = mpsc::channel();
+    let counters = Arc::new(ScanCounters::default());
+    let reader = start_scan_reader(
+        &mut node,
+        &scan_topic,
+        clock,
+        tx,
+        reader_stops,
+        Arc::clone(&counters),
+    )?;
+    tracing::info!(
+        "node {}{}{} on ROS 2 domain {domain_id}: scans from {scan_topic}, commands to {}, \
+         results in {fixed_frame}",
+        identity.namespace,
+        if identity.namespace.ends_with('/') {
+            ""
+        } else {
+            "/"
+        },
+        identity.name,
+        outputs.cmd_vel
+    );
+
+    let track_width_m = pipeline.config().limits.track_width_m;
+    let scan_period_s = pipeline.config().laser.scan_period_s;
+    let loop_config = LoopConfig {
+        control_period: Duration::from_millis(50),
+        duration,
+        track_width_m,
+        scan_odometry,
+    };
+    let summary = run_loop::run(
+        &mut pipeline,
+        &clock,
+        &rx,
+        &mut sinks,
+        None::<&mut Recorder<std::io::Cursor<Vec<u8>>>>,
+        &stop,
+        &loop_config,
+        scan_period_s,
+    );
+    // A reliable writer resends what its readers have not acknowledged: give the final
+    // stop time to arrive before the participant goes.
+    std::thread::sleep(Duration::from_millis(300));
+    let _ = stop_reader.send(());
+    drop(rx);
+    if reader.join().is_err() {
+        tracing::error!("the scan reader thread panicked");
+    }
+    drop(sinks);
+    drop(node);
+    let load = |c: &std::sync::atomic::AtomicU64| c.load(Ordering::Relaxed);
+    tracing::info!(
+        "{}: {} scans ({} dropped while the loop was behind, {} stamped on arrival, {} \
+         malformed), {} ticks ({} with a target)",
+        summary.ending.name(),
+        load(&counters.delivered),
+        load(&counters.dropped),
+        load(&counters.restamped),
+        load(&counters.malformed),
+        summary.ticks,
+        summary.ticks_with_target,
+    );
+    tracing::info!("{}", summary.target.one_line(pipeline.selector().stats()));
+    let mut problems: Vec<String> = summary
+        .final_stop_failures
+        .iter()
+        .map(|(o, e)| format!("the final stop to {o} failed: {e}"))
+        .collect();
+    match &summary.ending {
+        Ending::Duration | Ending::Interrupted => {}
+        Ending::OutputFailed { output, error } => {
+            problems.insert(0, format!("publishing on {output} failed: {error}"));
+        }
+        other => problems.insert(0, format!("the run ended: {}", other.name())),
+    }
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        anyhow::bail!(
+            "{}; a final stop was published where it still could be",
+            problems.join("; ")
+        )
+    }
+}

@@ -1,0 +1,205 @@
+//! The ROS 2 side of the live loop (`tether ros2`): scans from a topic as the loop's
+//! [`Input`]s, and the commands and results as topics, an output like any other
+//! ([`CommandSink`]), so that `run` and `ros2` share one loop and one safety path.
+//!
+//! Time: the loop runs on the host's clock ([`MonotonicClock`], wall time that never
+//! jumps). A scan keeps its header stamp when that is plausible on this clock (at most
+//! 1 s old and not in the future); otherwise (a publisher with a skewed clock or zero
+//! stamps) it is stamped on arrival, and that is counted and reported once.
+
+use std::io;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender};
+use std::thread::JoinHandle;
+
+use ros2_client::dds::Publisher;
+use tether_io::mcap::{LaserScanMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg};
+use tether_io::mcap::{Ros2Message, TwistMsg};
+use tether_io::scip::Clock;
+use tether_pipeline::Tick;
+use tether_ros2::{Received, Ros2Error, RosNode, Wire, offer, qos, spawn_reader};
+
+use super::base::{CommandLine, CommandSink};
+use super::clock::MonotonicClock;
+use super::run_loop::Input;
+use crate::results::TickMessages;
+
+/// How far a scan's header stamp may lag the host clock and still be used, ns.
+const MAX_SCAN_AGE_NS: i64 = 1_000_000_000;
+/// How far ahead of the host clock a stamp may be (clocks a little apart), ns.
+const MAX_SCAN_LEAD_NS: i64 = 50_000_000;
+
+/// What the scan reader counted.
+#[derive(Debug, Default)]
+pub struct ScanCounters {
+    /// Scans handed to the loop.
+    pub delivered: AtomicU64,
+    /// Scans dropped because the loop was behind (its queue full).
+    pub dropped: AtomicU64,
+    /// Scans stamped on arrival because their header stamp was implausible.
+    pub restamped: AtomicU64,
+    /// Samples that did not decode or were not a usable scan.
+    pub malformed: AtomicU64,
+}
+
+/// The stamp the loop uses for a scan stamped `header_ns` that arrived at `now_ns`.
+pub fn loop_stamp(header_ns: i64, now_ns: i64) -> Option<i64> {
+    let age = now_ns.saturating_sub(header_ns);
+    (-MAX_SCAN_LEAD_NS..=MAX_SCAN_AGE_NS)
+        .contains(&age)
+        .then_some(header_ns)
+}
+
+/// Subscribes to `topic` and sends its scans to the loop until `stop` fires or the
+/// loop goes away. Never blocks DDS: a full queue drops the scan (counted).
+pub fn start_scan_reader(
+    node: &mut RosNode,
+    topic: &str,
+    clock: MonotonicClock,
+    tx: SyncSender<Input>,
+    stop: Receiver<()>,
+    counters: Arc<ScanCounters>,
+) -> Result<JoinHandle<()>, Ros2Error> {
+    let domain = node.identity().domain_id;
+    let subscription = node.subscribe::<LaserScanMsg>(topic, qos::sensor_data())?;
+    let topic_name = topic.to_owned();
+    let mut dropped = 0;
+    spawn_reader("ros2-scan", subscription, stop, move |received| {
+        let input = match received {
+            Received::Message { message, .. } => {
+                let mut scan = message.scan;
+                let now = clock.now_ns();
+                match loop_stamp(scan.stamp.ns(), now) {
+                    Some(_) => {}
+                    None => {
+                        if counters.restamped.fetch_add(1, Ordering::Relaxed) == 0 {
+                            tracing::warn!(
+                                "{topic_name}: a scan stamped {:.3} s from this host's clock; \
+                                 such scans are stamped on arrival (is the publisher's clock \
+                                 set, or is it on sim time?)",
+                                (scan.stamp.ns() - now) as f64 * 1e-9
+                            );
+                        }
+                        scan.stamp = tether_core::Stamp::from_ns(now);
+                    }
+                }
+                counters.delivered.fetch_add(1, Ordering::Relaxed);
+                Input::Scan(scan)
+            }
+            Received::Malformed(why) => {
+                counters.malformed.fetch_add(1, Ordering::Relaxed);
+                Input::LaserFault(format!("{topic_name}: a sample skipped: {why}"))
+            }
+        };
+        let before = dropped;
+        let open = offer(&tx, input, &mut dropped);
+        if dropped > before {
+            counters.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+        open
+    })
+    .map_err(|e| Ros2Error::Join {
+        domain,
+        message: format!("cannot start the reader thread: {e}"),
+    })
+}
+
+/// A publisher of `M`.
+fn publisher<M: Ros2Message>(
+    node: &mut RosNode,
+    topic: &str,
+    depth: usize,
+) -> Result<Publisher<Wire<M>>, Ros2Error> {
+    node.publisher::<M>(topic, qos::reliable(depth))
+}
+
+/// The commands on `/cmd_vel` and the results on `/tether/...`, as the MCAP results
+/// name them (`tether::results`).
+pub struct RosOutputs {
+    name: String,
+    frame: String,
+    cmd_vel: Publisher<Wire<TwistMsg>>,
+    people: Publisher<Wire<PoseArrayMsg>>,
+    laser_people: Publisher<Wire<PoseArrayMsg>>,
+    vision_people: Publisher<Wire<PoseArrayMsg>>,
+    target: Publisher<Wire<PoseWithCovarianceStampedMsg>>,
+    target_state: Publisher<Wire<StringMsg>>,
+}
+
+/// The topic names of the outputs, resolved by the caller (namespace, remapping).
+#[derive(Debug, Clone)]
+pub struct OutputTopics {
+    /// The commands.
+    pub cmd_vel: String,
+    /// `/tether/people` and the others, in the order of [`TickMessages`]'s constants:
+    /// people, laser people, vision people, target, target state.
+    pub results: [String; 5],
+}
+
+impl RosOutputs {
+    /// The publishers; positions are stamped in `frame` (the fixed frame).
+    pub fn new(node: &mut RosNode, topics: &OutputTopics, frame: &str) -> Result<Self, Ros2Error> {
+        let [people, laser, vision, target, state] = &topics.results;
+        Ok(RosOutputs {
+            name: topics.cmd_vel.clone(),
+            frame: frame.to_owned(),
+            cmd_vel: publisher(node, &topics.cmd_vel, 10)?,
+            people: publisher(node, people, 10)?,
+            laser_people: publisher(node, laser, 10)?,
+            vision_people: publisher(node, vision, 10)?,
+            target: publisher(node, target, 10)?,
+            target_state: publisher(node, state, 10)?,
+        })
+    }
+}
+
+fn published<E: std::fmt::Debug>(topic: &str, result: Result<(), E>) -> io::Result<()> {
+    result.map_err(|e| io::Error::other(format!("publishing on {topic}: {e:?}")))
+}
+
+impl CommandSink for RosOutputs {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn tick(&mut self, tick: &Tick) -> io::Result<()> {
+        let m = TickMessages::of(tick, &self.frame);
+        published("people", self.people.publish(Wire(m.people)))?;
+        if let Some((topic, observed)) = m.observed {
+            let publisher = if topic == TickMessages::VISION_PEOPLE {
+                &self.vision_people
+            } else {
+                &self.laser_people
+            };
+            published(topic, publisher.publish(Wire(observed)))?;
+        }
+        if let Some(target) = m.target {
+            published("target", self.target.publish(Wire(target)))?;
+        }
+        published(
+            "target_state",
+            self.target_state.publish(Wire(m.target_state)),
+        )
+    }
+
+    fn send(&mut self, command: &CommandLine) -> io::Result<()> {
+        let twist = TwistMsg::unicycle(command.v_mps, command.w_radps);
+        published(&self.name, self.cmd_vel.publish(Wire(twist)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plausible_stamps_are_kept_others_are_not() {
+        let now = 1_700_000_000_000_000_000;
+        assert_eq!(loop_stamp(now - 30_000_000, now), Some(now - 30_000_000));
+        assert_eq!(loop_stamp(now + 10_000_000, now), Some(now + 10_000_000));
+        assert_eq!(loop_stamp(now - 2_000_000_000, now), None);
+        assert_eq!(loop_stamp(0, now), None);
+        assert_eq!(loop_stamp(now + 500_000_000, now), None);
+    }
+}

@@ -1,0 +1,283 @@
+#!/usr/bin/env python3
+"""An independent ROS 2 peer for `tether ros2`, built on Eclipse Cyclone DDS (Python
+`cyclonedds`), the middleware ROS 2 ships by default in several distributions.
+
+It starts `tether ros2` as a child process, publishes the scans of a ROS 1 bag on
+`rt/scan` as `sensor_msgs/msg/LaserScan` (plain CDR, XCDR1, as ROS 2 sends it), stamped
+now, at the bag's own pace; listens to `cmd_vel`, `tether/target_state`, `tether/people`
+and `ros_discovery_info`; then interrupts tether (SIGINT or SIGTERM) and prints what it
+saw as one JSON object on stdout.
+
+Run it only in a private network namespace with only loopback up (DDS discovery
+multicasts), e.g. `unshare -n sh -c 'ip link set lo up && python3 peer.py ...'`.
+"""
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+
+from cyclonedds.core import Policy, Qos
+from cyclonedds.domain import DomainParticipant
+from cyclonedds.idl import IdlStruct
+from cyclonedds.idl.types import array, float32, float64, int32, sequence, uint8, uint32
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+from rosbags.rosbag1 import Reader
+from rosbags.typesys import Stores, get_typestore
+
+
+# The ROS 2 messages as IDL, named as rosidl names them on DDS.
+@dataclass
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: int32
+    nanosec: uint32
+
+
+@dataclass
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time
+    frame_id: str
+
+
+@dataclass
+class LaserScan(IdlStruct, typename="sensor_msgs::msg::dds_::LaserScan_"):
+    header: Header
+    angle_min: float32
+    angle_max: float32
+    angle_increment: float32
+    time_increment: float32
+    scan_time: float32
+    range_min: float32
+    range_max: float32
+    ranges: sequence[float32]
+    intensities: sequence[float32]
+
+
+@dataclass
+class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+class Twist(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
+    linear: Vector3
+    angular: Vector3
+
+
+@dataclass
+class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
+    x: float64
+    y: float64
+    z: float64
+    w: float64
+
+
+@dataclass
+class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
+    position: Point
+    orientation: Quaternion
+
+
+@dataclass
+class PoseArray(IdlStruct, typename="geometry_msgs::msg::dds_::PoseArray_"):
+    header: Header
+    poses: sequence[Pose]
+
+
+@dataclass
+class String(IdlStruct, typename="std_msgs::msg::dds_::String_"):
+    data: str
+
+
+@dataclass
+class Gid(IdlStruct, typename="rmw_dds_common::msg::dds_::Gid_"):
+    data: array[uint8, 16]
+
+
+@dataclass
+class NodeEntitiesInfo(IdlStruct, typename="rmw_dds_common::msg::dds_::NodeEntitiesInfo_"):
+    node_namespace: str
+    node_name: str
+    reader_gid_seq: sequence[Gid]
+    writer_gid_seq: sequence[Gid]
+
+
+@dataclass
+class ParticipantEntitiesInfo(
+    IdlStruct, typename="rmw_dds_common::msg::dds_::ParticipantEntitiesInfo_"
+):
+    gid: Gid
+    node_entities_info_seq: sequence[NodeEntitiesInfo]
+
+
+XCDR1 = Policy.DataRepresentation(use_cdrv0_representation=True)
+
+
+def qos(reliable, depth, transient_local=False):
+    policies = [
+        XCDR1,
+        Policy.History.KeepLast(depth),
+        Policy.Reliability.Reliable(duration(seconds=1))
+        if reliable
+        else Policy.Reliability.BestEffort,
+    ]
+    if transient_local:
+        policies.append(Policy.Durability.TransientLocal)
+    return Qos(*policies)
+
+
+def bag_scans(path, topic):
+    store = get_typestore(Stores.ROS1_NOETIC)
+    with Reader(path) as reader:
+        conns = [c for c in reader.connections if c.topic == topic]
+        if not conns:
+            sys.exit(f"peer: {path} has no topic {topic}")
+        for conn, t_ns, raw in reader.messages(connections=conns):
+            yield t_ns, store.deserialize_ros1(raw, conn.msgtype)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--tether", required=True, help="the tether binary")
+    ap.add_argument("--bag", required=True, help="a ROS 1 bag with the scans")
+    ap.add_argument("--scan-topic", default="/scan")
+    ap.add_argument("--reliable", action="store_true", help="publish scans reliably")
+    ap.add_argument("--seconds", type=float, default=20.0, help="of scans to publish")
+    ap.add_argument("--signal", choices=["INT", "TERM"], default="INT")
+    ap.add_argument("tether_args", nargs="*", help="more arguments for tether ros2")
+    a = ap.parse_args()
+
+    dp = DomainParticipant(0)
+    scan_writer = DataWriter(
+        dp, Topic(dp, "rt/scan", LaserScan), qos=qos(a.reliable, 5)
+    )
+    cmd_reader = DataReader(dp, Topic(dp, "rt/cmd_vel", Twist), qos=qos(True, 1000))
+    state_reader = DataReader(
+        dp, Topic(dp, "rt/tether/target_state", String), qos=qos(True, 1000)
+    )
+    people_reader = DataReader(
+        dp, Topic(dp, "rt/tether/people", PoseArray), qos=qos(True, 1000)
+    )
+    discovery_reader = DataReader(
+        dp,
+        Topic(dp, "ros_discovery_info", ParticipantEntitiesInfo),
+        qos=qos(True, 100, transient_local=True),
+    )
+
+    child = subprocess.Popen(
+        [a.tether, "ros2", *a.tether_args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    # Wait until tether's scan reader has matched ours (up to 10 s).
+    started = time.monotonic()
+    while time.monotonic() - started < 10.0:
+        if scan_writer.get_matched_subscriptions():
+            break
+        if child.poll() is not None:
+            break
+        time.sleep(0.05)
+    matched_after_s = time.monotonic() - started
+
+    cmds, states, people = [], [], []
+    nodes = set()
+
+    def drain():
+        for s in cmd_reader.take(N=1000):
+            cmds.append([time.monotonic(), s.linear.x, s.angular.z])
+        for s in state_reader.take(N=1000):
+            states.append([time.monotonic(), s.data])
+        for s in people_reader.take(N=1000):
+            people.append([time.monotonic(), len(s.poses), s.header.frame_id])
+        for s in discovery_reader.take(N=100):
+            for n in s.node_entities_info_seq:
+                nodes.add((n.node_namespace, n.node_name))
+
+    scans_sent = 0
+    first_t = None
+    wall0 = time.monotonic()
+    for t_ns, m in bag_scans(a.bag, a.scan_topic):
+        if child.poll() is not None:
+            break
+        if first_t is None:
+            first_t = t_ns
+        offset = (t_ns - first_t) * 1e-9
+        if offset > a.seconds:
+            break
+        while time.monotonic() - wall0 < offset:
+            drain()
+            time.sleep(0.002)
+        now = time.time_ns()
+        scan_writer.write(
+            LaserScan(
+                header=Header(
+                    stamp=Time(sec=now // 1_000_000_000, nanosec=now % 1_000_000_000),
+                    frame_id=m.header.frame_id,
+                ),
+                angle_min=m.angle_min,
+                angle_max=m.angle_max,
+                angle_increment=m.angle_increment,
+                time_increment=m.time_increment,
+                scan_time=m.scan_time,
+                range_min=m.range_min,
+                range_max=m.range_max,
+                ranges=[float(r) for r in m.ranges],
+                intensities=[],
+            )
+        )
+        scans_sent += 1
+        drain()
+
+    drain()
+    interrupted_at = time.monotonic()
+    if child.poll() is None:
+        child.send_signal(signal.SIGINT if a.signal == "INT" else signal.SIGTERM)
+    try:
+        _, stderr = child.communicate(timeout=15)
+    except subprocess.TimeoutExpired:
+        child.kill()
+        _, stderr = child.communicate()
+    exited_at = time.monotonic()
+    # What was on its way when tether went.
+    deadline = time.monotonic() + 1.0
+    while time.monotonic() < deadline:
+        drain()
+        time.sleep(0.02)
+
+    print(
+        json.dumps(
+            {
+                "matched_after_s": matched_after_s,
+                "scans_sent": scans_sent,
+                "cmd_vel": cmds,
+                "target_state": states,
+                "people": people,
+                "nodes": sorted(nodes),
+                "interrupted_at": interrupted_at,
+                "exited_at": exited_at,
+                "exit_code": child.returncode,
+                "stderr": stderr,
+            }
+        )
+    )
+
+
+if __name__ == "__main__":
+    main()

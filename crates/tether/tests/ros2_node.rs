@@ -1,0 +1,218 @@
+//! `tether ros2` against an independent DDS implementation: Python `cyclonedds` (Eclipse
+//! Cyclone DDS, a ROS 2 middleware) publishes the scans of a simulated run on `/scan` and
+//! listens to `/cmd_vel`, the results and the graph (`tests/ros2/peer.py`).
+//!
+//! DDS discovery multicasts, so every run happens in a private network namespace with
+//! only loopback up (`unshare -n`, as root); nothing reaches a real interface. Skips,
+//! printing why, where namespaces or the Python peer are unavailable, unless
+//! `TETHER_REQUIRE_SHARED=1` (set in CI) makes that a failure.
+
+#![allow(clippy::unwrap_used, reason = "tests fail loudly")]
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use common::{scratch, tether, text};
+
+/// Skips (printing why) unless `TETHER_REQUIRE_SHARED=1` demands the test.
+fn skip_unless(ok: bool, reason: &str) -> bool {
+    if !ok {
+        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
+            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
+        }
+        eprintln!("skipped: {reason}");
+    }
+    ok
+}
+
+fn runs(program: &str, args: &[&str]) -> bool {
+    Command::new(program)
+        .args(args)
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// Whether this machine can run the peer: a private network namespace and the Python
+/// packages.
+fn peer_available() -> bool {
+    skip_unless(
+        runs("unshare", &["-n", "true"]),
+        "cannot make a private network namespace (`unshare -n` needs root)",
+    ) && skip_unless(
+        runs("python3", &["-c", "import cyclonedds, rosbags"]),
+        "the Python peer needs `pip install cyclonedds rosbags`",
+    )
+}
+
+/// A simulated laser-only `corridor` run as a ROS 1 bag (`/scan`).
+fn corridor_bag(dir: &Path) -> PathBuf {
+    let bag = dir.join("corridor.bag");
+    let out = tether(&[
+        "sim",
+        "--scenario",
+        "corridor",
+        "--laser-only",
+        "--seed",
+        "1",
+        "--duration",
+        "25",
+        "--out",
+        dir.join("sim").to_str().unwrap(),
+        "--record-bag",
+        bag.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "sim: {}", text(&out.stderr));
+    bag
+}
+
+/// What the peer saw.
+struct Seen {
+    json: serde_json::Value,
+}
+
+impl Seen {
+    fn series(&self, key: &str) -> Vec<Vec<serde_json::Value>> {
+        self.json[key]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_array().unwrap().clone())
+            .collect()
+    }
+
+    fn f(v: &serde_json::Value) -> f64 {
+        v.as_f64().unwrap()
+    }
+}
+
+/// Runs the peer (and through it `tether ros2 ARGS`) in a fresh namespace.
+fn peer(bag: &Path, peer_args: &[&str], tether_args: &[&str]) -> Seen {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/peer.py");
+    let mut inner = vec![
+        "python3".to_owned(),
+        script.display().to_string(),
+        "--tether".into(),
+        env!("CARGO_BIN_EXE_tether").into(),
+        "--bag".into(),
+        bag.display().to_string(),
+    ];
+    inner.extend(peer_args.iter().map(|s| (*s).to_owned()));
+    inner.push("--".into());
+    inner.extend(tether_args.iter().map(|s| (*s).to_owned()));
+    let quoted: Vec<String> = inner.iter().map(|a| format!("'{a}'")).collect();
+    let out = Command::new("unshare")
+        .args([
+            "-n",
+            "sh",
+            "-c",
+            &format!(
+                "ip link set lo up && ip link set lo multicast on && exec {}",
+                quoted.join(" ")
+            ),
+        ])
+        .output()
+        .expect("unshare runs");
+    let stdout = text(&out.stdout);
+    assert!(
+        out.status.success(),
+        "peer failed: {}\n{stdout}",
+        text(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap_or_else(|e| {
+        panic!(
+            "peer output is not JSON ({e}): {stdout}\n{}",
+            text(&out.stderr)
+        )
+    });
+    Seen { json }
+}
+
+/// The bars every run must meet: tether is a node, follows, never moves before a lock,
+/// and its last command is a stop.
+fn check_follows_and_stops(seen: &Seen) {
+    let j = &seen.json;
+    let stderr = j["stderr"].as_str().unwrap_or_default();
+    assert_eq!(j["exit_code"], 0, "tether ros2 failed: {stderr}");
+    let nodes = j["nodes"].as_array().unwrap();
+    assert!(
+        nodes.iter().any(|n| n[0] == "/" && n[1] == "tether"),
+        "tether is not listed as a node in ros_discovery_info: {nodes:?}"
+    );
+    let scans = j["scans_sent"].as_u64().unwrap();
+    assert!(scans >= 150, "{scans} scans sent");
+    let cmds = seen.series("cmd_vel");
+    // A command on every scan and every 50 ms timer tick.
+    assert!(
+        cmds.len() as u64 >= 2 * scans,
+        "{} commands for {scans} scans",
+        cmds.len()
+    );
+    let moving = cmds.iter().filter(|c| Seen::f(&c[1]) > 0.05).count();
+    assert!(
+        moving > cmds.len() / 3,
+        "{moving} of {} commands drive",
+        cmds.len()
+    );
+    let last = cmds.last().unwrap();
+    assert_eq!(
+        (Seen::f(&last[1]), Seen::f(&last[2])),
+        (0.0, 0.0),
+        "the last command is a stop"
+    );
+    let exited = Seen::f(&j["exited_at"]);
+    assert!(
+        Seen::f(&last[0]) <= exited + 0.5,
+        "the stop came while tether was there"
+    );
+    // Nothing drives before the target is locked.
+    let states = seen.series("target_state");
+    let first_lock = states
+        .iter()
+        .find(|s| s[1].as_str().unwrap().contains("\"locked\""))
+        .map(|s| Seen::f(&s[0]))
+        .expect("the target was locked");
+    let first_drive = cmds
+        .iter()
+        .find(|c| Seen::f(&c[1]) != 0.0 || Seen::f(&c[2]) != 0.0)
+        .map(|c| Seen::f(&c[0]))
+        .unwrap();
+    assert!(
+        first_drive >= first_lock - 0.05,
+        "a command at {first_drive} before the lock at {first_lock}"
+    );
+    let people = seen.series("people");
+    assert!(people.iter().any(|p| p[1].as_u64().unwrap() >= 1));
+    assert!(people.iter().all(|p| p[2] == "odom"));
+    assert!(
+        stderr.contains("interrupted"),
+        "the summary says why it ended: {stderr}"
+    );
+}
+
+#[test]
+fn follows_from_best_effort_scans_and_stops_on_ctrl_c() {
+    if !peer_available() {
+        return;
+    }
+    let dir = scratch("ros2-best-effort");
+    let bag = corridor_bag(&dir);
+    let seen = peer(&bag, &["--seconds", "20", "--signal", "INT"], &[]);
+    check_follows_and_stops(&seen);
+}
+
+#[test]
+fn follows_from_reliable_scans_and_stops_on_sigterm() {
+    if !peer_available() {
+        return;
+    }
+    let dir = scratch("ros2-reliable");
+    let bag = corridor_bag(&dir);
+    let seen = peer(
+        &bag,
+        &["--seconds", "20", "--reliable", "--signal", "TERM"],
+        &[],
+    );
+    check_follows_and_stops(&seen);
+}
