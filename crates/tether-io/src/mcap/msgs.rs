@@ -705,6 +705,43 @@ impl Ros2Message for TwistMsg {
     }
 }
 
+/// `geometry_msgs/msg/TwistStamped`: a velocity command with the time it was made and
+/// the frame it is in (what Jazzy's diff-drive controller and Nav2 take on `cmd_vel`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TwistStampedMsg {
+    /// ROS header (the command's time, the base's frame).
+    pub header: Header,
+    /// The command.
+    pub twist: TwistMsg,
+}
+
+impl Ros2Message for TwistStampedMsg {
+    const TYPE: &'static str = "geometry_msgs/msg/TwistStamped";
+    const DEFINITION: &'static str = concat!(
+        "std_msgs/Header header\n",
+        "Twist twist\n",
+        header_def!(),
+        twist_def!()
+    );
+
+    fn write_cdr(&self, w: &mut CdrWriter) -> Result<(), EncodeError> {
+        self.header.write(w)?;
+        self.twist.write(w);
+        Ok(())
+    }
+
+    fn read_cdr(r: &mut CdrReader<'_>) -> Result<Self, DecodeError> {
+        Ok(TwistStampedMsg {
+            header: Header::read(r)?,
+            twist: TwistMsg::read(r)?,
+        })
+    }
+
+    fn header_stamp(&self) -> Option<Stamp> {
+        Some(self.header.stamp)
+    }
+}
+
 /// `geometry_msgs/msg/PoseArray`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PoseArrayMsg {
@@ -1014,6 +1051,7 @@ mod tests {
             ImageMsg::DEFINITION,
             CompressedImageMsg::DEFINITION,
             TwistMsg::DEFINITION,
+            TwistStampedMsg::DEFINITION,
             PoseArrayMsg::DEFINITION,
             PoseWithCovarianceStampedMsg::DEFINITION,
             OdometryMsg::DEFINITION,
@@ -1109,6 +1147,14 @@ mod tests {
         assert_eq!(from_cdr::<PoseArrayMsg>(&bytes).unwrap(), arr);
         let t = TwistMsg::unicycle(0.3, -0.2);
         assert_eq!(from_cdr::<TwistMsg>(&to_cdr(&t).unwrap()).unwrap(), t);
+        let ts = TwistStampedMsg {
+            header: Header::new(Stamp::from_ns(1_700_000_000_5), "base_link"),
+            twist: t,
+        };
+        let bytes = to_cdr(&ts).unwrap();
+        // header(4) + stamp(8) + "base_link\0" with length (4 + 10), pad to 8 (2), 6 f64.
+        assert_eq!(bytes.len(), 4 + 8 + 14 + 2 + 48);
+        assert_eq!(from_cdr::<TwistStampedMsg>(&bytes).unwrap(), ts);
         assert_eq!(to_cdr(&t).unwrap().len(), 4 + 48);
     }
 

@@ -9,13 +9,16 @@
 //! | topic | type | QoS |
 //! |---|---|---|
 //! | `scan` (in) | `sensor_msgs/msg/LaserScan` | best effort, keep last 5 (matches reliable and best-effort publishers) |
-//! | `cmd_vel` (out) | `geometry_msgs/msg/Twist` | reliable, keep last 10 |
+//! | `cmd_vel` (out) | `geometry_msgs/msg/Twist` (or `TwistStamped`) | reliable, keep last 10 |
 //! | `tether/people`, `tether/laser_people` (out) | `geometry_msgs/msg/PoseArray` | reliable, keep last 10 |
 //! | `tether/target` (out) | `geometry_msgs/msg/PoseWithCovarianceStamped` | reliable, keep last 10 |
 //! | `tether/target_state` (out) | `std_msgs/msg/String` (JSON) | reliable, keep last 10 |
 //!
 //! Parameters (`-p NAME:=VALUE`): `fixed_frame` (default `odom`: the frame of the
-//! results), `follow_distance` (m, the spring's free length), `use_sim_time` (only
+//! results), `base_frame` (default `base_link`), `cmd_vel_stamped` (default `false`;
+//! `true`: `geometry_msgs/msg/TwistStamped` in `base_frame`, stamped with the time of
+//! the scan or timer tick that made the command, as Jazzy's diff-drive controller
+//! takes it), `follow_distance` (m, the spring's free length), `use_sim_time` (only
 //! `false` so far).
 
 use std::path::PathBuf;
@@ -59,7 +62,20 @@ pub struct Args {
 }
 
 /// The parameters `tether ros2` reads.
-const PARAMETERS: [&str; 3] = ["fixed_frame", "follow_distance", "use_sim_time"];
+const PARAMETERS: [&str; 5] = [
+    "fixed_frame",
+    "base_frame",
+    "cmd_vel_stamped",
+    "follow_distance",
+    "use_sim_time",
+];
+
+/// What the parameters set besides the pipeline.
+struct NodeParameters {
+    fixed_frame: String,
+    /// `Some(base_frame)` when the commands go out as `TwistStamped`.
+    cmd_vel_stamped: Option<String>,
+}
 
 /// A TurtleBot 4 (iRobot Create 3 base): what the node assumes without `--config`.
 fn turtlebot_pipeline() -> PipelineConfig {
@@ -72,7 +88,17 @@ fn turtlebot_pipeline() -> PipelineConfig {
     p
 }
 
-fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<String> {
+fn frame_parameter(ros: &RosArgs, name: &str, default: &str) -> anyhow::Result<String> {
+    match ros.params.get(name) {
+        None => Ok(default.to_owned()),
+        Some(v) => match v.as_str() {
+            Some(f) if !f.is_empty() => Ok(f.to_owned()),
+            _ => anyhow::bail!("parameter {name} must be a frame name, got {v:?}"),
+        },
+    }
+}
+
+fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<NodeParameters> {
     for name in ros.params.keys() {
         if !PARAMETERS.contains(&name.as_str()) {
             tracing::warn!(
@@ -81,13 +107,14 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<St
             );
         }
     }
-    let mut fixed_frame = "odom".to_owned();
-    if let Some(v) = ros.params.get("fixed_frame") {
-        match v.as_str() {
-            Some(f) if !f.is_empty() => f.clone_into(&mut fixed_frame),
-            _ => anyhow::bail!("parameter fixed_frame must be a frame name, got {v:?}"),
-        }
-    }
+    let fixed_frame = frame_parameter(ros, "fixed_frame", "odom")?;
+    let base_frame = frame_parameter(ros, "base_frame", "base_link")?;
+    let stamped = match ros.params.get("cmd_vel_stamped") {
+        None => false,
+        Some(v) => v.as_bool().ok_or_else(|| {
+            anyhow::anyhow!("parameter cmd_vel_stamped must be true or false, got {v:?}")
+        })?,
+    };
     if let Some(v) = ros.params.get("follow_distance") {
         match v.as_f64() {
             Some(d) if d.is_finite() && d > 0.0 => pipeline.follower.follow_distance_m = d,
@@ -104,7 +131,10 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<St
         ),
         Some(v) => anyhow::bail!("parameter use_sim_time must be true or false, got {v:?}"),
     }
-    Ok(fixed_frame)
+    Ok(NodeParameters {
+        fixed_frame,
+        cmd_vel_stamped: stamped.then_some(base_frame),
+    })
 }
 
 /// Runs the node.
@@ -136,7 +166,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     // No camera topic yet: the laser alone vouches for people.
     pipeline_config.fusion.use_vision = false;
-    let fixed_frame = parameters(&args.ros, &mut pipeline_config)?;
+    let NodeParameters {
+        fixed_frame,
+        cmd_vel_stamped,
+    } = parameters(&args.ros, &mut pipeline_config)?;
     let domain_id = tether_ros2::domain_id(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
     let identity = NodeIdentity {
         name: args
@@ -151,6 +184,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let scan_topic = topic("scan");
     let outputs = OutputTopics {
         cmd_vel: topic("cmd_vel"),
+        cmd_vel_stamped,
         results: [
             TickMessages::PEOPLE,
             TickMessages::LASER_PEOPLE,

@@ -14,8 +14,8 @@ use std::sync::mpsc::{Receiver, SyncSender};
 use std::thread::JoinHandle;
 
 use ros2_client::dds::Publisher;
+use tether_io::mcap::{Header, Ros2Message, TwistMsg, TwistStampedMsg};
 use tether_io::mcap::{LaserScanMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg};
-use tether_io::mcap::{Ros2Message, TwistMsg};
 use tether_io::scip::Clock;
 use tether_pipeline::Tick;
 use tether_ros2::{Received, Ros2Error, RosNode, Wire, offer, qos, spawn_reader};
@@ -119,7 +119,7 @@ fn publisher<M: Ros2Message>(
 pub struct RosOutputs {
     name: String,
     frame: String,
-    cmd_vel: Publisher<Wire<TwistMsg>>,
+    cmd_vel: CmdVel,
     people: Publisher<Wire<PoseArrayMsg>>,
     laser_people: Publisher<Wire<PoseArrayMsg>>,
     vision_people: Publisher<Wire<PoseArrayMsg>>,
@@ -127,11 +127,23 @@ pub struct RosOutputs {
     target_state: Publisher<Wire<StringMsg>>,
 }
 
+/// The commands' publisher: `Twist`, or `TwistStamped` in the base's frame.
+enum CmdVel {
+    Plain(Publisher<Wire<TwistMsg>>),
+    Stamped {
+        publisher: Publisher<Wire<TwistStampedMsg>>,
+        base_frame: String,
+    },
+}
+
 /// The topic names of the outputs, resolved by the caller (namespace, remapping).
 #[derive(Debug, Clone)]
 pub struct OutputTopics {
     /// The commands.
     pub cmd_vel: String,
+    /// `Some(base_frame)`: the commands as `geometry_msgs/msg/TwistStamped` in that frame,
+    /// stamped with the time of the data that made them; `None`: `Twist`.
+    pub cmd_vel_stamped: Option<String>,
     /// `/tether/people` and the others, in the order of [`TickMessages`]'s constants:
     /// people, laser people, vision people, target, target state.
     pub results: [String; 5],
@@ -144,7 +156,13 @@ impl RosOutputs {
         Ok(RosOutputs {
             name: topics.cmd_vel.clone(),
             frame: frame.to_owned(),
-            cmd_vel: publisher(node, &topics.cmd_vel, 10)?,
+            cmd_vel: match &topics.cmd_vel_stamped {
+                None => CmdVel::Plain(publisher(node, &topics.cmd_vel, 10)?),
+                Some(base_frame) => CmdVel::Stamped {
+                    publisher: publisher(node, &topics.cmd_vel, 10)?,
+                    base_frame: base_frame.clone(),
+                },
+            },
             people: publisher(node, people, 10)?,
             laser_people: publisher(node, laser, 10)?,
             vision_people: publisher(node, vision, 10)?,
@@ -185,7 +203,20 @@ impl CommandSink for RosOutputs {
 
     fn send(&mut self, command: &CommandLine) -> io::Result<()> {
         let twist = TwistMsg::unicycle(command.v_mps, command.w_radps);
-        published(&self.name, self.cmd_vel.publish(Wire(twist)))
+        match &self.cmd_vel {
+            CmdVel::Plain(p) => published(&self.name, p.publish(Wire(twist))),
+            CmdVel::Stamped {
+                publisher,
+                base_frame,
+            } => {
+                let stamp = tether_core::Stamp::from_ns(command.stamp_ns);
+                let msg = TwistStampedMsg {
+                    header: Header::new(stamp, base_frame.as_str()),
+                    twist,
+                };
+                published(&self.name, publisher.publish(Wire(msg)))
+            }
+        }
     }
 }
 

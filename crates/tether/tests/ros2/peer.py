@@ -21,12 +21,12 @@ import sys
 import time
 from dataclasses import dataclass, field
 
-from cyclonedds.core import Policy, Qos
+from cyclonedds.core import Listener, Policy, Qos
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.types import array, float32, float64, int32, sequence, uint8, uint32
 from cyclonedds.pub import DataWriter
-from cyclonedds.sub import DataReader
+from cyclonedds.sub import DataReader, InvalidSample
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 from rosbags.rosbag1 import Reader
@@ -71,6 +71,12 @@ class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
 class Twist(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
     linear: Vector3
     angular: Vector3
+
+
+@dataclass
+class TwistStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TwistStamped_"):
+    header: Header
+    twist: Twist
 
 
 @dataclass
@@ -142,6 +148,11 @@ def qos(reliable, depth, transient_local=False):
     return Qos(*policies)
 
 
+def valid(samples):
+    """The samples that carry data (not the notices of a writer that went away)."""
+    return [s for s in samples if not isinstance(s, InvalidSample)]
+
+
 def bag_scans(path, topic):
     store = get_typestore(Stores.ROS1_NOETIC)
     with Reader(path) as reader:
@@ -160,6 +171,12 @@ def main():
     ap.add_argument("--reliable", action="store_true", help="publish scans reliably")
     ap.add_argument("--seconds", type=float, default=20.0, help="of scans to publish")
     ap.add_argument("--signal", choices=["INT", "TERM"], default="INT")
+    ap.add_argument(
+        "--stamped",
+        action="store_true",
+        help="cmd_vel is TwistStamped (tether -p cmd_vel_stamped:=true): measure the "
+        "latency from each scan to the command it caused",
+    )
     ap.add_argument("tether_args", nargs="*", help="more arguments for tether ros2")
     a = ap.parse_args()
 
@@ -167,7 +184,28 @@ def main():
     scan_writer = DataWriter(
         dp, Topic(dp, "rt/scan", LaserScan), qos=qos(a.reliable, 5)
     )
-    cmd_reader = DataReader(dp, Topic(dp, "rt/cmd_vel", Twist), qos=qos(True, 1000))
+    cmd_type = TwistStamped if a.stamped else Twist
+    cmds = []
+
+    class CmdListener(Listener):
+        """Takes the commands as they arrive (on Cyclone's thread), so that their
+        arrival times are not those of a polling loop."""
+
+        def on_data_available(self, reader):
+            now = time.monotonic()
+            for s in valid(reader.take(N=1000)):
+                if a.stamped:
+                    stamp = s.header.stamp.sec * 1_000_000_000 + s.header.stamp.nanosec
+                    cmds.append([now, s.twist.linear.x, s.twist.angular.z, stamp])
+                else:
+                    cmds.append([now, s.linear.x, s.angular.z])
+
+    cmd_reader = DataReader(
+        dp,
+        Topic(dp, "rt/cmd_vel", cmd_type),
+        qos=qos(True, 1000),
+        listener=CmdListener(),
+    )
     state_reader = DataReader(
         dp, Topic(dp, "rt/tether/target_state", String), qos=qos(True, 1000)
     )
@@ -196,21 +234,20 @@ def main():
         time.sleep(0.05)
     matched_after_s = time.monotonic() - started
 
-    cmds, states, people = [], [], []
+    states, people = [], []
     nodes = set()
 
     def drain():
-        for s in cmd_reader.take(N=1000):
-            cmds.append([time.monotonic(), s.linear.x, s.angular.z])
-        for s in state_reader.take(N=1000):
+        for s in valid(state_reader.take(N=1000)):
             states.append([time.monotonic(), s.data])
-        for s in people_reader.take(N=1000):
+        for s in valid(people_reader.take(N=1000)):
             people.append([time.monotonic(), len(s.poses), s.header.frame_id])
-        for s in discovery_reader.take(N=100):
+        for s in valid(discovery_reader.take(N=100)):
             for n in s.node_entities_info_seq:
                 nodes.add((n.node_namespace, n.node_name))
 
     scans_sent = 0
+    written = {}  # scan stamp (ns) -> when it was written (monotonic s)
     first_t = None
     wall0 = time.monotonic()
     for t_ns, m in bag_scans(a.bag, a.scan_topic):
@@ -225,6 +262,7 @@ def main():
             drain()
             time.sleep(0.002)
         now = time.time_ns()
+        written[now] = time.monotonic()
         scan_writer.write(
             LaserScan(
                 header=Header(
@@ -261,9 +299,25 @@ def main():
         drain()
         time.sleep(0.02)
 
+    # A scan's command carries the scan's stamp; timer ticks carry others.
+    latencies_ms = sorted(
+        (c[0] - written[c[3]]) * 1e3 for c in cmds if len(c) > 3 and c[3] in written
+    )
+
+    def quantile(q):
+        if not latencies_ms:
+            return None
+        return latencies_ms[min(len(latencies_ms) - 1, int(q * len(latencies_ms)))]
+
     print(
         json.dumps(
             {
+                "latency_ms": {
+                    "scans_matched": len(latencies_ms),
+                    "median": quantile(0.5),
+                    "p99": quantile(0.99),
+                    "max": latencies_ms[-1] if latencies_ms else None,
+                },
                 "matched_after_s": matched_after_s,
                 "scans_sent": scans_sent,
                 "cmd_vel": cmds,
