@@ -1148,7 +1148,7 @@ mod tests {
         let t = TwistMsg::unicycle(0.3, -0.2);
         assert_eq!(from_cdr::<TwistMsg>(&to_cdr(&t).unwrap()).unwrap(), t);
         let ts = TwistStampedMsg {
-            header: Header::new(Stamp::from_ns(1_700_000_000_5), "base_link"),
+            header: Header::new(Stamp::from_ns(1_700_000_000_500_000_000), "base_link"),
             twist: t,
         };
         let bytes = to_cdr(&ts).unwrap();
