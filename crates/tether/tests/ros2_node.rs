@@ -249,3 +249,28 @@ fn stamped_commands_carry_their_scan_s_stamp_and_the_latency_is_printed() {
         Seen::f(&latency["max"]),
     );
 }
+
+#[test]
+fn the_base_s_odometry_is_the_robot_s_pose() {
+    if !peer_available() {
+        return;
+    }
+    let dir = scratch("ros2-odom");
+    let bag = corridor_bag(&dir);
+    let seen = peer(&bag, &["--seconds", "20", "--odom-topic", "/odom"], &[]);
+    check_follows_and_stops(&seen);
+    let odom_sent = seen.json["odom_sent"].as_u64().unwrap();
+    assert!(odom_sent >= 150, "{odom_sent} odometry messages sent");
+    let stderr = seen.json["stderr"].as_str().unwrap();
+    let used: u64 = stderr
+        .split(" odometry messages used")
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no odometry count in {stderr}"));
+    assert!(used * 10 >= odom_sent * 9, "{used} of {odom_sent} used");
+    assert!(
+        stderr.contains("(0 scans skipped on stale odometry)"),
+        "{stderr}"
+    );
+}

@@ -9,6 +9,7 @@
 //! | topic | type | QoS |
 //! |---|---|---|
 //! | `scan` (in) | `sensor_msgs/msg/LaserScan` | best effort, keep last 5 (matches reliable and best-effort publishers) |
+//! | `odom` (in) | `nav_msgs/msg/Odometry` (the pose of `child_frame_id` in `header.frame_id`) | best effort, keep last 5 |
 //! | `cmd_vel` (out) | `geometry_msgs/msg/Twist` (or `TwistStamped`) | reliable, keep last 10 |
 //! | `tether/people`, `tether/laser_people` (out) | `geometry_msgs/msg/PoseArray` | reliable, keep last 10 |
 //! | `tether/target` (out) | `geometry_msgs/msg/PoseWithCovarianceStamped` | reliable, keep last 10 |
@@ -32,7 +33,9 @@ use tether::ego::EgoMotion;
 use tether::live::base::CommandSink;
 use tether::live::clock::MonotonicClock;
 use tether::live::config::RobotConfig;
-use tether::live::ros2::{OutputTopics, RosOutputs, ScanCounters, start_scan_reader};
+use tether::live::ros2::{
+    OutputTopics, RosOutputs, ScanCounters, start_odometry_reader, start_scan_reader,
+};
 use tether::live::run_loop::{self, Ending, LoopConfig, Recorder};
 use tether::results::TickMessages;
 use tether_pipeline::{Pipeline, PipelineConfig};
@@ -51,9 +54,11 @@ pub struct Args {
     /// Stop after this many seconds (default: until Ctrl-C or SIGTERM).
     #[arg(long, value_name = "S")]
     pub duration: Option<f64>,
-    /// Where the robot's motion comes from: `auto` or `scans` (the dead reckoning of the
-    /// commands corrected by matching each scan against the static scene), `odom` (dead
-    /// reckoning of the commands alone).
+    /// Where the robot's motion comes from: `auto` (the `odom` topic once it publishes;
+    /// until then, and without it, the dead reckoning of the commands corrected by
+    /// matching each scan against the static scene), `scans` (that, even when `odom`
+    /// publishes), `odom` (the `odom` topic; dead reckoning of the commands until it
+    /// publishes).
     #[arg(long, value_enum, default_value_t = EgoMotion::Auto)]
     pub ego_motion: EgoMotion,
     /// The `--ros-args` block (filled in before clap sees the command line).
@@ -144,9 +149,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(s) => anyhow::bail!("--duration must be a positive number of seconds, got {s}"),
         None => None,
     };
-    let scan_odometry = match args.ego_motion {
-        EgoMotion::Auto | EgoMotion::Scans => Some(ScanMatcherConfig::default()),
-        EgoMotion::Odom => None,
+    // Until odometry arrives (and with `scans` throughout), the dead reckoning of the
+    // commands corrected by scan matching.
+    let (scan_odometry, odometry_input) = match args.ego_motion {
+        EgoMotion::Auto => (Some(ScanMatcherConfig::default()), true),
+        EgoMotion::Scans => (Some(ScanMatcherConfig::default()), false),
+        EgoMotion::Odom => (None, true),
         EgoMotion::None => anyhow::bail!(
             "--ego-motion none: a robot that drives cannot be taken to stand still; use \
              scans (the default) or odom (dead reckoning of the commands)"
@@ -211,6 +219,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (tx, rx) = mpsc::sync_channel(32);
     let (stop_reader, reader_stops) = mpsc::channel();
     let counters = Arc::new(ScanCounters::default());
+    let odom_topic = topic("odom");
+    let (stop_odometry, odometry_stops) = mpsc::channel();
+    let odometry_reader = start_odometry_reader(
+        &mut node,
+        &odom_topic,
+        clock,
+        tx.clone(),
+        odometry_stops,
+        Arc::clone(&counters),
+    )?;
     let reader = start_scan_reader(
         &mut node,
         &scan_topic,
@@ -239,6 +257,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         duration,
         track_width_m,
         scan_odometry,
+        odometry_input,
     };
     let summary = run_loop::run(
         &mut pipeline,
@@ -254,21 +273,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // stop time to arrive before the participant goes.
     std::thread::sleep(Duration::from_millis(300));
     let _ = stop_reader.send(());
+    let _ = stop_odometry.send(());
     drop(rx);
-    if reader.join().is_err() {
-        tracing::error!("the scan reader thread panicked");
+    for (name, thread) in [("scan", reader), ("odometry", odometry_reader)] {
+        if thread.join().is_err() {
+            tracing::error!("the {name} reader thread panicked");
+        }
     }
     drop(sinks);
     drop(node);
     let load = |c: &std::sync::atomic::AtomicU64| c.load(Ordering::Relaxed);
     tracing::info!(
         "{}: {} scans ({} dropped while the loop was behind, {} stamped on arrival, {} \
-         malformed), {} ticks ({} with a target)",
+         malformed samples), {} odometry messages used ({} scans skipped on stale \
+         odometry), {} ticks ({} with a target)",
         summary.ending.name(),
         load(&counters.delivered),
         load(&counters.dropped),
         load(&counters.restamped),
         load(&counters.malformed),
+        summary.odometry_messages,
+        summary.skipped_stale_odometry,
         summary.ticks,
         summary.ticks_with_target,
     );

@@ -369,6 +369,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         duration,
         track_width_m,
         scan_odometry,
+        // The base reports no odometry of its own.
+        odometry_input: false,
     };
     let summary = run_loop::run(
         &mut pipeline,

@@ -14,8 +14,11 @@ use std::sync::mpsc::{Receiver, SyncSender};
 use std::thread::JoinHandle;
 
 use ros2_client::dds::Publisher;
+use tether_core::{Pose2, Robot, World};
 use tether_io::mcap::{Header, Ros2Message, TwistMsg, TwistStampedMsg};
-use tether_io::mcap::{LaserScanMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg};
+use tether_io::mcap::{
+    LaserScanMsg, OdometryMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg,
+};
 use tether_io::scip::Clock;
 use tether_pipeline::Tick;
 use tether_ros2::{Received, Ros2Error, RosNode, Wire, offer, qos, spawn_reader};
@@ -39,7 +42,7 @@ pub struct ScanCounters {
     pub dropped: AtomicU64,
     /// Scans stamped on arrival because their header stamp was implausible.
     pub restamped: AtomicU64,
-    /// Samples that did not decode or were not a usable scan.
+    /// Samples (scans, odometry) that did not decode or were not usable.
     pub malformed: AtomicU64,
 }
 
@@ -102,6 +105,53 @@ pub fn start_scan_reader(
     .map_err(|e| Ros2Error::Join {
         domain,
         message: format!("cannot start the reader thread: {e}"),
+    })
+}
+
+/// Subscribes to the base's odometry on `topic` and sends each pose to the loop, stamped
+/// as scans are ([`loop_stamp`]).
+pub fn start_odometry_reader(
+    node: &mut RosNode,
+    topic: &str,
+    clock: MonotonicClock,
+    tx: SyncSender<Input>,
+    stop: Receiver<()>,
+    counters: Arc<ScanCounters>,
+) -> Result<JoinHandle<()>, Ros2Error> {
+    let domain = node.identity().domain_id;
+    let subscription = node.subscribe::<OdometryMsg>(topic, qos::sensor_data())?;
+    let topic_name = topic.to_owned();
+    let mut dropped = 0;
+    spawn_reader("ros2-odom", subscription, stop, move |received| {
+        let input = match received {
+            Received::Message { message, .. } => {
+                let now = clock.now_ns();
+                let stamp = loop_stamp(message.header.stamp.ns(), now).unwrap_or(now);
+                let pose = message.pose;
+                let world_from_robot: Pose2<World, Robot> = pose.pose2();
+                if !(world_from_robot.x.is_finite()
+                    && world_from_robot.y.is_finite()
+                    && world_from_robot.yaw.is_finite())
+                {
+                    counters.malformed.fetch_add(1, Ordering::Relaxed);
+                    return true;
+                }
+                Input::Odometry {
+                    stamp: tether_core::Stamp::from_ns(stamp),
+                    world_from_robot,
+                }
+            }
+            Received::Malformed(why) => {
+                counters.malformed.fetch_add(1, Ordering::Relaxed);
+                tracing::debug!("{topic_name}: a sample skipped: {why}");
+                return true;
+            }
+        };
+        offer(&tx, input, &mut dropped)
+    })
+    .map_err(|e| Ros2Error::Join {
+        domain,
+        message: format!("cannot start the odometry reader thread: {e}"),
     })
 }
 

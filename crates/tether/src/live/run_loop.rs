@@ -50,6 +50,15 @@ pub enum Input {
     /// The camera stopped: `None` at the end of a folder, the error otherwise. The run
     /// goes on with the laser alone.
     CameraEnded(Option<String>),
+    /// The base's own odometry (ROS 2 `odom`): the robot's pose in the odometry frame,
+    /// stamped in host time. Once it arrives it is the robot's pose for every datum (see
+    /// [`LoopConfig::odometry_input`]).
+    Odometry {
+        /// When the pose held.
+        stamp: Stamp,
+        /// The pose.
+        world_from_robot: Pose2<World, Robot>,
+    },
 }
 
 /// Settings of the loop.
@@ -64,7 +73,16 @@ pub struct LoopConfig {
     /// Correct the dead reckoning of the commands by matching each scan against the
     /// static scene (the commands' motion as the prior); `None`: dead reckoning alone.
     pub scan_odometry: Option<ScanMatcherConfig>,
+    /// What [`Input::Odometry`] does: `true`, it is the robot's pose from the first
+    /// message on (dead reckoning and scan matching are left), and a datum that finds the
+    /// newest odometry older than [`ODOMETRY_TIMEOUT_NS`] is skipped (counted), so the
+    /// watchdog stops the robot rather than let it track people in a frozen frame;
+    /// `false`, odometry messages are ignored.
+    pub odometry_input: bool,
 }
+
+/// How old the newest odometry may be when a scan or frame needs the robot's pose, ns.
+pub const ODOMETRY_TIMEOUT_NS: i64 = 500_000_000;
 
 /// Why the run ended.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -127,6 +145,10 @@ pub struct RunSummary {
     pub distance_m: f64,
     /// The target's locks, losses (with reasons) and refusals.
     pub target: TargetLog,
+    /// Odometry messages taken as the robot's pose.
+    pub odometry_messages: u64,
+    /// Scans and frames skipped because the odometry had stopped.
+    pub skipped_stale_odometry: u64,
 }
 
 /// The MCAP recording of a live run: the scans (`/scan`), the dead-reckoned odometry
@@ -202,6 +224,8 @@ struct Live<'a, W: std::io::Write + std::io::Seek> {
     scan_period_s: f64,
     /// Where the distance driven was last measured to.
     travelled_to: tether_core::Point2<World>,
+    /// The newest odometry (when it is the pose source).
+    odometry_pose: Option<(Stamp, Pose2<World, Robot>)>,
 }
 
 impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
@@ -219,10 +243,37 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
         }
     }
 
+    /// The newest odometry for a datum stamped `stamp`: `None` without odometry,
+    /// `Some(None)` when it has stopped (the datum is then skipped).
+    fn odometry_for(&mut self, stamp: Stamp) -> Option<Option<Pose2<World, Robot>>> {
+        let (at, pose) = self.odometry_pose?;
+        if stamp.ns_since(at) > ODOMETRY_TIMEOUT_NS {
+            if self.summary.skipped_stale_odometry == 0 {
+                tracing::warn!(
+                    "the odometry stopped {:.2} s before this datum; scans and frames are \
+                     skipped until it comes back (the watchdog stops the robot)",
+                    stamp.ns_since(at) as f64 * 1e-9
+                );
+            }
+            self.summary.skipped_stale_odometry += 1;
+            return Some(None);
+        }
+        Some(Some(pose))
+    }
+
     fn scan(&mut self, mut scan: LaserScan) -> Result<(), Ending> {
         if let Some(r) = self.recorder.as_deref_mut() {
             r.scan(&scan, self.scan_period_s)
                 .map_err(recording_failed)?;
+        }
+        if let Some(odometry) = self.odometry_for(scan.stamp) {
+            let Some(pose) = odometry else {
+                return Ok(());
+            };
+            scan.stamp = self.pipeline_stamp(scan.stamp);
+            let tick = self.pipeline.on_scan(&scan, pose);
+            self.summary.scans += 1;
+            return self.emit(&tick, pose);
         }
         let dead_reckoned = self.odometry.pose_at(scan.stamp);
         let pose = match self.scan_odometry.as_mut() {
@@ -244,8 +295,19 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
         self.emit(&tick, pose)
     }
 
+    /// The robot's pose at `stamp` between scans: the odometry, or the dead reckoning
+    /// corrected by the last scan match.
+    fn pose_between_scans(&mut self, stamp: Stamp) -> Option<Pose2<World, Robot>> {
+        match self.odometry_for(stamp) {
+            Some(odometry) => odometry,
+            None => Some(self.correction * self.odometry.pose_at(stamp)),
+        }
+    }
+
     fn camera(&mut self, stamp: Stamp, boxes: &[PixelBox]) -> Result<(), Ending> {
-        let pose = self.correction * self.odometry.pose_at(stamp);
+        let Some(pose) = self.pose_between_scans(stamp) else {
+            return Ok(());
+        };
         let stamp = self.pipeline_stamp(stamp);
         let tick = self.pipeline.on_camera_boxes(stamp, boxes, pose);
         self.summary.frames += 1;
@@ -254,7 +316,12 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
 
     fn timer(&mut self, now: Stamp) -> Result<(), Ending> {
         let stamp = self.pipeline_stamp(now);
-        let pose = self.correction * self.odometry.pose_at(stamp);
+        // With stale odometry the timer still ticks (its watchdog stops the robot), at
+        // the last pose the odometry gave.
+        let pose = match self.odometry_pose {
+            Some((_, pose)) => pose,
+            None => self.correction * self.odometry.pose_at(stamp),
+        };
         let tick = self.pipeline.on_timer(stamp, pose);
         self.emit(&tick, pose)
     }
@@ -368,6 +435,19 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
                     }
                     Ok(())
                 }
+                Ok(Input::Odometry {
+                    stamp,
+                    world_from_robot,
+                }) => {
+                    if self.config.odometry_input {
+                        if self.odometry_pose.is_none() {
+                            tracing::info!("odometry arrived: it is the robot's pose from now on");
+                        }
+                        self.summary.odometry_messages += 1;
+                        self.odometry_pose = Some((stamp, world_from_robot));
+                    }
+                    Ok(())
+                }
                 Err(RecvTimeoutError::Timeout) => Ok(()),
                 Err(RecvTimeoutError::Disconnected) => Err(Ending::InputsClosed),
             };
@@ -452,9 +532,12 @@ pub fn run<W: std::io::Write + std::io::Seek>(
             final_stop_failures: Vec::new(),
             distance_m: 0.0,
             target: TargetLog::new(),
+            odometry_messages: 0,
+            skipped_stale_odometry: 0,
         },
         scan_period_s,
         travelled_to: tether_core::Point2::ORIGIN,
+        odometry_pose: None,
     };
     let ending = live.run(inputs, stop);
     live.finish(&ending);
@@ -512,6 +595,7 @@ mod tests {
             duration: duration_ms.map(Duration::from_millis),
             track_width_m: 0.3,
             scan_odometry: Some(ScanMatcherConfig::default()),
+            odometry_input: true,
         }
     }
 
@@ -624,6 +708,36 @@ mod tests {
         let good_lines = good_lines.lock().unwrap();
         assert_eq!(good_lines.len(), 5, "4 commands, then the final stop");
         assert_eq!(good_lines.last().unwrap().stop, Some("output_failed"));
+    }
+
+    #[test]
+    fn odometry_is_the_pose_and_a_scan_after_it_stopped_is_skipped() {
+        let (tx, rx) = mpsc::sync_channel::<Input>(16);
+        let feeder = std::thread::spawn(move || {
+            let odometry = |stamp| Input::Odometry {
+                stamp,
+                world_from_robot: Pose2::new(2.0, 1.0, 0.5),
+            };
+            tx.send(odometry(now())).unwrap();
+            std::thread::sleep(Duration::from_millis(20));
+            tx.send(Input::Scan(scan(now()))).unwrap();
+            std::thread::sleep(Duration::from_millis(20));
+            // The odometry stops: 0.6 s later a scan finds it stale.
+            let stale_from = now();
+            std::thread::sleep(Duration::from_millis(20));
+            tx.send(Input::Scan(scan(stale_from.saturating_add_ns(600_000_000))))
+                .unwrap();
+            std::thread::sleep(Duration::from_millis(20));
+            tx.send(Input::LaserFailed("done".into())).unwrap();
+        });
+        let (sink, _) = keep(None);
+        let mut sinks = vec![sink];
+        let (summary, pipeline) = go(&rx, &mut sinks, None, &config(None));
+        feeder.join().unwrap();
+        assert_eq!(summary.odometry_messages, 1);
+        assert_eq!(summary.scans, 1, "{summary:?}");
+        assert_eq!(summary.skipped_stale_odometry, 1);
+        assert_eq!(pipeline.stats().out_of_order_ticks, 0);
     }
 
     #[test]

@@ -3,8 +3,9 @@
 `cyclonedds`), the middleware ROS 2 ships by default in several distributions.
 
 It starts `tether ros2` as a child process, publishes the scans of a ROS 1 bag on
-`rt/scan` as `sensor_msgs/msg/LaserScan` (plain CDR, XCDR1, as ROS 2 sends it), stamped
-now, at the bag's own pace; listens to `cmd_vel`, `tether/target_state`, `tether/people`
+`rt/scan` as `sensor_msgs/msg/LaserScan` (plain CDR, XCDR1, as ROS 2 sends it), and
+optionally its odometry on `rt/odom` as `nav_msgs/msg/Odometry`, stamped now, at the
+bag's own pace; listens to `cmd_vel`, `tether/target_state`, `tether/people`
 and `ros_discovery_info`; then interrupts tether (SIGINT or SIGTERM) and prints what it
 saw as one JSON object on stdout.
 
@@ -107,6 +108,28 @@ class PoseArray(IdlStruct, typename="geometry_msgs::msg::dds_::PoseArray_"):
 
 
 @dataclass
+class PoseWithCovariance(IdlStruct, typename="geometry_msgs::msg::dds_::PoseWithCovariance_"):
+    pose: Pose
+    covariance: array[float64, 36]
+
+
+@dataclass
+class TwistWithCovariance(
+    IdlStruct, typename="geometry_msgs::msg::dds_::TwistWithCovariance_"
+):
+    twist: Twist
+    covariance: array[float64, 36]
+
+
+@dataclass
+class Odometry(IdlStruct, typename="nav_msgs::msg::dds_::Odometry_"):
+    header: Header
+    child_frame_id: str
+    pose: PoseWithCovariance
+    twist: TwistWithCovariance
+
+
+@dataclass
 class String(IdlStruct, typename="std_msgs::msg::dds_::String_"):
     data: str
 
@@ -153,14 +176,19 @@ def valid(samples):
     return [s for s in samples if not isinstance(s, InvalidSample)]
 
 
-def bag_scans(path, topic):
+def bag_messages(path, topics):
     store = get_typestore(Stores.ROS1_NOETIC)
     with Reader(path) as reader:
-        conns = [c for c in reader.connections if c.topic == topic]
-        if not conns:
-            sys.exit(f"peer: {path} has no topic {topic}")
+        conns = [c for c in reader.connections if c.topic in topics]
+        if not any(c.topic == topics[0] for c in conns):
+            sys.exit(f"peer: {path} has no topic {topics[0]}")
         for conn, t_ns, raw in reader.messages(connections=conns):
-            yield t_ns, store.deserialize_ros1(raw, conn.msgtype)
+            yield conn.topic, t_ns, store.deserialize_ros1(raw, conn.msgtype)
+
+
+def stamp_now():
+    now = time.time_ns()
+    return now, Time(sec=now // 1_000_000_000, nanosec=now % 1_000_000_000)
 
 
 def main():
@@ -168,6 +196,9 @@ def main():
     ap.add_argument("--tether", required=True, help="the tether binary")
     ap.add_argument("--bag", required=True, help="a ROS 1 bag with the scans")
     ap.add_argument("--scan-topic", default="/scan")
+    ap.add_argument(
+        "--odom-topic", help="also publish this bag topic's odometry on rt/odom"
+    )
     ap.add_argument("--reliable", action="store_true", help="publish scans reliably")
     ap.add_argument("--seconds", type=float, default=20.0, help="of scans to publish")
     ap.add_argument("--signal", choices=["INT", "TERM"], default="INT")
@@ -184,6 +215,7 @@ def main():
     scan_writer = DataWriter(
         dp, Topic(dp, "rt/scan", LaserScan), qos=qos(a.reliable, 5)
     )
+    odom_writer = DataWriter(dp, Topic(dp, "rt/odom", Odometry), qos=qos(False, 5))
     cmd_type = TwistStamped if a.stamped else Twist
     cmds = []
 
@@ -250,7 +282,9 @@ def main():
     written = {}  # scan stamp (ns) -> when it was written (monotonic s)
     first_t = None
     wall0 = time.monotonic()
-    for t_ns, m in bag_scans(a.bag, a.scan_topic):
+    topics = [a.scan_topic] + ([a.odom_topic] if a.odom_topic else [])
+    odom_sent = 0
+    for topic, t_ns, m in bag_messages(a.bag, topics):
         if child.poll() is not None:
             break
         if first_t is None:
@@ -261,14 +295,35 @@ def main():
         while time.monotonic() - wall0 < offset:
             drain()
             time.sleep(0.002)
-        now = time.time_ns()
+        now, stamp = stamp_now()
+        if topic != a.scan_topic:
+            p, q = m.pose.pose.position, m.pose.pose.orientation
+            odom_writer.write(
+                Odometry(
+                    header=Header(stamp=stamp, frame_id="odom"),
+                    child_frame_id="base_link",
+                    pose=PoseWithCovariance(
+                        pose=Pose(
+                            position=Point(x=p.x, y=p.y, z=p.z),
+                            orientation=Quaternion(x=q.x, y=q.y, z=q.z, w=q.w),
+                        ),
+                        covariance=[0.0] * 36,
+                    ),
+                    twist=TwistWithCovariance(
+                        twist=Twist(
+                            linear=Vector3(x=m.twist.twist.linear.x, y=0.0, z=0.0),
+                            angular=Vector3(x=0.0, y=0.0, z=m.twist.twist.angular.z),
+                        ),
+                        covariance=[0.0] * 36,
+                    ),
+                )
+            )
+            odom_sent += 1
+            continue
         written[now] = time.monotonic()
         scan_writer.write(
             LaserScan(
-                header=Header(
-                    stamp=Time(sec=now // 1_000_000_000, nanosec=now % 1_000_000_000),
-                    frame_id=m.header.frame_id,
-                ),
+                header=Header(stamp=stamp, frame_id=m.header.frame_id),
                 angle_min=m.angle_min,
                 angle_max=m.angle_max,
                 angle_increment=m.angle_increment,
@@ -320,6 +375,7 @@ def main():
                 },
                 "matched_after_s": matched_after_s,
                 "scans_sent": scans_sent,
+                "odom_sent": odom_sent,
                 "cmd_vel": cmds,
                 "target_state": states,
                 "people": people,
