@@ -262,15 +262,60 @@ fn the_base_s_odometry_is_the_robot_s_pose() {
     let odom_sent = seen.json["odom_sent"].as_u64().unwrap();
     assert!(odom_sent >= 150, "{odom_sent} odometry messages sent");
     let stderr = seen.json["stderr"].as_str().unwrap();
-    let used: u64 = stderr
-        .split(" odometry messages used")
-        .next()
-        .and_then(|s| s.rsplit(' ').next())
-        .and_then(|n| n.parse().ok())
-        .unwrap_or_else(|| panic!("no odometry count in {stderr}"));
+    let used = count_before(stderr, " odometry messages used");
     assert!(used * 10 >= odom_sent * 9, "{used} of {odom_sent} used");
     assert!(
         stderr.contains("(0 scans skipped on stale odometry)"),
         "{stderr}"
+    );
+}
+
+/// The number before `what` in `text` (`"... 300 frames received ..."`).
+fn count_before(text: &str, what: &str) -> u64 {
+    text.split(what)
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no count before {what:?} in {text}"))
+}
+
+#[test]
+fn camera_frames_at_30_hz_arrive_without_loss_beside_the_scans() {
+    let cascade = Path::new("/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml");
+    if !peer_available()
+        || !skip_unless(
+            cascade.is_file(),
+            "Debian's opencv-data cascades are not installed",
+        )
+    {
+        return;
+    }
+    let dir = scratch("ros2-camera");
+    let bag = corridor_bag(&dir);
+    let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robot.example.toml");
+    let seen = peer(
+        &bag,
+        &["--seconds", "10", "--images-hz", "30"],
+        &["--config", config.to_str().unwrap()],
+    );
+    let j = &seen.json;
+    let stderr = j["stderr"].as_str().unwrap();
+    assert_eq!(j["exit_code"], 0, "{stderr}");
+    let sent = j["images_sent"].as_u64().unwrap();
+    assert!(sent >= 290, "{sent} frames sent in 10 s");
+    // 640x480 rgb8 (0.9 MB, fragmented on the wire), every one of them received.
+    assert_eq!(count_before(stderr, " frames received"), sent, "{stderr}");
+    assert!(count_before(stderr, " processed") > 0, "{stderr}");
+    assert!(
+        stderr.contains("0 refused for their size, 0 malformed"),
+        "{stderr}"
+    );
+    // The camera sees nobody, so with both sensors required there is no lock and the
+    // robot never moves.
+    let cmds = seen.series("cmd_vel");
+    assert!(cmds.len() as u64 >= j["scans_sent"].as_u64().unwrap());
+    assert!(
+        cmds.iter()
+            .all(|c| Seen::f(&c[1]) == 0.0 && Seen::f(&c[2]) == 0.0)
     );
 }

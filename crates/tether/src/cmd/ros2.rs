@@ -10,6 +10,7 @@
 //! |---|---|---|
 //! | `scan` (in) | `sensor_msgs/msg/LaserScan` | best effort, keep last 5 (matches reliable and best-effort publishers) |
 //! | `odom` (in) | `nav_msgs/msg/Odometry` (the pose of `child_frame_id` in `header.frame_id`) | best effort, keep last 5 |
+//! | `image_raw` or `image_raw/compressed` (in, when the config has a `[camera]`) | `sensor_msgs/msg/Image` (`mono8`, `rgb8`, `bgr8`) or `sensor_msgs/msg/CompressedImage` (JPEG, PNG) | best effort, keep last 5 |
 //! | `cmd_vel` (out) | `geometry_msgs/msg/Twist` (or `TwistStamped`) | reliable, keep last 10 |
 //! | `tether/people`, `tether/laser_people` (out) | `geometry_msgs/msg/PoseArray` | reliable, keep last 10 |
 //! | `tether/target` (out) | `geometry_msgs/msg/PoseWithCovarianceStamped` | reliable, keep last 10 |
@@ -20,7 +21,10 @@
 //! `true`: `geometry_msgs/msg/TwistStamped` in `base_frame`, stamped with the time of
 //! the scan or timer tick that made the command, as Jazzy's diff-drive controller
 //! takes it), `follow_distance` (m, the spring's free length), `use_sim_time` (only
-//! `false` so far).
+//! `false` so far), `image_transport` (`raw`, the default, or `compressed`).
+//!
+//! The camera: frames are taken as they arrive; the detector gets the newest one when
+//! it is free (frames it had no time for are counted as superseded, never queued).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -34,9 +38,10 @@ use tether::live::base::CommandSink;
 use tether::live::clock::MonotonicClock;
 use tether::live::config::RobotConfig;
 use tether::live::ros2::{
-    OutputTopics, RosOutputs, ScanCounters, start_odometry_reader, start_scan_reader,
+    CameraCounters, LatestFrame, OutputTopics, RosOutputs, ScanCounters, start_camera_reader,
+    start_odometry_reader, start_scan_reader,
 };
-use tether::live::run_loop::{self, Ending, LoopConfig, Recorder};
+use tether::live::run_loop::{self, Ending, Input, LoopConfig, Recorder};
 use tether::results::TickMessages;
 use tether_pipeline::{Pipeline, PipelineConfig};
 use tether_ros2::{NodeIdentity, ParamValue, RosArgs, RosNode};
@@ -67,10 +72,11 @@ pub struct Args {
 }
 
 /// The parameters `tether ros2` reads.
-const PARAMETERS: [&str; 5] = [
+const PARAMETERS: [&str; 6] = [
     "fixed_frame",
     "base_frame",
     "cmd_vel_stamped",
+    "image_transport",
     "follow_distance",
     "use_sim_time",
 ];
@@ -80,6 +86,8 @@ struct NodeParameters {
     fixed_frame: String,
     /// `Some(base_frame)` when the commands go out as `TwistStamped`.
     cmd_vel_stamped: Option<String>,
+    /// `image_transport:=compressed`: the camera as `image_raw/compressed`.
+    compressed_images: bool,
 }
 
 /// A TurtleBot 4 (iRobot Create 3 base): what the node assumes without `--config`.
@@ -136,9 +144,18 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
         ),
         Some(v) => anyhow::bail!("parameter use_sim_time must be true or false, got {v:?}"),
     }
+    let compressed_images = match ros.params.get("image_transport") {
+        None => false,
+        Some(v) => match v.as_str() {
+            Some("raw") => false,
+            Some("compressed") => true,
+            _ => anyhow::bail!("parameter image_transport must be raw or compressed, got {v:?}"),
+        },
+    };
     Ok(NodeParameters {
         fixed_frame,
         cmd_vel_stamped: stamped.then_some(base_frame),
+        compressed_images,
     })
 }
 
@@ -160,23 +177,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
              scans (the default) or odom (dead reckoning of the commands)"
         ),
     };
-    let mut pipeline_config = match &args.config {
-        Some(path) => RobotConfig::load_for_ros2(path)?
+    let robot = match &args.config {
+        Some(path) => Some(RobotConfig::load_for_ros2(path)?),
+        None => None,
+    };
+    let mut pipeline_config = match (&robot, &args.config) {
+        (Some(robot), Some(path)) => robot
             .pipeline_config()
             .map_err(|e| anyhow::anyhow!("config {}: {e}", path.display()))?,
-        None => turtlebot_pipeline(),
+        _ => turtlebot_pipeline(),
     };
-    if pipeline_config.fusion.use_vision && args.config.is_some() {
-        tracing::warn!(
-            "the config's [camera] is not used: tether ros2 reads no camera topic yet, so it \
-             runs on the laser alone"
-        );
-    }
-    // No camera topic yet: the laser alone vouches for people.
-    pipeline_config.fusion.use_vision = false;
+    // The camera topic is read when the config describes a camera (its intrinsics,
+    // mount and cascade; its `folder` or `v4l2` is not used); else the laser alone.
+    let camera_section = robot.as_ref().and_then(|r| r.camera.clone());
+    pipeline_config.fusion.use_vision = camera_section.is_some();
     let NodeParameters {
         fixed_frame,
         cmd_vel_stamped,
+        compressed_images,
     } = parameters(&args.ros, &mut pipeline_config)?;
     let domain_id = tether_ros2::domain_id(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
     let identity = NodeIdentity {
@@ -202,6 +220,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ]
         .map(|t| topic(t.trim_start_matches('/'))),
     };
+    let pipeline_config_intrinsics = pipeline_config.camera.intrinsics;
     let mut pipeline = Pipeline::new(pipeline_config, None)?;
 
     let stop = Arc::new(AtomicBool::new(false));
@@ -229,6 +248,58 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         odometry_stops,
         Arc::clone(&counters),
     )?;
+    let camera_counters = Arc::new(CameraCounters::default());
+    let latest = Arc::new(LatestFrame::default());
+    let mut camera_threads = Vec::new();
+    if let Some(section) = &camera_section {
+        let intrinsics = pipeline_config_intrinsics;
+        let mut detector = super::run::camera_detector(section)?;
+        let image_topic = topic(if compressed_images {
+            "image_raw/compressed"
+        } else {
+            "image_raw"
+        });
+        let (stop_camera, camera_stops) = mpsc::channel();
+        camera_threads.push((
+            stop_camera,
+            start_camera_reader(
+                &mut node,
+                &image_topic,
+                compressed_images,
+                (intrinsics.width_px, intrinsics.height_px),
+                clock,
+                Arc::clone(&latest),
+                camera_stops,
+                Arc::clone(&camera_counters),
+            )?,
+        ));
+        let frames = Arc::clone(&latest);
+        let counters = Arc::clone(&camera_counters);
+        let tx = tx.clone();
+        let detector_thread = std::thread::Builder::new()
+            .name("camera-detector".into())
+            .spawn(move || {
+                while let Some((stamp, frame)) = frames.take() {
+                    let boxes = frame.gray().and_then(|g| detector.boxes(&g, &intrinsics));
+                    match boxes {
+                        Ok(boxes) => {
+                            if tx.send(Input::Camera { stamp, boxes }).is_err() {
+                                break;
+                            }
+                        }
+                        Err(e) => {
+                            if counters.malformed.fetch_add(1, Ordering::Relaxed) == 0 {
+                                tracing::warn!("a camera frame skipped: {e:#}");
+                            }
+                        }
+                    }
+                }
+            })
+            .context("starting the camera detector thread")?;
+        let (never, _) = mpsc::channel();
+        camera_threads.push((never, detector_thread));
+        tracing::info!("camera: {image_topic}");
+    }
     let reader = start_scan_reader(
         &mut node,
         &scan_topic,
@@ -275,9 +346,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let _ = stop_reader.send(());
     let _ = stop_odometry.send(());
     drop(rx);
-    for (name, thread) in [("scan", reader), ("odometry", odometry_reader)] {
+    latest.close();
+    for (stop, _) in &camera_threads {
+        let _ = stop.send(());
+    }
+    let threads = [("scan", reader), ("odometry", odometry_reader)]
+        .into_iter()
+        .chain(camera_threads.into_iter().map(|(_, t)| ("camera", t)));
+    for (name, thread) in threads {
         if thread.join().is_err() {
-            tracing::error!("the {name} reader thread panicked");
+            tracing::error!("the {name} thread panicked");
         }
     }
     drop(sinks);
@@ -297,6 +375,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.ticks,
         summary.ticks_with_target,
     );
+    if camera_section.is_some() {
+        tracing::info!(
+            "camera: {} frames received, {} processed, {} superseded by a newer frame \
+             before the detector got to them, {} refused for their size, {} malformed",
+            load(&camera_counters.received),
+            summary.frames,
+            load(&camera_counters.superseded),
+            load(&camera_counters.wrong_size),
+            load(&camera_counters.malformed),
+        );
+    }
     tracing::info!("{}", summary.target.one_line(pipeline.selector().stats()));
     let mut problems: Vec<String> = summary
         .final_stop_failures

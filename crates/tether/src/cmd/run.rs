@@ -19,7 +19,7 @@ use tether::ego::EgoMotion;
 use tether::live::base::{CommandLine, CommandSink, CreateBase, JsonLines, WheelLines};
 use tether::live::camera::{FolderFrames, FrameSource};
 use tether::live::clock::MonotonicClock;
-use tether::live::config::{BaseKind, FrameInput, LaserLink, RobotConfig};
+use tether::live::config::{BaseKind, CameraSection, FrameInput, LaserLink, RobotConfig};
 use tether::live::run_loop::{self, Ending, Input, LoopConfig, Recorder};
 use tether_core::{CameraIntrinsics, Stamp};
 use tether_io::scip::{
@@ -168,6 +168,20 @@ fn frame_source(
     }
 }
 
+/// The upper-body detector of `[camera]` (its cascade and search settings).
+pub fn camera_detector(section: &CameraSection) -> anyhow::Result<Camera> {
+    Camera::new(&CameraArgs {
+        cascade: section.cascade.clone(),
+        search: super::detect::DetectOptions {
+            scale_factor: section.scale_factor.unwrap_or(1.1),
+            min_neighbors: section.min_neighbors.unwrap_or(3),
+            min_size: None,
+            max_size: None,
+        },
+        threads: 1,
+    })
+}
+
 /// Opens the base adapter of `[base]`.
 fn open_base(config: &RobotConfig) -> anyhow::Result<Option<Box<dyn CommandSink>>> {
     let base = &config.base;
@@ -242,16 +256,7 @@ fn start(
         (Some(input), Some(section)) => {
             let intrinsics = pipeline_config.camera.intrinsics;
             let source = frame_source(&input, &intrinsics)?;
-            let detector = Camera::new(&CameraArgs {
-                cascade: section.cascade.clone(),
-                search: super::detect::DetectOptions {
-                    scale_factor: section.scale_factor.unwrap_or(1.1),
-                    min_neighbors: section.min_neighbors.unwrap_or(3),
-                    min_size: None,
-                    max_size: None,
-                },
-                threads: 1,
-            })?;
+            let detector = camera_detector(section)?;
             tracing::info!("camera: {}", source.describe());
             Some((source, detector, intrinsics))
         }

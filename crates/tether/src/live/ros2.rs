@@ -15,10 +15,11 @@ use std::thread::JoinHandle;
 
 use ros2_client::dds::Publisher;
 use tether_core::{Pose2, Robot, World};
-use tether_io::mcap::{Header, Ros2Message, TwistMsg, TwistStampedMsg};
 use tether_io::mcap::{
-    LaserScanMsg, OdometryMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg,
+    CompressedImageMsg, ImageMsg, LaserScanMsg, OdometryMsg, PoseArrayMsg,
+    PoseWithCovarianceStampedMsg, StringMsg,
 };
+use tether_io::mcap::{Header, Ros2Message, TwistMsg, TwistStampedMsg};
 use tether_io::scip::Clock;
 use tether_pipeline::Tick;
 use tether_ros2::{Received, Ros2Error, RosNode, Wire, offer, qos, spawn_reader};
@@ -152,6 +153,179 @@ pub fn start_odometry_reader(
     .map_err(|e| Ros2Error::Join {
         domain,
         message: format!("cannot start the odometry reader thread: {e}"),
+    })
+}
+
+/// What the camera reader counted.
+#[derive(Debug, Default)]
+pub struct CameraCounters {
+    /// Frames taken from the topic.
+    pub received: AtomicU64,
+    /// Frames replaced by a newer one before the detector got to them.
+    pub superseded: AtomicU64,
+    /// Frames refused: their size is not the camera model's.
+    pub wrong_size: AtomicU64,
+    /// Samples that did not decode.
+    pub malformed: AtomicU64,
+}
+
+/// A camera frame as it came (decoded on the detector's thread).
+#[derive(Debug)]
+pub enum Frame {
+    /// `sensor_msgs/msg/Image`.
+    Raw(ImageMsg),
+    /// `sensor_msgs/msg/CompressedImage` (JPEG or PNG).
+    Compressed(CompressedImageMsg),
+}
+
+impl Frame {
+    /// The frame as 8-bit grey.
+    pub fn gray(&self) -> anyhow::Result<tether_core::GrayImage> {
+        match self {
+            Frame::Raw(m) => Ok(m.to_gray()?),
+            Frame::Compressed(m) => Ok(tether_vision::imread::decode_gray(&m.data)?),
+        }
+    }
+}
+
+/// The newest frame not yet taken by the detector: the reader never waits for the
+/// detector, and the detector always gets the newest frame.
+#[derive(Debug, Default)]
+pub struct LatestFrame {
+    slot: std::sync::Mutex<(Option<(tether_core::Stamp, Frame)>, bool)>,
+    ready: std::sync::Condvar,
+}
+
+impl LatestFrame {
+    /// Puts `frame` in the slot; `true` when it replaced one not yet taken.
+    pub fn put(&self, stamp: tether_core::Stamp, frame: Frame) -> bool {
+        let mut slot = self
+            .slot
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let replaced = slot.0.replace((stamp, frame)).is_some();
+        self.ready.notify_one();
+        replaced
+    }
+
+    /// Ends [`LatestFrame::take`]'s waits.
+    pub fn close(&self) {
+        let mut slot = self
+            .slot
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        slot.1 = true;
+        self.ready.notify_all();
+    }
+
+    /// Waits for a frame; `None` once closed.
+    pub fn take(&self) -> Option<(tether_core::Stamp, Frame)> {
+        let mut slot = self
+            .slot
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        loop {
+            if slot.1 {
+                return None;
+            }
+            if let Some(frame) = slot.0.take() {
+                return Some(frame);
+            }
+            slot = self
+                .ready
+                .wait(slot)
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+        }
+    }
+}
+
+/// Subscribes to the camera on `topic` (`compressed`: `sensor_msgs/msg/CompressedImage`,
+/// else `sensor_msgs/msg/Image`) and puts each frame in `latest`. Raw frames whose size is
+/// not `size_px` (the camera model's) are refused, counted and warned about once.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "each is a separate part of the reader"
+)]
+pub fn start_camera_reader(
+    node: &mut RosNode,
+    topic: &str,
+    compressed: bool,
+    size_px: (u32, u32),
+    clock: MonotonicClock,
+    latest: Arc<LatestFrame>,
+    stop: Receiver<()>,
+    counters: Arc<CameraCounters>,
+) -> Result<JoinHandle<()>, Ros2Error> {
+    let domain = node.identity().domain_id;
+    let topic_name = topic.to_owned();
+    let stamp_of = move |header_ns: i64| {
+        let now = clock.now_ns();
+        tether_core::Stamp::from_ns(loop_stamp(header_ns, now).unwrap_or(now))
+    };
+    let malformed = {
+        let counters = Arc::clone(&counters);
+        let topic_name = topic_name.clone();
+        move |why: String| {
+            if counters.malformed.fetch_add(1, Ordering::Relaxed) == 0 {
+                tracing::warn!("{topic_name}: a sample skipped: {why}");
+            }
+            true
+        }
+    };
+    let size_counters = Arc::clone(&counters);
+    let size_topic = topic_name.clone();
+    let keep = move |stamp, frame| {
+        counters.received.fetch_add(1, Ordering::Relaxed);
+        if latest.put(stamp, frame) {
+            counters.superseded.fetch_add(1, Ordering::Relaxed);
+        }
+        true
+    };
+    let started = if compressed {
+        let subscription = node.subscribe::<CompressedImageMsg>(topic, qos::sensor_data())?;
+        spawn_reader(
+            "ros2-camera",
+            subscription,
+            stop,
+            move |received| match received {
+                Received::Message { message, .. } => keep(
+                    stamp_of(message.header.stamp.ns()),
+                    Frame::Compressed(message),
+                ),
+                Received::Malformed(why) => malformed(why),
+            },
+        )
+    } else {
+        let subscription = node.subscribe::<ImageMsg>(topic, qos::sensor_data())?;
+        spawn_reader(
+            "ros2-camera",
+            subscription,
+            stop,
+            move |received| match received {
+                Received::Message { message, .. } => {
+                    if (message.width, message.height) != size_px {
+                        if size_counters.wrong_size.fetch_add(1, Ordering::Relaxed) == 0 {
+                            tracing::warn!(
+                                "{size_topic}: a {}x{} frame, but the camera model is {}x{}: \
+                                 such frames are refused (set [camera] intrinsics in \
+                                 --config to this camera's)",
+                                message.width,
+                                message.height,
+                                size_px.0,
+                                size_px.1
+                            );
+                        }
+                        return true;
+                    }
+                    keep(stamp_of(message.header.stamp.ns()), Frame::Raw(message))
+                }
+                Received::Malformed(why) => malformed(why),
+            },
+        )
+    };
+    started.map_err(|e| Ros2Error::Join {
+        domain,
+        message: format!("cannot start the camera reader thread: {e}"),
     })
 }
 

@@ -17,6 +17,7 @@ import argparse
 import json
 import os
 import signal
+import struct
 import subprocess
 import sys
 import time
@@ -135,6 +136,17 @@ class String(IdlStruct, typename="std_msgs::msg::dds_::String_"):
 
 
 @dataclass
+class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
+    header: Header
+    height: uint32
+    width: uint32
+    encoding: str
+    is_bigendian: uint8
+    step: uint32
+    data: sequence[uint8]
+
+
+@dataclass
 class Gid(IdlStruct, typename="rmw_dds_common::msg::dds_::Gid_"):
     data: array[uint8, 16]
 
@@ -203,6 +215,12 @@ def main():
     ap.add_argument("--seconds", type=float, default=20.0, help="of scans to publish")
     ap.add_argument("--signal", choices=["INT", "TERM"], default="INT")
     ap.add_argument(
+        "--images-hz",
+        type=float,
+        default=0.0,
+        help="also publish 640x480 rgb8 frames on rt/image_raw at this rate",
+    )
+    ap.add_argument(
         "--stamped",
         action="store_true",
         help="cmd_vel is TwistStamped (tether -p cmd_vel_stamped:=true): measure the "
@@ -216,6 +234,23 @@ def main():
         dp, Topic(dp, "rt/scan", LaserScan), qos=qos(a.reliable, 5)
     )
     odom_writer = DataWriter(dp, Topic(dp, "rt/odom", Odometry), qos=qos(False, 5))
+    image_writer = DataWriter(
+        dp, Topic(dp, "rt/image_raw", Image), qos=qos(True, 5)
+    )
+    # A grey gradient, the same every frame (the detector finds nobody in it). Cyclone's
+    # Python serialiser takes ~40 ms for 0.9 MB, too slow for 30 Hz: the frame is
+    # serialised by it once, and each frame only gets its stamp written into the bytes
+    # (after the 4-byte encapsulation header: sec, nanosec, little-endian).
+    frame = Image(
+        header=Header(stamp=Time(sec=0, nanosec=0), frame_id="camera"),
+        height=480,
+        width=640,
+        encoding="rgb8",
+        is_bigendian=0,
+        step=640 * 3,
+        data=bytes((x // 3) % 256 for x in range(640 * 3)) * 480,
+    )
+    frame_bytes = bytearray(frame.serialize(use_version_2=False))
     cmd_type = TwistStamped if a.stamped else Twist
     cmds = []
 
@@ -284,6 +319,23 @@ def main():
     wall0 = time.monotonic()
     topics = [a.scan_topic] + ([a.odom_topic] if a.odom_topic else [])
     odom_sent = 0
+    images_sent = 0
+    next_image = 0.0
+
+    def maybe_image(elapsed):
+        nonlocal images_sent, next_image
+        if a.images_hz <= 0 or elapsed < next_image:
+            return
+        next_image += 1.0 / a.images_hz
+        now, _ = stamp_now()
+        frame_bytes[4:12] = struct.pack(
+            "<iI", now // 1_000_000_000, now % 1_000_000_000
+        )
+        payload = bytes(frame_bytes)
+        frame.serialize = lambda **_: payload
+        image_writer.write(frame)
+        images_sent += 1
+
     for topic, t_ns, m in bag_messages(a.bag, topics):
         if child.poll() is not None:
             break
@@ -293,6 +345,7 @@ def main():
         if offset > a.seconds:
             break
         while time.monotonic() - wall0 < offset:
+            maybe_image(time.monotonic() - wall0)
             drain()
             time.sleep(0.002)
         now, stamp = stamp_now()
@@ -376,6 +429,7 @@ def main():
                 "matched_after_s": matched_after_s,
                 "scans_sent": scans_sent,
                 "odom_sent": odom_sent,
+                "images_sent": images_sent,
                 "cmd_vel": cmds,
                 "target_state": states,
                 "people": people,
