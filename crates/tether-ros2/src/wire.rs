@@ -89,7 +89,9 @@ mod tests {
     #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
 
     use tether_core::{LaserScan, Stamp};
-    use tether_io::mcap::{LaserScanMsg, TwistMsg};
+    use tether_io::mcap::{
+        CompressedImageMsg, ImageMsg, LaserScanMsg, OdometryMsg, TwistMsg, TwistStampedMsg,
+    };
 
     use super::*;
 
@@ -172,6 +174,24 @@ mod tests {
             payload.extend(body);
             let _ = from_dds_payload::<LaserScanMsg>(&payload);
             let _ = from_dds_payload::<TwistMsg>(&payload);
+            let _ = from_dds_payload::<TwistStampedMsg>(&payload);
+            let _ = from_dds_payload::<OdometryMsg>(&payload);
+            let _ = from_dds_payload::<ImageMsg>(&payload);
+            let _ = from_dds_payload::<CompressedImageMsg>(&payload);
+        }
+
+        #[test]
+        fn a_scan_with_any_bytes_flipped_decodes_or_is_refused(
+            at in 4usize..60, xor in 1u8..=255
+        ) {
+            let mut payload = to_cdr(&scan()).unwrap();
+            let i = at.min(payload.len() - 1);
+            payload[i] ^= xor;
+            if let Ok(msg) = from_dds_payload::<LaserScanMsg>(&payload) {
+                // Whatever decodes is a valid scan (finite geometry, one range per beam).
+                proptest::prop_assert!(msg.scan.angle_increment_rad.is_finite());
+                proptest::prop_assert_eq!(msg.scan.len(), msg.scan.ranges_m().len());
+            }
         }
     }
 }

@@ -145,6 +145,16 @@ impl<'a> CdrReader<'a> {
                 problem: "string does not end with NUL".into(),
             });
         }
+        // Padding NULs before the terminator are tolerated; a NUL inside the text is
+        // not (no ROS 2 string holds one, and it could not be written back).
+        let end = text.iter().rposition(|&b| b != 0).map_or(0, |i| i + 1);
+        let text = &text[..end];
+        if text.contains(&0) {
+            return Err(DecodeError::BadValue {
+                field,
+                problem: "string holds a NUL inside its text".into(),
+            });
+        }
         String::from_utf8(text.to_vec()).map_err(|_| DecodeError::NotUtf8 { field })
     }
 
@@ -342,6 +352,19 @@ mod tests {
         assert_eq!(r.f64("b").unwrap(), 1.5);
         assert_eq!(r.string("s").unwrap(), "ab");
         r.finish().unwrap();
+    }
+
+    #[test]
+    fn a_nul_inside_a_string_is_refused_padding_nuls_are_not() {
+        let read = |body: &[u8]| {
+            let mut bytes = vec![0, 1, 0, 0];
+            bytes.extend_from_slice(body);
+            CdrReader::new(&bytes).unwrap().string("s")
+        };
+        assert_eq!(read(&[4, 0, 0, 0, b'a', b'b', 0, 0]).unwrap(), "ab");
+        assert!(read(&[2, 0, 0, 0, 0, 0]).unwrap().is_empty());
+        assert!(read(&[4, 0, 0, 0, b'a', 0, b'b', 0]).is_err());
+        assert!(read(&[3, 0, 0, 0, b'a', b'b', b'c']).is_err());
     }
 
     #[test]
