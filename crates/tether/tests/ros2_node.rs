@@ -319,3 +319,63 @@ fn camera_frames_at_30_hz_arrive_without_loss_beside_the_scans() {
             .all(|c| Seen::f(&c[1]) == 0.0 && Seen::f(&c[2]) == 0.0)
     );
 }
+
+#[test]
+fn tether_ros2_follows_the_simulated_robot_over_dds_and_a_peer_sees_it() {
+    if !peer_available() {
+        return;
+    }
+    let dir = scratch("ros2-sim");
+    let bin = env!("CARGO_BIN_EXE_tether");
+    let listen = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/listen.py");
+    // Two tether processes and the Python listener on one private graph.
+    let script = format!(
+        "ip link set lo up && ip link set lo multicast on && \
+         '{bin}' ros2 --scenario corridor --duration 29 2> '{d}/ros2.err' & \
+         python3 '{listen}' --seconds 24 > '{d}/listen.json' & \
+         '{bin}' sim --scenario corridor --laser-only --ros2 --duration 25 --out '{d}/sim' \
+         > '{d}/sim.out' 2> '{d}/sim.err'; wait",
+        d = dir.display(),
+        listen = listen.display(),
+    );
+    let out = Command::new("unshare")
+        .args(["-n", "sh", "-c", &script])
+        .output()
+        .expect("unshare runs");
+    let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap_or_default();
+    assert!(
+        out.status.success(),
+        "{}\nsim: {}\nros2: {}",
+        text(&out.stderr),
+        read("sim.err"),
+        read("ros2.err")
+    );
+    let run: serde_json::Value =
+        serde_json::from_str(&read("sim/ros2_run.json")).expect("the sim's summary");
+    eprintln!("{}", read("sim.out").trim());
+    // The closed loop's bars, now with DDS between the simulator and tether.
+    let error = Seen::f(&run["mean_abs_distance_error_m"]);
+    assert!(error <= 0.15, "mean |d - d0| {error} m: {run}");
+    assert_eq!(run["collisions"], 0, "{run}");
+    assert!(Seen::f(&run["distance_driven_m"]) > 10.0, "{run}");
+    assert!(Seen::f(&run["first_motion_s"]) < 5.0, "{run}");
+    let ros2 = read("ros2.err");
+    assert!(ros2.contains("odometry messages used"), "{ros2}");
+    // An independent peer on the same domain sees the robot run.
+    let seen: serde_json::Value =
+        serde_json::from_str(read("listen.json").trim()).expect("the listener's JSON");
+    assert!(seen["counts"]["scan"].as_u64().unwrap() > 150, "{seen}");
+    assert!(seen["counts"]["cmd_vel"].as_u64().unwrap() > 300, "{seen}");
+    assert!(seen["cmd_vel_moving"].as_u64().unwrap() > 100, "{seen}");
+    assert!(
+        seen["people_with_someone"].as_u64().unwrap() > 100,
+        "{seen}"
+    );
+    let nodes = seen["nodes"].as_array().unwrap();
+    for name in ["tether", "tether_sim"] {
+        assert!(
+            nodes.iter().any(|n| n[1] == name),
+            "{name} not on the graph: {nodes:?}"
+        );
+    }
+}

@@ -15,6 +15,7 @@ pub mod ros2;
 pub mod run;
 pub mod scenarios;
 pub mod sim;
+pub mod sim_ros2;
 pub mod track;
 pub mod train_cascade;
 pub mod train_legs;

@@ -56,6 +56,10 @@ pub struct Args {
     /// the centre of the wheel axis.
     #[arg(long, value_name = "robot.toml")]
     pub config: Option<PathBuf>,
+    /// The robot of a built-in simulated scenario (its laser mount, follow distance and
+    /// base limits), to follow `tether sim --scenario NAME --ros2`.
+    #[arg(long, value_name = "NAME", conflicts_with = "config")]
+    pub scenario: Option<String>,
     /// Stop after this many seconds (default: until Ctrl-C or SIGTERM).
     #[arg(long, value_name = "S")]
     pub duration: Option<f64>,
@@ -181,10 +185,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(path) => Some(RobotConfig::load_for_ros2(path)?),
         None => None,
     };
-    let mut pipeline_config = match (&robot, &args.config) {
-        (Some(robot), Some(path)) => robot
+    let mut pipeline_config = match (&robot, &args.config, &args.scenario) {
+        (Some(robot), Some(path), _) => robot
             .pipeline_config()
             .map_err(|e| anyhow::anyhow!("config {}: {e}", path.display()))?,
+        (_, _, Some(name)) => {
+            let (scenario, _) = tether_sim::Scenario::resolve(name)?;
+            tether::closed_loop::config_for(&scenario, &PipelineConfig::default())
+        }
         _ => turtlebot_pipeline(),
     };
     // The camera topic is read when the config describes a camera (its intrinsics,

@@ -70,6 +70,11 @@ pub struct Args {
     /// marked `target`).
     #[arg(long, value_name = "FILE.bag")]
     pub record_bag: Option<PathBuf>,
+    /// Put the simulated robot on the ROS 2 graph, in real time: `/scan` and `/odom` out,
+    /// `/cmd_vel` in (follow it with `tether ros2 --scenario NAME`); writes
+    /// `OUT/ros2_run.json` with how well it followed.
+    #[arg(long, conflicts_with_all = ["record", "record_bag", "driver"])]
+    pub ros2: bool,
     /// Leave `/odom` out of `--record-bag` (a recording without odometry).
     #[arg(long, requires = "record_bag")]
     pub bag_without_odom: bool,
@@ -248,6 +253,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     if args.laser_only {
         scenario = super::demo::laser_only(&scenario);
+    }
+    if args.ros2 {
+        return super::sim_ros2::run(&scenario, args.seed, &args.out);
     }
     let bar = progress_bar(&scenario.name);
     let end_ns = (scenario.duration_s * 1e9) as i64;
