@@ -7,8 +7,8 @@
 use libfuzzer_sys::fuzz_target;
 use tether_io::mcap::{
     CompressedImageMsg, ImageMsg, LaserScanMsg, OdometryMsg, PoseArrayMsg,
-    PoseWithCovarianceStampedMsg, Ros2Message, StringMsg, TwistMsg, TwistStampedMsg, from_cdr,
-    to_cdr,
+    PoseWithCovarianceStampedMsg, Ros2Message, StringMsg, TfMessage, TwistMsg, TwistStampedMsg,
+    from_cdr, to_cdr,
 };
 
 fn check<M: Ros2Message>(payload: &[u8]) {
@@ -28,7 +28,7 @@ fuzz_target!(|data: &[u8]| {
     };
     let mut payload = vec![0x00, 0x01, 0x00, 0x00];
     payload.extend_from_slice(body);
-    match kind % 9 {
+    match kind % 10 {
         0 => check::<LaserScanMsg>(&payload),
         1 => check::<TwistMsg>(&payload),
         2 => check::<TwistStampedMsg>(&payload),
@@ -37,6 +37,7 @@ fuzz_target!(|data: &[u8]| {
         5 => check::<CompressedImageMsg>(&payload),
         6 => check::<PoseArrayMsg>(&payload),
         7 => check::<PoseWithCovarianceStampedMsg>(&payload),
+        8 => check::<TfMessage>(&payload),
         _ => check::<StringMsg>(&payload),
     }
 });

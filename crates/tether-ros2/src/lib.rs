@@ -8,8 +8,10 @@
 
 pub mod args;
 pub mod node;
+pub mod tf;
 pub mod wire;
 
 pub use args::{ArgsError, ParamValue, Remap, RosArgs, domain_id};
 pub use node::{NodeIdentity, Received, Ros2Error, RosNode, offer, qos, spawn_reader};
+pub use tf::StaticTransforms;
 pub use wire::Wire;

@@ -99,6 +99,15 @@ fn peer(bag: &Path, peer_args: &[&str], tether_args: &[&str]) -> Seen {
         bag.display().to_string(),
     ];
     inner.extend(peer_args.iter().map(|s| (*s).to_owned()));
+    // The robot's description, as a ROS robot publishes it: the laser of the bag's
+    // scenario on /tf_static.
+    let m = tether_sim::Scenario::resolve("corridor")
+        .unwrap()
+        .0
+        .laser
+        .mount;
+    inner.push("--mount".into());
+    inner.extend([m.x_m, m.y_m, m.yaw_rad, m.height_m].map(|v| v.to_string()));
     inner.push("--".into());
     inner.extend(tether_args.iter().map(|s| (*s).to_owned()));
     let quoted: Vec<String> = inner.iter().map(|a| format!("'{a}'")).collect();
@@ -188,6 +197,11 @@ fn check_follows_and_stops(seen: &Seen) {
     assert!(
         stderr.contains("interrupted"),
         "the summary says why it ended: {stderr}"
+    );
+    // Joined after the peer published the mount, and got it (transient local).
+    assert!(
+        stderr.contains("laser mount from /tf_static: base_link -> laser"),
+        "{stderr}"
     );
 }
 
@@ -361,6 +375,10 @@ fn tether_ros2_follows_the_simulated_robot_over_dds_and_a_peer_sees_it() {
     assert!(Seen::f(&run["first_motion_s"]) < 5.0, "{run}");
     let ros2 = read("ros2.err");
     assert!(ros2.contains("odometry messages used"), "{ros2}");
+    assert!(
+        ros2.contains("laser mount from /tf_static: base_link -> laser"),
+        "{ros2}"
+    );
     // An independent peer on the same domain sees the robot run.
     let seen: serde_json::Value =
         serde_json::from_str(read("listen.json").trim()).expect("the listener's JSON");
@@ -370,6 +388,20 @@ fn tether_ros2_follows_the_simulated_robot_over_dds_and_a_peer_sees_it() {
     assert!(
         seen["people_with_someone"].as_u64().unwrap() > 100,
         "{seen}"
+    );
+    // Joined /tf_static 5 s late, and still got the mount (transient local).
+    let scenario_mount = tether_sim::Scenario::resolve("corridor")
+        .unwrap()
+        .0
+        .laser
+        .mount;
+    let mounts = seen["tf_static"].as_array().unwrap();
+    assert!(
+        mounts.iter().any(|m| m[0] == "base_link"
+            && m[1] == "laser"
+            && (Seen::f(&m[2]) - scenario_mount.x_m).abs() < 1e-9
+            && (Seen::f(&m[4]) - scenario_mount.height_m).abs() < 1e-9),
+        "{mounts:?}"
     );
     let nodes = seen["nodes"].as_array().unwrap();
     for name in ["tether", "tether_sim"] {

@@ -32,7 +32,8 @@ pub use error::{DecodeError, EncodeError, Location, McapError};
 pub use msgs::{
     CompressedFormat, CompressedImageMsg, Header, ImageMsg, ImageMsgError, LaserScanMsg,
     OdometryMsg, PersonArrayMsg, PixelEncoding, Pose3, PoseArrayMsg, PoseWithCovarianceStampedMsg,
-    RawLaserScan, Ros2Message, StringMsg, TwistMsg, TwistStampedMsg, from_cdr, to_cdr,
+    RawLaserScan, Ros2Message, StringMsg, TfMessage, TransformStampedMsg, TwistMsg,
+    TwistStampedMsg, from_cdr, to_cdr,
 };
 pub use reader::{
     BadMessage, Channel, Decoded, MAGIC, McapFile, Message, Messages, RawMessage, Schema,

@@ -795,6 +795,81 @@ impl Ros2Message for PoseArrayMsg {
     }
 }
 
+/// `geometry_msgs/msg/TransformStamped`: where frame `child_frame_id` is in
+/// `header.frame_id` (the transform takes points in the child frame to the parent's).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TransformStampedMsg {
+    /// ROS header: the parent frame.
+    pub header: Header,
+    /// The child frame.
+    pub child_frame_id: String,
+    /// Translation and rotation (a `geometry_msgs/Transform` has the layout of a pose).
+    pub transform: Pose3,
+}
+
+impl TransformStampedMsg {
+    fn write(&self, w: &mut CdrWriter) -> Result<(), EncodeError> {
+        self.header.write(w)?;
+        w.string("child_frame_id", &self.child_frame_id)?;
+        write_pose(w, &self.transform);
+        Ok(())
+    }
+
+    fn read(r: &mut CdrReader<'_>) -> Result<Self, DecodeError> {
+        Ok(TransformStampedMsg {
+            header: Header::read(r)?,
+            child_frame_id: r.string("child_frame_id")?,
+            transform: read_pose(r, "transform")?,
+        })
+    }
+}
+
+/// `tf2_msgs/msg/TFMessage`: what `/tf` and `/tf_static` carry.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TfMessage {
+    /// The transforms.
+    pub transforms: Vec<TransformStampedMsg>,
+}
+
+impl Ros2Message for TfMessage {
+    const TYPE: &'static str = "tf2_msgs/msg/TFMessage";
+    const DEFINITION: &'static str = concat!(
+        "geometry_msgs/TransformStamped[] transforms\n",
+        sep!("geometry_msgs/TransformStamped"),
+        "std_msgs/Header header\n",
+        "string child_frame_id\n",
+        "Transform transform\n",
+        header_def!(),
+        sep!("geometry_msgs/Transform"),
+        "Vector3 translation\n",
+        "Quaternion rotation\n",
+        vector3_def!(),
+        sep!("geometry_msgs/Quaternion"),
+        "float64 x 0\n",
+        "float64 y 0\n",
+        "float64 z 0\n",
+        "float64 w 1\n"
+    );
+
+    fn write_cdr(&self, w: &mut CdrWriter) -> Result<(), EncodeError> {
+        w.count("transforms", self.transforms.len())?;
+        for t in &self.transforms {
+            t.write(w)?;
+        }
+        Ok(())
+    }
+
+    fn read_cdr(r: &mut CdrReader<'_>) -> Result<Self, DecodeError> {
+        // Each element is at least a stamp, an empty frame, an empty child and 7 f64.
+        let n = r.count("transforms", 8 + 4 + 4 + 7 * 8)?;
+        let mut transforms = Vec::with_capacity(n);
+        for _ in 0..n {
+            transforms.push(TransformStampedMsg::read(r)?);
+        }
+        Ok(TfMessage { transforms })
+    }
+}
+
 /// `leg_tracker/msg/PersonArray` (ROS 2 form of leg_tracker's `PersonArray.msg`):
 /// `std_msgs/Header header`, `Person[] people` with `Person` = `geometry_msgs/Pose pose`,
 /// `uint32 id`. Annotations in leg_tracker's format give the labelled people this way.
@@ -1052,6 +1127,7 @@ mod tests {
             CompressedImageMsg::DEFINITION,
             TwistMsg::DEFINITION,
             TwistStampedMsg::DEFINITION,
+            TfMessage::DEFINITION,
             PoseArrayMsg::DEFINITION,
             PoseWithCovarianceStampedMsg::DEFINITION,
             OdometryMsg::DEFINITION,
@@ -1155,6 +1231,25 @@ mod tests {
         // header(4) + stamp(8) + "base_link\0" with length (4 + 10), pad to 8 (2), 6 f64.
         assert_eq!(bytes.len(), 4 + 8 + 14 + 2 + 48);
         assert_eq!(from_cdr::<TwistStampedMsg>(&bytes).unwrap(), ts);
+        let tf = TfMessage {
+            transforms: vec![
+                TransformStampedMsg {
+                    header: Header::new(Stamp::from_ns(5), "base_link"),
+                    child_frame_id: "laser".into(),
+                    transform: Pose3::planar(0.1, -0.02, 0.5),
+                },
+                TransformStampedMsg {
+                    header: Header::new(Stamp::ZERO, "odom"),
+                    child_frame_id: "base_link".into(),
+                    transform: Pose3::planar(3.0, 1.0, -1.0),
+                },
+            ],
+        };
+        let bytes = to_cdr(&tf).unwrap();
+        assert_eq!(from_cdr::<TfMessage>(&bytes).unwrap(), tf);
+        for cut in 0..bytes.len() {
+            assert!(from_cdr::<TfMessage>(&bytes[..cut]).is_err(), "cut {cut}");
+        }
         assert_eq!(to_cdr(&t).unwrap().len(), 4 + 48);
     }
 

@@ -27,9 +27,9 @@
 //! it is free (frames it had no time for are counted as superseded, never queued).
 
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use anyhow::Context;
@@ -43,8 +43,12 @@ use tether::live::ros2::{
 };
 use tether::live::run_loop::{self, Ending, Input, LoopConfig, Recorder};
 use tether::results::TickMessages;
+use tether_core::LaserMount;
+use tether_io::mcap::TfMessage;
 use tether_pipeline::{Pipeline, PipelineConfig};
-use tether_ros2::{NodeIdentity, ParamValue, RosArgs, RosNode};
+use tether_ros2::{
+    NodeIdentity, ParamValue, Received, RosArgs, RosNode, StaticTransforms, qos, spawn_reader,
+};
 use tether_scanmatch::ScanMatcherConfig;
 
 /// Options of `tether ros2`.
@@ -88,6 +92,8 @@ const PARAMETERS: [&str; 6] = [
 /// What the parameters set besides the pipeline.
 struct NodeParameters {
     fixed_frame: String,
+    /// The robot's frame (the sensors' mounts are looked up in it).
+    base_frame: String,
     /// `Some(base_frame)` when the commands go out as `TwistStamped`.
     cmd_vel_stamped: Option<String>,
     /// `image_transport:=compressed`: the camera as `image_raw/compressed`.
@@ -102,6 +108,10 @@ fn turtlebot_pipeline() -> PipelineConfig {
     p.limits.max_wheel_speed_mps = 0.306;
     p.limits.max_reverse_mps = 0.0;
     p.safety.robot_radius_m = 0.17;
+    // Until /tf_static says otherwise: at the centre of the wheel axis, looking ahead.
+    p.laser.mount.x_m = 0.0;
+    p.laser.mount.y_m = 0.0;
+    p.laser.mount.yaw_rad = 0.0;
     p
 }
 
@@ -158,9 +168,100 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
     };
     Ok(NodeParameters {
         fixed_frame,
-        cmd_vel_stamped: stamped.then_some(base_frame),
+        cmd_vel_stamped: stamped.then(|| base_frame.clone()),
+        base_frame,
         compressed_images,
     })
+}
+
+/// How long the node waits at the start for a scan and its mount on `/tf_static`.
+const TF_WAIT: Duration = Duration::from_secs(5);
+
+/// Takes the laser's mount from `/tf_static` (`base_frame` -> the scans' frame) when it
+/// is published within [`TF_WAIT`] of the start: the robot's description is what a ROS
+/// robot says about itself. Otherwise the config's (or the default) mount stays, with a
+/// warning naming the frames. The scans that arrive meanwhile are dropped.
+fn mount_from_tf(
+    rx: &mpsc::Receiver<Input>,
+    transforms: &Mutex<StaticTransforms>,
+    base_frame: &str,
+    scan_topic: &str,
+    mount_given: bool,
+    pipeline: &mut PipelineConfig,
+) {
+    let started = std::time::Instant::now();
+    let mut scan_frame = None;
+    while started.elapsed() < TF_WAIT {
+        if let Ok(Input::Scan(scan)) = rx.recv_timeout(Duration::from_millis(50)) {
+            scan_frame = Some(scan.frame_id);
+        }
+        let Some(frame) = &scan_frame else {
+            continue;
+        };
+        let tree = transforms.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(pose) = tree.lookup(base_frame, frame) {
+            let mount = LaserMount {
+                x_m: pose.position_m[0],
+                y_m: pose.position_m[1],
+                yaw_rad: pose.yaw_rad(),
+                height_m: pose.position_m[2],
+            };
+            let old = pipeline.laser.mount;
+            if mount_given
+                && ((old.x_m - mount.x_m).hypot(old.y_m - mount.y_m) > 0.01
+                    || (old.yaw_rad - mount.yaw_rad).abs() > 0.01)
+            {
+                tracing::warn!(
+                    "the laser's mount in the config ({:.3}, {:.3}, yaw {:.3}) is not the one \
+                     on /tf_static; using /tf_static's",
+                    old.x_m,
+                    old.y_m,
+                    old.yaw_rad
+                );
+            }
+            tracing::info!(
+                "laser mount from /tf_static: {base_frame} -> {frame} at ({:.3}, {:.3}) m, \
+                 yaw {:.3} rad, {:.3} m up",
+                mount.x_m,
+                mount.y_m,
+                mount.yaw_rad,
+                mount.height_m
+            );
+            pipeline.laser.mount = mount;
+            return;
+        }
+    }
+    let m = pipeline.laser.mount;
+    let source = if mount_given {
+        "the config's"
+    } else {
+        "the default"
+    };
+    match scan_frame {
+        Some(frame) => {
+            let heard = transforms
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .frames();
+            tracing::warn!(
+                "no transform from {base_frame} to {frame} on /tf_static within {} s (frames \
+                 heard: {}); the laser is taken at {source} mount ({:.3}, {:.3}), yaw {:.3}",
+                TF_WAIT.as_secs(),
+                if heard.is_empty() {
+                    "none".into()
+                } else {
+                    heard.join(", ")
+                },
+                m.x_m,
+                m.y_m,
+                m.yaw_rad
+            );
+        }
+        None => tracing::warn!(
+            "no scan on {scan_topic} within {} s; the laser is taken at {source} mount",
+            TF_WAIT.as_secs()
+        ),
+    }
 }
 
 /// Runs the node.
@@ -201,9 +302,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     pipeline_config.fusion.use_vision = camera_section.is_some();
     let NodeParameters {
         fixed_frame,
+        base_frame,
         cmd_vel_stamped,
         compressed_images,
     } = parameters(&args.ros, &mut pipeline_config)?;
+    let mount_given = args.config.is_some() || args.scenario.is_some();
     let domain_id = tether_ros2::domain_id(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
     let identity = NodeIdentity {
         name: args
@@ -229,7 +332,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .map(|t| topic(t.trim_start_matches('/'))),
     };
     let pipeline_config_intrinsics = pipeline_config.camera.intrinsics;
-    let mut pipeline = Pipeline::new(pipeline_config, None)?;
+    // Checked now, so a bad config fails before the node joins the graph.
+    Pipeline::new(pipeline_config.clone(), None)?;
 
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
@@ -308,6 +412,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         camera_threads.push((never, detector_thread));
         tracing::info!("camera: {image_topic}");
     }
+    let transforms = Arc::new(Mutex::new(StaticTransforms::default()));
+    let (stop_tf, tf_stops) = mpsc::channel();
+    let tf_reader = {
+        let transforms = Arc::clone(&transforms);
+        let subscription = node.subscribe::<TfMessage>(&topic("tf_static"), qos::latched(100))?;
+        spawn_reader("ros2-tf-static", subscription, tf_stops, move |received| {
+            if let Received::Message { message, .. } = received {
+                let mut tree = transforms.lock().unwrap_or_else(|e| e.into_inner());
+                let skipped = tree.insert(&message);
+                if skipped > 0 {
+                    tracing::warn!("/tf_static: {skipped} transforms skipped (not a rotation)");
+                }
+            }
+            true
+        })
+        .context("starting the /tf_static reader")?
+    };
     let reader = start_scan_reader(
         &mut node,
         &scan_topic,
@@ -329,6 +450,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         outputs.cmd_vel
     );
 
+    mount_from_tf(
+        &rx,
+        &transforms,
+        &base_frame,
+        &scan_topic,
+        mount_given,
+        &mut pipeline_config,
+    );
+    let mut pipeline = Pipeline::new(pipeline_config, None)?;
     let track_width_m = pipeline.config().limits.track_width_m;
     let scan_period_s = pipeline.config().laser.scan_period_s;
     let loop_config = LoopConfig {
@@ -353,14 +483,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     std::thread::sleep(Duration::from_millis(300));
     let _ = stop_reader.send(());
     let _ = stop_odometry.send(());
+    let _ = stop_tf.send(());
     drop(rx);
     latest.close();
     for (stop, _) in &camera_threads {
         let _ = stop.send(());
     }
-    let threads = [("scan", reader), ("odometry", odometry_reader)]
-        .into_iter()
-        .chain(camera_threads.into_iter().map(|(_, t)| ("camera", t)));
+    let threads = [
+        ("scan", reader),
+        ("odometry", odometry_reader),
+        ("tf", tf_reader),
+    ]
+    .into_iter()
+    .chain(camera_threads.into_iter().map(|(_, t)| ("camera", t)));
     for (name, thread) in threads {
         if thread.join().is_err() {
             tracing::error!("the {name} thread panicked");

@@ -1,6 +1,7 @@
 //! `tether sim --scenario NAME --ros2`: the simulated robot on the ROS 2 graph, in real
 //! time. It publishes the simulated laser on `/scan` (best effort, keep last 5, frame
-//! `laser`) and, when the scenario's robot has odometry, its pose on `/odom`
+//! `laser`), its mount on `/tf_static` (`base_link` -> `laser`, reliable and transient
+//! local) and, when the scenario's robot has odometry, its pose on `/odom` and `/tf`
 //! (`odom` -> `base_link`, 20 Hz), and drives from `/cmd_vel` (`Twist`). Like a real
 //! base, it stops when no command has come for 0.5 s. The camera is not published
 //! (the robot is laser-only on the graph).
@@ -19,7 +20,9 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use tether_control::SpringConfig;
 use tether_core::{Point2, Stamp};
-use tether_io::mcap::{Header, LaserScanMsg, OdometryMsg, TwistMsg};
+use tether_io::mcap::{
+    Header, LaserScanMsg, OdometryMsg, Pose3, TfMessage, TransformStampedMsg, TwistMsg,
+};
 use tether_io::scip::{Clock, SystemClock};
 use tether_ros2::{NodeIdentity, Received, RosNode, Wire, qos, spawn_reader};
 use tether_sim::{Command, Scenario, SensorData, Simulation};
@@ -61,6 +64,8 @@ pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
     })?;
     let scans = node.publisher::<LaserScanMsg>("/scan", qos::sensor_data())?;
     let odom = node.publisher::<OdometryMsg>("/odom", qos::sensor_data())?;
+    let tf = node.publisher::<TfMessage>("/tf", qos::reliable(100))?;
+    let tf_static = node.publisher::<TfMessage>("/tf_static", qos::latched(1))?;
     let commands = node.subscribe::<TwistMsg>("/cmd_vel", qos::reliable(10))?;
     let latest: Arc<Mutex<Option<(Instant, Command, u64)>>> = Arc::new(Mutex::new(None));
     let (stop_reader, reader_stops) = mpsc::channel();
@@ -83,12 +88,30 @@ pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
     };
 
     let mut sim = Simulation::new(scenario, seed)?;
-    sim.set_control_rate_hz(20.0);
+    // Commands are taken up at every event: 100 Hz timer events keep the base's
+    // reaction within 10 ms of a command's arrival, as a real base's controller would;
+    // odometry goes out at every fifth (20 Hz).
+    sim.set_control_rate_hz(100.0);
+    let mut timer_events = 0u64;
     let odometry = scenario.odometry_available();
     let scan_period_s = scenario.laser.scan_period_s;
     let attach_ahead_m = SpringConfig::default().attach_ahead_m;
     let d0 = scenario.robot.follow_distance_m;
     let unix0 = SystemClock.now_ns();
+    // The robot's description: where its laser sits (sent once; late joiners get it).
+    let m = scenario.laser.mount;
+    let mut mount = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
+    mount.position_m[2] = m.height_m;
+    let mount = TfMessage {
+        transforms: vec![TransformStampedMsg {
+            header: Header::new(Stamp::from_ns(unix0), "base_link"),
+            child_frame_id: "laser".into(),
+            transform: mount,
+        }],
+    };
+    tf_static
+        .publish(Wire(mount))
+        .map_err(|e| anyhow::anyhow!("/tf_static: {e:?}"))?;
     let wall0 = Instant::now();
     tracing::info!(
         "simulating `{}` (seed {seed}) on ROS 2 domain {domain_id} in real time: /scan{}, \
@@ -149,7 +172,8 @@ pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
             }
             SensorData::Timer => {
                 let truth = &event.truth;
-                if odometry {
+                timer_events += 1;
+                if odometry && timer_events % 5 == 1 {
                     let msg = OdometryMsg::planar(
                         Header::new(stamp, "odom"),
                         "base_link",
@@ -159,7 +183,20 @@ pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
                     );
                     odom.publish(Wire(msg))
                         .map_err(|e| anyhow::anyhow!("/odom: {e:?}"))?;
+                    let moved = TfMessage {
+                        transforms: vec![TransformStampedMsg {
+                            header: Header::new(stamp, "odom"),
+                            child_frame_id: "base_link".into(),
+                            transform: Pose3::from_pose2(truth.world_from_robot),
+                        }],
+                    };
+                    tf.publish(Wire(moved))
+                        .map_err(|e| anyhow::anyhow!("/tf: {e:?}"))?;
                     summary.odometry_published += 1;
+                }
+                if timer_events % 5 != 1 {
+                    summary.simulated_s = t_ns as f64 * 1e-9;
+                    continue;
                 }
                 let here = truth.world_from_robot.translation();
                 if let Some(last) = last_position {

@@ -137,9 +137,18 @@ pub fn start_odometry_reader(
                     counters.malformed.fetch_add(1, Ordering::Relaxed);
                     return true;
                 }
+                let moving = tether_control::Twist {
+                    v_mps: message.twist.v_mps(),
+                    w_radps: message.twist.w_radps(),
+                };
+                if !(moving.v_mps.is_finite() && moving.w_radps.is_finite()) {
+                    counters.malformed.fetch_add(1, Ordering::Relaxed);
+                    return true;
+                }
                 Input::Odometry {
                     stamp: tether_core::Stamp::from_ns(stamp),
                     world_from_robot,
+                    moving,
                 }
             }
             Received::Malformed(why) => {

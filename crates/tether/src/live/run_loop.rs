@@ -58,8 +58,14 @@ pub enum Input {
         stamp: Stamp,
         /// The pose.
         world_from_robot: Pose2<World, Robot>,
+        /// The base's velocity then (forward, turn rate), to carry the pose to a
+        /// datum's stamp.
+        moving: Twist,
     },
 }
+
+/// Longest time odometry is carried forward by its velocity, s.
+const ODOMETRY_EXTRAPOLATION_S: f64 = 0.2;
 
 /// Settings of the loop.
 #[derive(Debug, Clone)]
@@ -224,8 +230,8 @@ struct Live<'a, W: std::io::Write + std::io::Seek> {
     scan_period_s: f64,
     /// Where the distance driven was last measured to.
     travelled_to: tether_core::Point2<World>,
-    /// The newest odometry (when it is the pose source).
-    odometry_pose: Option<(Stamp, Pose2<World, Robot>)>,
+    /// The newest odometry (when it is the pose source) and the velocity with it.
+    odometry_pose: Option<(Stamp, Pose2<World, Robot>, Twist)>,
 }
 
 impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
@@ -246,7 +252,7 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
     /// The newest odometry for a datum stamped `stamp`: `None` without odometry,
     /// `Some(None)` when it has stopped (the datum is then skipped).
     fn odometry_for(&mut self, stamp: Stamp) -> Option<Option<Pose2<World, Robot>>> {
-        let (at, pose) = self.odometry_pose?;
+        let (at, pose, moving) = self.odometry_pose?;
         if stamp.ns_since(at) > ODOMETRY_TIMEOUT_NS {
             if self.summary.skipped_stale_odometry == 0 {
                 tracing::warn!(
@@ -258,7 +264,10 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
             self.summary.skipped_stale_odometry += 1;
             return Some(None);
         }
-        Some(Some(pose))
+        // Between odometry messages (20-50 Hz on most bases) the base keeps moving:
+        // the pose at the datum's stamp, along the arc of the last velocity.
+        let dt_s = (stamp.ns_since(at) as f64 * 1e-9).clamp(0.0, ODOMETRY_EXTRAPOLATION_S);
+        Some(Some(super::odometry::integrate(pose, moving, dt_s)))
     }
 
     fn scan(&mut self, mut scan: LaserScan) -> Result<(), Ending> {
@@ -319,7 +328,10 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
         // With stale odometry the timer still ticks (its watchdog stops the robot), at
         // the last pose the odometry gave.
         let pose = match self.odometry_pose {
-            Some((_, pose)) => pose,
+            Some((at, pose, moving)) => {
+                let dt_s = (stamp.ns_since(at) as f64 * 1e-9).clamp(0.0, ODOMETRY_EXTRAPOLATION_S);
+                super::odometry::integrate(pose, moving, dt_s)
+            }
             None => self.correction * self.odometry.pose_at(stamp),
         };
         let tick = self.pipeline.on_timer(stamp, pose);
@@ -438,13 +450,14 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
                 Ok(Input::Odometry {
                     stamp,
                     world_from_robot,
+                    moving,
                 }) => {
                     if self.config.odometry_input {
                         if self.odometry_pose.is_none() {
                             tracing::info!("odometry arrived: it is the robot's pose from now on");
                         }
                         self.summary.odometry_messages += 1;
-                        self.odometry_pose = Some((stamp, world_from_robot));
+                        self.odometry_pose = Some((stamp, world_from_robot, moving));
                     }
                     Ok(())
                 }
@@ -717,6 +730,7 @@ mod tests {
             let odometry = |stamp| Input::Odometry {
                 stamp,
                 world_from_robot: Pose2::new(2.0, 1.0, 0.5),
+                moving: Twist::STOP,
             };
             tx.send(odometry(now())).unwrap();
             std::thread::sleep(Duration::from_millis(20));

@@ -12,12 +12,18 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
-from peer import LaserScan, ParticipantEntitiesInfo, PoseArray, Twist, qos, valid
+from peer import LaserScan, ParticipantEntitiesInfo, PoseArray, TFMessage, Twist, qos, valid
 
 
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--seconds", type=float, required=True)
+    ap.add_argument(
+        "--tf-static-after",
+        type=float,
+        default=5.0,
+        help="join /tf_static this late (transient local: the mounts must still come)",
+    )
     a = ap.parse_args()
     dp = DomainParticipant(0)
     readers = {
@@ -36,8 +42,22 @@ def main():
     moving = 0
     people_seen = 0
     nodes = set()
-    end = time.monotonic() + a.seconds
+    start = time.monotonic()
+    end = start + a.seconds
+    tf_static = None
+    mounts = []
     while time.monotonic() < end:
+        if tf_static is None and time.monotonic() - start >= a.tf_static_after:
+            tf_static = DataReader(
+                dp,
+                Topic(dp, "rt/tf_static", TFMessage),
+                qos=qos(True, 100, transient_local=True),
+            )
+        if tf_static is not None:
+            for s in valid(tf_static.take(N=100)):
+                for t in s.transforms:
+                    v = t.transform.translation
+                    mounts.append([t.header.frame_id, t.child_frame_id, v.x, v.y, v.z])
         for name, reader in readers.items():
             for s in valid(reader.take(N=1000)):
                 counts[name] += 1
@@ -56,6 +76,7 @@ def main():
                 "cmd_vel_moving": moving,
                 "people_with_someone": people_seen,
                 "nodes": sorted(nodes),
+                "tf_static": mounts,
             }
         )
     )

@@ -15,6 +15,7 @@ multicasts), e.g. `unshare -n sh -c 'ip link set lo up && python3 peer.py ...'`.
 
 import argparse
 import json
+import math
 import os
 import signal
 import struct
@@ -147,6 +148,24 @@ class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
 
 
 @dataclass
+class Transform(IdlStruct, typename="geometry_msgs::msg::dds_::Transform_"):
+    translation: Vector3
+    rotation: Quaternion
+
+
+@dataclass
+class TransformStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TransformStamped_"):
+    header: Header
+    child_frame_id: str
+    transform: Transform
+
+
+@dataclass
+class TFMessage(IdlStruct, typename="tf2_msgs::msg::dds_::TFMessage_"):
+    transforms: sequence[TransformStamped]
+
+
+@dataclass
 class Gid(IdlStruct, typename="rmw_dds_common::msg::dds_::Gid_"):
     data: array[uint8, 16]
 
@@ -214,6 +233,14 @@ def main():
     ap.add_argument("--reliable", action="store_true", help="publish scans reliably")
     ap.add_argument("--seconds", type=float, default=20.0, help="of scans to publish")
     ap.add_argument("--signal", choices=["INT", "TERM"], default="INT")
+    ap.add_argument(
+        "--mount",
+        nargs=4,
+        type=float,
+        metavar=("X", "Y", "YAW", "Z"),
+        help="publish base_link -> the scans' frame on rt/tf_static before tether starts "
+        "(reliable, transient local: tether joins late and must still get it)",
+    )
     ap.add_argument(
         "--images-hz",
         type=float,
@@ -284,6 +311,31 @@ def main():
         Topic(dp, "ros_discovery_info", ParticipantEntitiesInfo),
         qos=qos(True, 100, transient_local=True),
     )
+
+    if a.mount:
+        x, y, yaw, z = a.mount
+        tf_writer = DataWriter(
+            dp,
+            Topic(dp, "rt/tf_static", TFMessage),
+            qos=qos(True, 1, transient_local=True),
+        )
+        _, stamp = stamp_now()
+        tf_writer.write(
+            TFMessage(
+                transforms=[
+                    TransformStamped(
+                        header=Header(stamp=stamp, frame_id="base_link"),
+                        child_frame_id="laser",
+                        transform=Transform(
+                            translation=Vector3(x=x, y=y, z=z),
+                            rotation=Quaternion(
+                                x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2)
+                            ),
+                        ),
+                    )
+                ]
+            )
+        )
 
     child = subprocess.Popen(
         [a.tether, "ros2", *a.tether_args],
