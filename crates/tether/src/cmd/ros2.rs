@@ -10,6 +10,7 @@
 //! |---|---|---|
 //! | `scan` (in) | `sensor_msgs/msg/LaserScan` | best effort, keep last 5 (matches reliable and best-effort publishers) |
 //! | `odom` (in) | `nav_msgs/msg/Odometry` (the pose of `child_frame_id` in `header.frame_id`) | best effort, keep last 5 |
+//! | `tf_static` (in) | `tf2_msgs/msg/TFMessage` (the laser's mount below `base_frame`) | reliable, transient local |
 //! | `image_raw` or `image_raw/compressed` (in, when the config has a `[camera]`) | `sensor_msgs/msg/Image` (`mono8`, `rgb8`, `bgr8`) or `sensor_msgs/msg/CompressedImage` (JPEG, PNG) | best effort, keep last 5 |
 //! | `cmd_vel` (out) | `geometry_msgs/msg/Twist` (or `TwistStamped`) | reliable, keep last 10 |
 //! | `tether/people`, `tether/laser_people` (out) | `geometry_msgs/msg/PoseArray` | reliable, keep last 10 |
