@@ -57,8 +57,8 @@ use tether_scanmatch::ScanMatcherConfig;
 pub struct Args {
     /// The robot's configuration, the same TOML as `tether run` (its `[laser]` needs
     /// only the mount; `[base]` is not used: the commands go to `cmd_vel`). Default: a
-    /// TurtleBot 4-sized base (track 0.235 m, radius 0.17 m, 0.3 m/s) with the laser at
-    /// the centre of the wheel axis.
+    /// TurtleBot 4-sized base (track 0.235 m, radius 0.17 m, 0.3 m/s). Either way the
+    /// laser's mount on `/tf_static`, when published, is the one used.
     #[arg(long, value_name = "robot.toml")]
     pub config: Option<PathBuf>,
     /// The robot of a built-in simulated scenario (its laser mount, follow distance and
