@@ -6,9 +6,9 @@
 
 use libfuzzer_sys::fuzz_target;
 use tether_io::mcap::{
-    CompressedImageMsg, ImageMsg, LaserScanMsg, OdometryMsg, PoseArrayMsg,
-    PoseWithCovarianceStampedMsg, Ros2Message, StringMsg, TfMessage, TwistMsg, TwistStampedMsg,
-    from_cdr, to_cdr,
+    ClockMsg, CompressedImageMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg, OdometryMsg,
+    PoseArrayMsg, PoseWithCovarianceStampedMsg, Ros2Message, StringMsg, TfMessage, TwistMsg,
+    TwistStampedMsg, from_cdr, to_cdr,
 };
 
 fn check<M: Ros2Message>(payload: &[u8]) {
@@ -28,7 +28,7 @@ fuzz_target!(|data: &[u8]| {
     };
     let mut payload = vec![0x00, 0x01, 0x00, 0x00];
     payload.extend_from_slice(body);
-    match kind % 10 {
+    match kind % 12 {
         0 => check::<LaserScanMsg>(&payload),
         1 => check::<TwistMsg>(&payload),
         2 => check::<TwistStampedMsg>(&payload),
@@ -38,6 +38,8 @@ fuzz_target!(|data: &[u8]| {
         6 => check::<PoseArrayMsg>(&payload),
         7 => check::<PoseWithCovarianceStampedMsg>(&payload),
         8 => check::<TfMessage>(&payload),
+        9 => check::<MarkerArrayMsg>(&payload),
+        10 => check::<ClockMsg>(&payload),
         _ => check::<StringMsg>(&payload),
     }
 });

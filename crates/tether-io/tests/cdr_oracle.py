@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
 """rosbags' CDR (ROS 2 Jazzy types) of the messages cdr_oracle.rs builds, as hex, one
 per line: the independent oracle for tether's codec of `geometry_msgs/msg/TwistStamped`
-and `tf2_msgs/msg/TFMessage`."""
+`tf2_msgs/msg/TFMessage`, `visualization_msgs/msg/MarkerArray` and
+`rosgraph_msgs/msg/Clock`."""
 
+import numpy as np
 from rosbags.typesys import Stores, get_typestore
 
 ts = get_typestore(Stores.ROS2_JAZZY)
@@ -16,6 +18,16 @@ TwistStamped = T["geometry_msgs/msg/TwistStamped"]
 Transform = T["geometry_msgs/msg/Transform"]
 TransformStamped = T["geometry_msgs/msg/TransformStamped"]
 TFMessage = T["tf2_msgs/msg/TFMessage"]
+Pose = T["geometry_msgs/msg/Pose"]
+Point = T["geometry_msgs/msg/Point"]
+ColorRGBA = T["std_msgs/msg/ColorRGBA"]
+Duration = T["builtin_interfaces/msg/Duration"]
+CompressedImage = T["sensor_msgs/msg/CompressedImage"]
+UVCoordinate = T["visualization_msgs/msg/UVCoordinate"]
+MeshFile = T["visualization_msgs/msg/MeshFile"]
+Marker = T["visualization_msgs/msg/Marker"]
+MarkerArray = T["visualization_msgs/msg/MarkerArray"]
+Clock = T["rosgraph_msgs/msg/Clock"]
 
 
 def header(sec, nanosec, frame):
@@ -49,9 +61,47 @@ tf = TFMessage(
     ]
 )
 empty = TFMessage(transforms=[])
+
+
+def marker(ns, id, type, frame, points, text, uv, mesh):
+    return Marker(
+        header=header(7, 250_000_000, frame),
+        ns=ns,
+        id=id,
+        type=type,
+        action=0,
+        pose=Pose(
+            position=Point(x=1.5, y=-0.5, z=0.9),
+            orientation=Quaternion(x=0.0, y=0.0, z=0.25, w=0.9682458365518543),
+        ),
+        scale=Vector3(x=0.3, y=0.2, z=1.7),
+        color=ColorRGBA(r=0.25, g=0.5, b=1.0, a=0.75),
+        lifetime=Duration(sec=0, nanosec=500_000_000),
+        frame_locked=False,
+        points=[Point(x=p[0], y=p[1], z=p[2]) for p in points],
+        colors=[ColorRGBA(r=1.0, g=0.0, b=0.0, a=1.0) for _ in points],
+        texture_resource="",
+        texture=CompressedImage(header=header(0, 0, ""), format="", data=np.zeros(0, np.uint8)),
+        uv_coordinates=[UVCoordinate(u=u, v=v) for u, v in uv],
+        text=text,
+        mesh_resource="",
+        mesh_file=MeshFile(filename=mesh, data=np.array([1, 2, 3], np.uint8) if mesh else np.zeros(0, np.uint8)),
+        mesh_use_embedded_materials=bool(mesh),
+    )
+
+
+markers = MarkerArray(
+    markers=[
+        marker("tracks", 3, 3, "odom", [], "", [], ""),
+        marker("laser", 0, 7, "odom", [(1.0, 2.0, 0.0), (3.0, -1.0, 0.5)], "#3", [(0.5, 0.25)], "m.stl"),
+    ]
+)
+clock = Clock(clock=Time(sec=42, nanosec=7))
 for msg, name in [
     (twist, "geometry_msgs/msg/TwistStamped"),
     (tf, "tf2_msgs/msg/TFMessage"),
     (empty, "tf2_msgs/msg/TFMessage"),
+    (markers, "visualization_msgs/msg/MarkerArray"),
+    (clock, "rosgraph_msgs/msg/Clock"),
 ]:
     print(bytes(ts.serialize_cdr(msg, name)).hex())

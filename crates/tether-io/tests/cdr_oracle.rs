@@ -1,5 +1,6 @@
-//! tether's CDR of `geometry_msgs/msg/TwistStamped` and `tf2_msgs/msg/TFMessage` (what
-//! `tether ros2` publishes on `cmd_vel` and reads from `/tf_static`) against Python
+//! tether's CDR of `geometry_msgs/msg/TwistStamped`, `tf2_msgs/msg/TFMessage`,
+//! `visualization_msgs/msg/MarkerArray` and `rosgraph_msgs/msg/Clock` (what `tether ros2`
+//! publishes on `cmd_vel` and `tether/markers`, reads from `/tf_static` and `/clock`) against Python
 //! `rosbags`' serializer, byte for byte (`tests/cdr_oracle.py` builds the same
 //! messages). Skips, printing why, without `rosbags`, unless `TETHER_REQUIRE_SHARED=1`.
 
@@ -9,7 +10,8 @@ use std::process::Command;
 
 use tether_core::Stamp;
 use tether_io::mcap::{
-    Header, Pose3, TfMessage, TransformStampedMsg, TwistMsg, TwistStampedMsg, from_cdr, to_cdr,
+    ClockMsg, Header, MarkerArrayMsg, MarkerMsg, MeshFile, Pose3, TfMessage, TransformStampedMsg,
+    TwistMsg, TwistStampedMsg, from_cdr, to_cdr,
 };
 
 fn rosbags_payloads() -> Option<Vec<Vec<u8>>> {
@@ -56,8 +58,45 @@ fn transform(
     }
 }
 
+/// The markers `cdr_oracle.py` builds.
+fn marker(
+    ns: &str,
+    id: i32,
+    marker_type: i32,
+    points: &[[f64; 3]],
+    text: &str,
+    uv: &[[f32; 2]],
+    mesh: &str,
+) -> MarkerMsg {
+    let mut m = MarkerMsg::new(
+        Header::new(Stamp::from_ns(7_250_000_000), "odom"),
+        ns,
+        id,
+        marker_type,
+    );
+    m.pose = Pose3 {
+        position_m: [1.5, -0.5, 0.9],
+        orientation: [0.0, 0.0, 0.25, 0.968_245_836_551_854_3],
+    };
+    m.scale = [0.3, 0.2, 1.7];
+    m.color = [0.25, 0.5, 1.0, 0.75];
+    m.lifetime_ns = 500_000_000;
+    m.points = points.to_vec();
+    m.colors = vec![[1.0, 0.0, 0.0, 1.0]; points.len()];
+    m.uv_coordinates = uv.to_vec();
+    m.text = text.into();
+    if !mesh.is_empty() {
+        m.mesh_file = MeshFile {
+            filename: mesh.into(),
+            data: vec![1, 2, 3],
+        };
+        m.mesh_use_embedded_materials = true;
+    }
+    m
+}
+
 #[test]
-fn twist_stamped_and_tf_messages_are_rosbags_cdr_byte_for_byte() {
+fn published_and_subscribed_messages_are_rosbags_cdr_byte_for_byte() {
     let Some(expected) = rosbags_payloads() else {
         return;
     };
@@ -83,10 +122,29 @@ fn twist_stamped_and_tf_messages_are_rosbags_cdr_byte_for_byte() {
             ),
         ],
     };
+    let markers = MarkerArrayMsg {
+        markers: vec![
+            marker("tracks", 3, MarkerMsg::CYLINDER, &[], "", &[], ""),
+            marker(
+                "laser",
+                0,
+                MarkerMsg::SPHERE_LIST,
+                &[[1.0, 2.0, 0.0], [3.0, -1.0, 0.5]],
+                "#3",
+                &[[0.5, 0.25]],
+                "m.stl",
+            ),
+        ],
+    };
+    let clock = ClockMsg {
+        clock: Stamp::from_ns(42_000_000_007),
+    };
     let ours = [
         to_cdr(&twist).unwrap(),
         to_cdr(&tf).unwrap(),
         to_cdr(&TfMessage::default()).unwrap(),
+        to_cdr(&markers).unwrap(),
+        to_cdr(&clock).unwrap(),
     ];
     assert_eq!(expected.len(), ours.len());
     for (i, (theirs, ours)) in expected.iter().zip(&ours).enumerate() {
@@ -95,6 +153,8 @@ fn twist_stamped_and_tf_messages_are_rosbags_cdr_byte_for_byte() {
     // And rosbags' bytes read back as the messages.
     assert_eq!(from_cdr::<TwistStampedMsg>(&expected[0]).unwrap(), twist);
     assert_eq!(from_cdr::<TfMessage>(&expected[1]).unwrap(), tf);
+    assert_eq!(from_cdr::<MarkerArrayMsg>(&expected[3]).unwrap(), markers);
+    assert_eq!(from_cdr::<ClockMsg>(&expected[4]).unwrap(), clock);
     assert!(
         from_cdr::<TfMessage>(&expected[2])
             .unwrap()

@@ -24,9 +24,10 @@ use std::process::Command;
 use serde_json::Value;
 use tether_core::{Cov2, Gaussian2, GrayImage, LaserScan, Point2, Pose2, Robot, Stamp, World};
 use tether_io::mcap::{
-    CompressedFormat, CompressedImageMsg, Header, ImageMsg, LaserScanMsg, McapFile, McapWriter,
-    OdometryMsg, PixelEncoding, Pose3, PoseArrayMsg, PoseWithCovarianceStampedMsg, RawLaserScan,
-    RawMessage, Ros2Message, TwistMsg, from_cdr, to_cdr,
+    CompressedFormat, CompressedImageMsg, Header, ImageMsg, LaserScanMsg, MarkerArrayMsg,
+    MarkerMsg, McapFile, McapWriter, MeshFile, OdometryMsg, PixelEncoding, Pose3, PoseArrayMsg,
+    PoseWithCovarianceStampedMsg, RawLaserScan, RawMessage, Ros2Message, TwistMsg, from_cdr,
+    to_cdr,
 };
 
 const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/mcap_reference.py");
@@ -106,18 +107,109 @@ fn put(out: &mut Flat, key: &str, value: String) {
 }
 
 fn flat_header(h: &Header, out: &mut Flat) {
-    let ns = h.stamp.ns();
+    flat_header_at("", h, out);
+}
+
+fn flat_time(prefix: &str, t: Stamp, out: &mut Flat) {
+    let ns = t.ns();
     put(
         out,
-        "header.stamp.sec",
+        &format!("{prefix}sec"),
         ns.div_euclid(1_000_000_000).to_string(),
     );
     put(
         out,
-        "header.stamp.nanosec",
+        &format!("{prefix}nanosec"),
         ns.rem_euclid(1_000_000_000).to_string(),
     );
-    put(out, "header.frame_id", h.frame_id.clone());
+}
+
+fn flat_header_at(prefix: &str, h: &Header, out: &mut Flat) {
+    flat_time(&format!("{prefix}header.stamp."), h.stamp, out);
+    put(out, &format!("{prefix}header.frame_id"), h.frame_id.clone());
+}
+
+/// A sequence of structs: each element under `name[i].`, or `""` when empty.
+fn flat_seq<T>(name: &str, items: &[T], out: &mut Flat, mut each: impl FnMut(&str, &T, &mut Flat)) {
+    if items.is_empty() {
+        put(out, name, String::new());
+    }
+    for (i, item) in items.iter().enumerate() {
+        each(&format!("{name}[{i}]."), item, out);
+    }
+}
+
+fn flat_color(prefix: &str, c: [f32; 4], out: &mut Flat) {
+    for (k, v) in ["r", "g", "b", "a"].iter().zip(c) {
+        put(out, &format!("{prefix}{k}"), f64hex(f64::from(v)));
+    }
+}
+
+fn flat_markers(a: &MarkerArrayMsg, out: &mut Flat) {
+    flat_seq("markers", &a.markers, out, |p, m, out| {
+        flat_header_at(p, &m.header, out);
+        put(out, &format!("{p}ns"), m.ns.clone());
+        for (k, v) in [("id", m.id), ("type", m.marker_type), ("action", m.action)] {
+            put(out, &format!("{p}{k}"), v.to_string());
+        }
+        flat_pose(&format!("{p}pose."), &m.pose, out);
+        for (k, v) in ["x", "y", "z"].iter().zip(m.scale) {
+            put(out, &format!("{p}scale.{k}"), f64hex(v));
+        }
+        flat_color(&format!("{p}color."), m.color, out);
+        flat_time(&format!("{p}lifetime."), Stamp::from_ns(m.lifetime_ns), out);
+        put(
+            out,
+            &format!("{p}frame_locked"),
+            u8::from(m.frame_locked).to_string(),
+        );
+        flat_seq(&format!("{p}points"), &m.points, out, |q, pt, out| {
+            for (k, v) in ["x", "y", "z"].iter().zip(pt) {
+                put(out, &format!("{q}{k}"), f64hex(*v));
+            }
+        });
+        flat_seq(&format!("{p}colors"), &m.colors, out, |q, c, out| {
+            flat_color(q, *c, out)
+        });
+        put(
+            out,
+            &format!("{p}texture_resource"),
+            m.texture_resource.clone(),
+        );
+        flat_header_at(&format!("{p}texture."), &m.texture.header, out);
+        put(out, &format!("{p}texture.format"), m.texture.format.clone());
+        put(
+            out,
+            &format!("{p}texture.data"),
+            hex(m.texture.data.iter().copied()),
+        );
+        flat_seq(
+            &format!("{p}uv_coordinates"),
+            &m.uv_coordinates,
+            out,
+            |q, uv, out| {
+                put(out, &format!("{q}u"), f64hex(f64::from(uv[0])));
+                put(out, &format!("{q}v"), f64hex(f64::from(uv[1])));
+            },
+        );
+        put(out, &format!("{p}text"), m.text.clone());
+        put(out, &format!("{p}mesh_resource"), m.mesh_resource.clone());
+        put(
+            out,
+            &format!("{p}mesh_file.filename"),
+            m.mesh_file.filename.clone(),
+        );
+        put(
+            out,
+            &format!("{p}mesh_file.data"),
+            hex(m.mesh_file.data.iter().copied()),
+        );
+        put(
+            out,
+            &format!("{p}mesh_use_embedded_materials"),
+            u8::from(m.mesh_use_embedded_materials).to_string(),
+        );
+    });
 }
 
 fn flat_pose(prefix: &str, p: &Pose3, out: &mut Flat) {
@@ -233,6 +325,11 @@ fn decode_flat(m: &RawMessage) -> Flat {
             flat_twist("twist.twist.", &o.twist, &mut out);
             put(&mut out, "twist.covariance", floats(o.twist_covariance));
             to_cdr(&o).unwrap()
+        }
+        "visualization_msgs/msg/MarkerArray" => {
+            let a: MarkerArrayMsg = m.decode().unwrap();
+            flat_markers(&a, &mut out);
+            to_cdr(&a).unwrap()
         }
         other => panic!("unexpected type {other}"),
     };
@@ -441,6 +538,44 @@ fn write_tether_file(path: &Path) -> Vec<(String, &'static str, i64, Flat)> {
             t.ns(),
             to_cdr(&odom).unwrap(),
         ));
+
+        let markers = MarkerArrayMsg {
+            markers: (0..k % 3)
+                .map(|i| {
+                    let mut m = MarkerMsg::new(
+                        Header::new(t, "odom"),
+                        "tracks",
+                        i as i32,
+                        MarkerMsg::SPHERE_LIST,
+                    );
+                    m.pose = Pose3::planar(0.5 * i as f64, 1.0, 0.2);
+                    m.scale = [0.15, 0.25, 1.7];
+                    m.color = [0.1, 0.8, 0.2, 0.6];
+                    m.lifetime_ns = 500_000_000 + k;
+                    m.frame_locked = i == 1;
+                    m.points = (0..i).map(|j| [j as f64, -0.5, 0.1]).collect();
+                    m.colors = (0..i).map(|_| [1.0, 0.0, 0.5, 1.0]).collect();
+                    m.uv_coordinates = (0..i).map(|j| [0.25 * j as f32, 0.5]).collect();
+                    m.text = format!("#{i} target");
+                    m.mesh_file = MeshFile {
+                        filename: if i == 1 {
+                            "m.stl".into()
+                        } else {
+                            String::new()
+                        },
+                        data: vec![7; i as usize],
+                    };
+                    m
+                })
+                .collect(),
+        };
+        w.write("/tether/markers", t, &markers).unwrap();
+        rows.push((
+            "/tether/markers".to_owned(),
+            MarkerArrayMsg::TYPE,
+            t.ns(),
+            to_cdr(&markers).unwrap(),
+        ));
     }
     w.finish().unwrap();
     // Flatten what was written by decoding the serialised bytes tether produced.
@@ -495,7 +630,7 @@ fn files_written_by_tether_read_identically_in_python() {
     let dir = scratch_dir("tether");
     let path = dir.join("run.mcap");
     let written = write_tether_file(&path);
-    assert_eq!(written.len(), 42);
+    assert_eq!(written.len(), 48);
 
     let out = dir.join("mcap_ros2.jsonl");
     python(&["read-mcap", path.to_str().unwrap(), out.to_str().unwrap()]);

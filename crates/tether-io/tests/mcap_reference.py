@@ -75,7 +75,9 @@ def flatten(prefix, v, out):
             flatten(name(k), item, out)
     elif dataclasses.is_dataclass(v):
         for f in dataclasses.fields(v):
-            if not f.name.startswith("__"):
+            # Skipped: dunder fields, and message constants (rosbags lists
+            # visualization_msgs/Marker's `ARROW`... as fields).
+            if not f.name.startswith("__") and not f.name.isupper():
                 flatten(name(f.name), getattr(v, f.name), out)
     elif hasattr(v, "__slots__"):
         for s in v.__slots__:

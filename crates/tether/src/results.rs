@@ -8,6 +8,7 @@
 //! | `/tether/vision_people` | `geometry_msgs/msg/PoseArray` | every camera frame: its person observations |
 //! | `/tether/target` | `geometry_msgs/msg/PoseWithCovarianceStamped` | every tick while locked (heading: walking direction, variance pi^2) |
 //! | `/tether/cmd_vel` | `geometry_msgs/msg/Twist` | every tick: the command (`linear.x`, `angular.z`) |
+//! | `/tether/markers` | `visualization_msgs/msg/MarkerArray` | every tick: tracks, their ellipses, the target and the observations for RViz and Foxglove ([`crate::markers`]) |
 //! | `/tether/target_state` | `std_msgs/msg/String` | every tick: the target's state as JSON, e.g. `{"state":"lost","track":3,"reason":"unseen","refused":[{"track":5,"why":"not_walking"}]}` |
 //!
 //! Positions are in the world (odometry) frame, named by the writer's `frame`.
@@ -16,8 +17,8 @@ use std::path::Path;
 
 use tether_core::Stamp;
 use tether_io::mcap::{
-    Header, McapError, McapWriter, Pose3, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg,
-    TwistMsg,
+    Header, MarkerArrayMsg, McapError, McapWriter, Pose3, PoseArrayMsg,
+    PoseWithCovarianceStampedMsg, StringMsg, TwistMsg,
 };
 use tether_pipeline::{Tick, TickInput};
 
@@ -97,6 +98,8 @@ pub struct TickMessages {
     pub target: Option<PoseWithCovarianceStampedMsg>,
     /// `/tether/target_state`.
     pub target_state: StringMsg,
+    /// `/tether/markers`.
+    pub markers: MarkerArrayMsg,
     /// The command.
     pub cmd_vel: TwistMsg,
 }
@@ -112,6 +115,8 @@ impl TickMessages {
     pub const TARGET: &'static str = "/tether/target";
     /// The target state's topic.
     pub const TARGET_STATE: &'static str = "/tether/target_state";
+    /// The markers' topic.
+    pub const MARKERS: &'static str = "/tether/markers";
 
     /// The messages of `tick`, positions in `frame`.
     pub fn of(tick: &Tick, frame: &str) -> TickMessages {
@@ -153,6 +158,7 @@ impl TickMessages {
                 data: target_state_json(tick),
             },
             cmd_vel: TwistMsg::unicycle(tick.command.v_mps, tick.command.w_radps),
+            markers: crate::markers::tick_markers(tick, frame),
         }
     }
 }
@@ -210,6 +216,8 @@ impl<W: std::io::Write + std::io::Seek> ResultWriter<W> {
         }
         self.writer
             .write(TickMessages::TARGET_STATE, stamp, &m.target_state)?;
+        self.writer
+            .write(TickMessages::MARKERS, stamp, &m.markers)?;
         self.writer.write("/tether/cmd_vel", stamp, &m.cmd_vel)
     }
 

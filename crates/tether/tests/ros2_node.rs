@@ -392,6 +392,21 @@ fn tether_ros2_follows_the_simulated_robot_over_dds_and_a_peer_sees_it() {
         seen["people_with_someone"].as_u64().unwrap() > 100,
         "{seen}"
     );
+    // The markers for RViz: the tracks, their labels and ellipses, the target.
+    let namespaces = seen["marker_namespaces"].as_array().unwrap();
+    for ns in [
+        "tracks",
+        "track_labels",
+        "track_covariance",
+        "target",
+        "laser_people",
+    ] {
+        assert!(namespaces.iter().any(|n| n == ns), "{ns}: {seen}");
+    }
+    assert!(
+        !seen["target_labels"].as_array().unwrap().is_empty(),
+        "{seen}"
+    );
     // Joined /tf_static 5 s late, and still got the mount (transient local).
     let scenario_mount = tether_sim::Scenario::resolve("corridor")
         .unwrap()

@@ -129,6 +129,9 @@ macro_rules! pose_with_covariance_def {
     };
 }
 
+mod markers;
+pub use markers::{ClockMsg, ColorRgba, MarkerArrayMsg, MarkerMsg, MeshFile};
+
 /// `std_msgs/msg/Header` (ROS 2: no sequence number).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Header {

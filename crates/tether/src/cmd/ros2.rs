@@ -329,6 +329,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             TickMessages::VISION_PEOPLE,
             TickMessages::TARGET,
             TickMessages::TARGET_STATE,
+            TickMessages::MARKERS,
         ]
         .map(|t| topic(t.trim_start_matches('/'))),
     };

@@ -16,7 +16,7 @@ use std::thread::JoinHandle;
 use ros2_client::dds::Publisher;
 use tether_core::{Pose2, Robot, World};
 use tether_io::mcap::{
-    CompressedImageMsg, ImageMsg, LaserScanMsg, OdometryMsg, PoseArrayMsg,
+    CompressedImageMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg, OdometryMsg, PoseArrayMsg,
     PoseWithCovarianceStampedMsg, StringMsg,
 };
 use tether_io::mcap::{Header, Ros2Message, TwistMsg, TwistStampedMsg};
@@ -358,6 +358,7 @@ pub struct RosOutputs {
     vision_people: Publisher<Wire<PoseArrayMsg>>,
     target: Publisher<Wire<PoseWithCovarianceStampedMsg>>,
     target_state: Publisher<Wire<StringMsg>>,
+    markers: Publisher<Wire<MarkerArrayMsg>>,
 }
 
 /// The commands' publisher: `Twist`, or `TwistStamped` in the base's frame.
@@ -378,14 +379,14 @@ pub struct OutputTopics {
     /// stamped with the time of the data that made them; `None`: `Twist`.
     pub cmd_vel_stamped: Option<String>,
     /// `/tether/people` and the others, in the order of [`TickMessages`]'s constants:
-    /// people, laser people, vision people, target, target state.
-    pub results: [String; 5],
+    /// people, laser people, vision people, target, target state, markers.
+    pub results: [String; 6],
 }
 
 impl RosOutputs {
     /// The publishers; positions are stamped in `frame` (the fixed frame).
     pub fn new(node: &mut RosNode, topics: &OutputTopics, frame: &str) -> Result<Self, Ros2Error> {
-        let [people, laser, vision, target, state] = &topics.results;
+        let [people, laser, vision, target, state, markers] = &topics.results;
         Ok(RosOutputs {
             name: topics.cmd_vel.clone(),
             frame: frame.to_owned(),
@@ -401,6 +402,7 @@ impl RosOutputs {
             vision_people: publisher(node, vision, 10)?,
             target: publisher(node, target, 10)?,
             target_state: publisher(node, state, 10)?,
+            markers: publisher(node, markers, 10)?,
         })
     }
 }
@@ -431,7 +433,8 @@ impl CommandSink for RosOutputs {
         published(
             "target_state",
             self.target_state.publish(Wire(m.target_state)),
-        )
+        )?;
+        published("markers", self.markers.publish(Wire(m.markers)))
     }
 
     fn send(&mut self, command: &CommandLine) -> io::Result<()> {

@@ -12,7 +12,7 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
-from peer import LaserScan, ParticipantEntitiesInfo, PoseArray, TFMessage, Twist, qos, valid
+from peer import LaserScan, MarkerArray, ParticipantEntitiesInfo, PoseArray, TFMessage, Twist, qos, valid
 
 
 def main():
@@ -32,6 +32,9 @@ def main():
             dp, Topic(dp, "rt/tether/people", PoseArray), qos=qos(True, 100)
         ),
         "scan": DataReader(dp, Topic(dp, "rt/scan", LaserScan), qos=qos(False, 5)),
+        "markers": DataReader(
+            dp, Topic(dp, "rt/tether/markers", MarkerArray), qos=qos(True, 100)
+        ),
     }
     discovery = DataReader(
         dp,
@@ -42,6 +45,9 @@ def main():
     moving = 0
     people_seen = 0
     nodes = set()
+    # Namespaces of the markers seen, and the labels of the target's track.
+    marker_namespaces = set()
+    target_labels = set()
     start = time.monotonic()
     end = start + a.seconds
     tf_static = None
@@ -65,6 +71,11 @@ def main():
                     moving += 1
                 if name == "people" and s.poses:
                     people_seen += 1
+                if name == "markers":
+                    for m in s.markers:
+                        marker_namespaces.add(m.ns)
+                        if m.ns == "track_labels" and m.text.endswith("target"):
+                            target_labels.add(m.text)
         for s in valid(discovery.take(N=100)):
             for n in s.node_entities_info_seq:
                 nodes.add((n.node_namespace, n.node_name))
@@ -76,6 +87,8 @@ def main():
                 "cmd_vel_moving": moving,
                 "people_with_someone": people_seen,
                 "nodes": sorted(nodes),
+                "marker_namespaces": sorted(marker_namespaces),
+                "target_labels": sorted(target_labels),
                 "tf_static": mounts,
             }
         )

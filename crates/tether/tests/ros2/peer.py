@@ -166,6 +166,72 @@ class TFMessage(IdlStruct, typename="tf2_msgs::msg::dds_::TFMessage_"):
 
 
 @dataclass
+class CompressedImage(IdlStruct, typename="sensor_msgs::msg::dds_::CompressedImage_"):
+    header: Header
+    format: str
+    data: sequence[uint8]
+
+
+@dataclass
+class ColorRGBA(IdlStruct, typename="std_msgs::msg::dds_::ColorRGBA_"):
+    r: float32
+    g: float32
+    b: float32
+    a: float32
+
+
+@dataclass
+class Duration(IdlStruct, typename="builtin_interfaces::msg::dds_::Duration_"):
+    sec: int32
+    nanosec: uint32
+
+
+@dataclass
+class UVCoordinate(IdlStruct, typename="visualization_msgs::msg::dds_::UVCoordinate_"):
+    u: float32
+    v: float32
+
+
+@dataclass
+class MeshFile(IdlStruct, typename="visualization_msgs::msg::dds_::MeshFile_"):
+    filename: str
+    data: sequence[uint8]
+
+
+@dataclass
+class Marker(IdlStruct, typename="visualization_msgs::msg::dds_::Marker_"):
+    header: Header
+    ns: str
+    id: int32
+    type: int32
+    action: int32
+    pose: Pose
+    scale: Vector3
+    color: ColorRGBA
+    lifetime: Duration
+    frame_locked: bool
+    points: sequence[Point]
+    colors: sequence[ColorRGBA]
+    texture_resource: str
+    texture: CompressedImage
+    uv_coordinates: sequence[UVCoordinate]
+    text: str
+    mesh_resource: str
+    mesh_file: MeshFile
+    mesh_use_embedded_materials: bool
+
+
+@dataclass
+class MarkerArray(IdlStruct, typename="visualization_msgs::msg::dds_::MarkerArray_"):
+    markers: sequence[Marker]
+
+
+@dataclass
+class Clock(IdlStruct, typename="rosgraph_msgs::msg::dds_::Clock_"):
+    clock: Time
+
+
+@dataclass
 class Gid(IdlStruct, typename="rmw_dds_common::msg::dds_::Gid_"):
     data: array[uint8, 16]
 
