@@ -25,6 +25,12 @@ pub mod qos {
         QosProfile::subscription_default().history(History::KeepLast { depth: 5 })
     }
 
+    /// `rclcpp::ClockQoS` for `/clock`: best effort, volatile, keep last 1 (only the
+    /// newest time matters). It matches reliable and best-effort publishers alike.
+    pub fn clock() -> QosProfile {
+        QosProfile::subscription_default().history(History::KeepLast { depth: 1 })
+    }
+
     /// Reliable, volatile, keep last `depth` (`/cmd_vel`: 10; `/tf`: 100).
     pub fn reliable(depth: usize) -> QosProfile {
         QosProfile::publisher_default()

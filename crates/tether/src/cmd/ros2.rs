@@ -10,19 +10,24 @@
 //! |---|---|---|
 //! | `scan` (in) | `sensor_msgs/msg/LaserScan` | best effort, keep last 5 (matches reliable and best-effort publishers) |
 //! | `odom` (in) | `nav_msgs/msg/Odometry` (the pose of `child_frame_id` in `header.frame_id`) | best effort, keep last 5 |
+//! | `clock` (in, with `use_sim_time`) | `rosgraph_msgs/msg/Clock` | best effort, keep last 1 |
 //! | `tf_static` (in) | `tf2_msgs/msg/TFMessage` (the laser's mount below `base_frame`) | reliable, transient local |
 //! | `image_raw` or `image_raw/compressed` (in, when the config has a `[camera]`) | `sensor_msgs/msg/Image` (`mono8`, `rgb8`, `bgr8`) or `sensor_msgs/msg/CompressedImage` (JPEG, PNG) | best effort, keep last 5 |
 //! | `cmd_vel` (out) | `geometry_msgs/msg/Twist` (or `TwistStamped`) | reliable, keep last 10 |
 //! | `tether/people`, `tether/laser_people` (out) | `geometry_msgs/msg/PoseArray` | reliable, keep last 10 |
 //! | `tether/target` (out) | `geometry_msgs/msg/PoseWithCovarianceStamped` | reliable, keep last 10 |
 //! | `tether/target_state` (out) | `std_msgs/msg/String` (JSON) | reliable, keep last 10 |
+//! | `tether/markers` (out) | `visualization_msgs/msg/MarkerArray` (tracks, ellipses, the target, observations) | reliable, keep last 10 |
 //!
 //! Parameters (`-p NAME:=VALUE`): `fixed_frame` (default `odom`: the frame of the
 //! results), `base_frame` (default `base_link`), `cmd_vel_stamped` (default `false`;
 //! `true`: `geometry_msgs/msg/TwistStamped` in `base_frame`, stamped with the time of
 //! the scan or timer tick that made the command, as Jazzy's diff-drive controller
-//! takes it), `follow_distance` (m, the spring's free length), `use_sim_time` (only
-//! `false` so far), `image_transport` (`raw`, the default, or `compressed`).
+//! takes it), `follow_distance` (m, the spring's free length), `use_sim_time` (default
+//! `false`; `true`: time is the newest `/clock`, `rosgraph_msgs/msg/Clock`, which the
+//! node waits for at the start; `--duration` then counts simulated seconds, and a clock
+//! that stands still for 1 s stops the robot), `image_transport` (`raw`, the default,
+//! or `compressed`).
 //!
 //! The camera: frames are taken as they arrive; the detector gets the newest one when
 //! it is free (frames it had no time for are counted as superseded, never queued).
@@ -36,16 +41,17 @@ use std::time::Duration;
 use anyhow::Context;
 use tether::ego::EgoMotion;
 use tether::live::base::CommandSink;
-use tether::live::clock::MonotonicClock;
+use tether::live::clock::{LiveClock, MonotonicClock, SimClock};
 use tether::live::config::RobotConfig;
 use tether::live::ros2::{
     CameraCounters, LatestFrame, OutputTopics, RosOutputs, ScanCounters, start_camera_reader,
-    start_odometry_reader, start_scan_reader,
+    start_clock_reader, start_odometry_reader, start_scan_reader,
 };
 use tether::live::run_loop::{self, Ending, Input, LoopConfig, Recorder};
 use tether::results::TickMessages;
 use tether_core::LaserMount;
 use tether_io::mcap::TfMessage;
+use tether_io::scip::Clock;
 use tether_pipeline::{Pipeline, PipelineConfig};
 use tether_ros2::{
     NodeIdentity, ParamValue, Received, RosArgs, RosNode, StaticTransforms, qos, spawn_reader,
@@ -99,6 +105,8 @@ struct NodeParameters {
     cmd_vel_stamped: Option<String>,
     /// `image_transport:=compressed`: the camera as `image_raw/compressed`.
     compressed_images: bool,
+    /// `use_sim_time:=true`: time from `/clock`.
+    use_sim_time: bool,
 }
 
 /// A TurtleBot 4 (iRobot Create 3 base): what the node assumes without `--config`.
@@ -151,14 +159,11 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
             }
         }
     }
-    match ros.params.get("use_sim_time") {
-        None | Some(ParamValue::Bool(false)) => {}
-        Some(ParamValue::Bool(true)) => anyhow::bail!(
-            "use_sim_time:=true is not supported yet: tether ros2 runs on the host's clock \
-             (leave it false, or run the simulator in real time)"
-        ),
+    let use_sim_time = match ros.params.get("use_sim_time") {
+        None => false,
+        Some(ParamValue::Bool(b)) => *b,
         Some(v) => anyhow::bail!("parameter use_sim_time must be true or false, got {v:?}"),
-    }
+    };
     let compressed_images = match ros.params.get("image_transport") {
         None => false,
         Some(v) => match v.as_str() {
@@ -172,6 +177,7 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
         cmd_vel_stamped: stamped.then(|| base_frame.clone()),
         base_frame,
         compressed_images,
+        use_sim_time,
     })
 }
 
@@ -265,6 +271,30 @@ fn mount_from_tf(
     }
 }
 
+/// How long the node waits at the start for `/clock` with `use_sim_time`.
+const CLOCK_WAIT: Duration = Duration::from_secs(10);
+
+/// Waits for the first `/clock` (nothing can be stamped before it).
+fn wait_for_clock(clock: &SimClock, topic: &str) -> anyhow::Result<()> {
+    let started = std::time::Instant::now();
+    while !clock.started() {
+        if started.elapsed() >= CLOCK_WAIT {
+            anyhow::bail!(
+                "use_sim_time is true but nothing was published on {topic} within {} s: start \
+                 the simulator (e.g. `tether sim --scenario corridor --ros2 --use-sim-time`), \
+                 or set -p use_sim_time:=false",
+                CLOCK_WAIT.as_secs()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    tracing::info!(
+        "sim time from {topic}: {:.3} s",
+        clock.now_ns() as f64 * 1e-9
+    );
+    Ok(())
+}
+
 /// Runs the node.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let duration = match args.duration {
@@ -306,6 +336,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         base_frame,
         cmd_vel_stamped,
         compressed_images,
+        use_sim_time,
     } = parameters(&args.ros, &mut pipeline_config)?;
     let mount_given = args.config.is_some() || args.scenario.is_some();
     let domain_id = tether_ros2::domain_id(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
@@ -348,8 +379,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &outputs,
         &fixed_frame,
     )?)];
-    let clock = MonotonicClock::new();
     let (tx, rx) = mpsc::sync_channel(32);
+    let (stop_clock, clock_stops) = mpsc::channel();
+    let (clock, clock_reader) = if use_sim_time {
+        let sim = SimClock::new();
+        let clock_topic = topic("clock");
+        let reader = start_clock_reader(
+            &mut node,
+            &clock_topic,
+            sim.clone(),
+            tx.clone(),
+            clock_stops,
+        )?;
+        wait_for_clock(&sim, &clock_topic)?;
+        (LiveClock::Sim(sim), Some(reader))
+    } else {
+        (LiveClock::Host(MonotonicClock::new()), None)
+    };
     let (stop_reader, reader_stops) = mpsc::channel();
     let counters = Arc::new(ScanCounters::default());
     let odom_topic = topic("odom");
@@ -357,7 +403,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let odometry_reader = start_odometry_reader(
         &mut node,
         &odom_topic,
-        clock,
+        clock.clone(),
         tx.clone(),
         odometry_stops,
         Arc::clone(&counters),
@@ -381,7 +427,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 &image_topic,
                 compressed_images,
                 (intrinsics.width_px, intrinsics.height_px),
-                clock,
+                clock.clone(),
                 Arc::clone(&latest),
                 camera_stops,
                 Arc::clone(&camera_counters),
@@ -434,7 +480,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let reader = start_scan_reader(
         &mut node,
         &scan_topic,
-        clock,
+        clock.clone(),
         tx,
         reader_stops,
         Arc::clone(&counters),
@@ -486,6 +532,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let _ = stop_reader.send(());
     let _ = stop_odometry.send(());
     let _ = stop_tf.send(());
+    let _ = stop_clock.send(());
     drop(rx);
     latest.close();
     for (stop, _) in &camera_threads {
@@ -497,6 +544,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ("tf", tf_reader),
     ]
     .into_iter()
+    .chain(clock_reader.map(|t| ("clock", t)))
     .chain(camera_threads.into_iter().map(|(_, t)| ("camera", t)));
     for (name, thread) in threads {
         if thread.join().is_err() {
@@ -520,6 +568,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.ticks,
         summary.ticks_with_target,
     );
+    if let LiveClock::Sim(sim) = &clock {
+        tracing::info!(
+            "sim time: ended at {:.3} s, {} stalls of the clock, {} clock messages that went \
+             back (ignored)",
+            sim.now_ns() as f64 * 1e-9,
+            summary.clock_stalls,
+            sim.backward_jumps()
+        );
+    }
     if camera_section.is_some() {
         tracing::info!(
             "camera: {} frames received, {} processed, {} superseded by a newer frame \

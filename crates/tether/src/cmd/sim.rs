@@ -75,6 +75,19 @@ pub struct Args {
     /// `OUT/ros2_run.json` with how well it followed.
     #[arg(long, conflicts_with_all = ["record", "record_bag", "driver"])]
     pub ros2: bool,
+    /// With `--ros2`: publish the simulated time on `/clock` (`rosgraph_msgs/msg/Clock`,
+    /// from 0) and stamp everything with it, as Gazebo does for nodes with
+    /// `use_sim_time:=true` (`tether ros2 --ros-args -p use_sim_time:=true`).
+    #[arg(long, requires = "ros2")]
+    pub use_sim_time: bool,
+    /// With `--use-sim-time`: run this many times faster than real time (1 to 10).
+    #[arg(
+        long,
+        value_name = "X",
+        default_value_t = 1.0,
+        requires = "use_sim_time"
+    )]
+    pub rate: f64,
     /// Leave `/odom` out of `--record-bag` (a recording without odometry).
     #[arg(long, requires = "record_bag")]
     pub bag_without_odom: bool,
@@ -255,7 +268,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         scenario = super::demo::laser_only(&scenario);
     }
     if args.ros2 {
-        return super::sim_ros2::run(&scenario, args.seed, &args.out);
+        anyhow::ensure!(
+            args.rate.is_finite() && (1.0..=10.0).contains(&args.rate),
+            "--rate must be between 1 and 10 (times real time), got {}",
+            args.rate
+        );
+        let time = if args.use_sim_time {
+            super::sim_ros2::SimTime::Published { rate: args.rate }
+        } else {
+            super::sim_ros2::SimTime::Wall
+        };
+        return super::sim_ros2::run(&scenario, args.seed, time, &args.out);
     }
     let bar = progress_bar(&scenario.name);
     let end_ns = (scenario.duration_s * 1e9) as i64;

@@ -6,13 +6,18 @@
 //! base, it stops when no command has come for 0.5 s. The camera is not published
 //! (the robot is laser-only on the graph).
 //!
+//! With `--use-sim-time` the stamps are the simulated time from 0, published on
+//! `/clock` (`rosgraph_msgs/msg/Clock`, reliable, keep last 1) at every 10 ms step, and
+//! `--rate X` runs it X times faster than real time; the command timeout is then in
+//! simulated time too.
+//!
 //! `tether ros2 --scenario NAME` is the node that matches it (the scenario's laser
 //! mount, follow distance and base limits). At the end (the scenario's duration, or
 //! Ctrl-C) the simulator prints how well the robot followed: mean |d - d0| from the
 //! first command that moved it, and collisions, and writes them to `OUT/ros2_run.json`.
 
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -21,20 +26,34 @@ use anyhow::Context;
 use tether_control::SpringConfig;
 use tether_core::{Point2, Stamp};
 use tether_io::mcap::{
-    Header, LaserScanMsg, OdometryMsg, Pose3, TfMessage, TransformStampedMsg, TwistMsg,
+    ClockMsg, Header, LaserScanMsg, OdometryMsg, Pose3, TfMessage, TransformStampedMsg, TwistMsg,
 };
 use tether_io::scip::{Clock, SystemClock};
 use tether_ros2::{NodeIdentity, Received, RosNode, Wire, qos, spawn_reader};
 use tether_sim::{Command, Scenario, SensorData, Simulation};
 
-/// A base stops when its commands stop for this long.
-const COMMAND_TIMEOUT: Duration = Duration::from_millis(500);
+/// A base stops when its commands stop for this long (simulated time), ns.
+const COMMAND_TIMEOUT_NS: i64 = 500_000_000;
+
+/// The simulator's time on the graph.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SimTime {
+    /// Real time, stamps on the host's wall clock.
+    Wall,
+    /// Simulated time from 0 on `/clock`, `rate` times faster than real time.
+    Published {
+        /// Simulated seconds per wall-clock second.
+        rate: f64,
+    },
+}
 
 /// What the run measured, as `ros2_run.json` holds it.
 #[derive(Debug, serde::Serialize)]
 struct Ros2RunSummary {
     scenario: String,
     seed: u64,
+    /// Simulated seconds per wall second; `null` in real time on the wall clock.
+    sim_time_rate: Option<f64>,
     simulated_s: f64,
     scans_published: u64,
     odometry_published: u64,
@@ -45,12 +64,15 @@ struct Ros2RunSummary {
     /// ahead of the wheel axis to the target's body centre).
     mean_abs_distance_error_m: Option<f64>,
     follow_distance_m: f64,
+    /// Mean |d - d0| over each whole simulated second from the first motion on, m: where
+    /// in the run the error came from.
+    abs_distance_error_by_second_m: Vec<f64>,
     collisions: u32,
     distance_driven_m: f64,
 }
 
-/// Runs `scenario` in real time on the graph until its end or `stop`.
-pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
+/// Runs `scenario` on the graph until its end or Ctrl-C.
+pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
@@ -66,11 +88,18 @@ pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
     let odom = node.publisher::<OdometryMsg>("/odom", qos::sensor_data())?;
     let tf = node.publisher::<TfMessage>("/tf", qos::reliable(100))?;
     let tf_static = node.publisher::<TfMessage>("/tf_static", qos::latched(1))?;
+    let clock = match time {
+        SimTime::Wall => None,
+        SimTime::Published { .. } => Some(node.publisher::<ClockMsg>("/clock", qos::reliable(1))?),
+    };
     let commands = node.subscribe::<TwistMsg>("/cmd_vel", qos::reliable(10))?;
-    let latest: Arc<Mutex<Option<(Instant, Command, u64)>>> = Arc::new(Mutex::new(None));
+    // The simulated time now, ns, for the reader to stamp the commands with.
+    let sim_now = Arc::new(AtomicI64::new(0));
+    let latest: Arc<Mutex<Option<(i64, Command, u64)>>> = Arc::new(Mutex::new(None));
     let (stop_reader, reader_stops) = mpsc::channel();
     let reader = {
         let latest = Arc::clone(&latest);
+        let sim_now = Arc::clone(&sim_now);
         spawn_reader("sim-cmd-vel", commands, reader_stops, move |received| {
             if let Received::Message { message, .. } = received {
                 let command = Command {
@@ -80,7 +109,7 @@ pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
                 if command.v_mps.is_finite() && command.w_radps.is_finite() {
                     let mut slot = latest.lock().unwrap_or_else(|e| e.into_inner());
                     let n = slot.map_or(0, |(_, _, n)| n) + 1;
-                    *slot = Some((Instant::now(), command, n));
+                    *slot = Some((sim_now.load(Ordering::Acquire), command, n));
                 }
             }
             true
@@ -97,7 +126,12 @@ pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
     let scan_period_s = scenario.laser.scan_period_s;
     let attach_ahead_m = SpringConfig::default().attach_ahead_m;
     let d0 = scenario.robot.follow_distance_m;
-    let unix0 = SystemClock.now_ns();
+    // Stamps: the wall clock at the start plus the simulated time, or the simulated
+    // time alone.
+    let (unix0, rate) = match time {
+        SimTime::Wall => (SystemClock.now_ns(), 1.0),
+        SimTime::Published { rate } => (0, rate),
+    };
     // The robot's description: where its laser sits (sent once; late joiners get it).
     let m = scenario.laser.mount;
     let mut mount = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
@@ -112,17 +146,28 @@ pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
     tf_static
         .publish(Wire(mount))
         .map_err(|e| anyhow::anyhow!("/tf_static: {e:?}"))?;
-    let wall0 = Instant::now();
+    let mut wall0 = Instant::now();
     tracing::info!(
-        "simulating `{}` (seed {seed}) on ROS 2 domain {domain_id} in real time: /scan{}, \
-         driving from /cmd_vel; follow with `tether ros2 --scenario {}`",
+        "simulating `{}` (seed {seed}) on ROS 2 domain {domain_id} {}: /scan{}{}, driving \
+         from /cmd_vel; follow with `tether ros2 --scenario {}{}`",
         scenario.name,
+        match time {
+            SimTime::Wall => "in real time".to_owned(),
+            SimTime::Published { rate } => format!("on sim time at {rate} x real time"),
+        },
         if odometry { ", /odom" } else { "" },
+        if clock.is_some() { ", /clock" } else { "" },
         scenario.name.trim_end_matches("-laser-only"),
+        if clock.is_some() {
+            " --ros-args -p use_sim_time:=true"
+        } else {
+            ""
+        },
     );
     let mut summary = Ros2RunSummary {
         scenario: scenario.name.clone(),
         seed,
+        sim_time_rate: clock.is_some().then_some(rate),
         simulated_s: 0.0,
         scans_published: 0,
         odometry_published: 0,
@@ -130,6 +175,7 @@ pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
         first_motion_s: None,
         mean_abs_distance_error_m: None,
         follow_distance_m: d0,
+        abs_distance_error_by_second_m: Vec::new(),
         collisions: 0,
         distance_driven_m: 0.0,
     };
@@ -140,15 +186,27 @@ pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
             break;
         };
         let t_ns = event.truth.stamp.ns();
-        let due = wall0 + Duration::from_nanos(t_ns.max(0) as u64);
-        if let Some(wait) = due.checked_duration_since(Instant::now()) {
-            std::thread::sleep(wait);
+        let due = wall0 + Duration::from_secs_f64(t_ns.max(0) as f64 * 1e-9 / rate);
+        let now = Instant::now();
+        match due.checked_duration_since(now) {
+            Some(wait) => std::thread::sleep(wait),
+            // Behind (a busy machine). On the wall clock the stamps must catch up; on
+            // simulated time the clock slows down instead: a burst of steps would give
+            // the follower less time to answer than the simulated time says it had.
+            None if clock.is_some() => wall0 += now - due,
+            None => {}
         }
         let stamp = Stamp::from_ns(unix0.saturating_add(t_ns));
+        sim_now.store(t_ns, Ordering::Release);
+        if let Some(clock) = &clock {
+            clock
+                .publish(Wire(ClockMsg { clock: stamp }))
+                .map_err(|e| anyhow::anyhow!("/clock: {e:?}"))?;
+        }
         let command = match *latest.lock().unwrap_or_else(|e| e.into_inner()) {
-            Some((at, command, n)) => {
+            Some((at_ns, command, n)) => {
                 summary.commands_received = n;
-                if at.elapsed() <= COMMAND_TIMEOUT {
+                if t_ns.saturating_sub(at_ns) <= COMMAND_TIMEOUT_NS {
                     command
                 } else {
                     Command::default()
@@ -207,7 +265,7 @@ pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
                     && let Some(target) = truth.target()
                 {
                     let attach = truth.world_from_robot * Point2::new(attach_ahead_m, 0.0);
-                    errors.push((attach.distance_m(target.position) - d0).abs());
+                    errors.push((t_ns, (attach.distance_m(target.position) - d0).abs()));
                 }
             }
             SensorData::Camera(_) => {}
@@ -221,17 +279,27 @@ pub fn run(scenario: &Scenario, seed: u64, out: &Path) -> anyhow::Result<()> {
     }
     drop(node);
     summary.collisions = sim.collisions();
-    summary.mean_abs_distance_error_m =
-        (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64);
+    summary.mean_abs_distance_error_m = (!errors.is_empty())
+        .then(|| errors.iter().map(|(_, e)| e).sum::<f64>() / errors.len() as f64);
+    for second in errors.chunk_by(|a, b| a.0 / 1_000_000_000 == b.0 / 1_000_000_000) {
+        let mean = second.iter().map(|(_, e)| e).sum::<f64>() / second.len() as f64;
+        summary
+            .abs_distance_error_by_second_m
+            .push((mean * 1000.0).round() / 1000.0);
+    }
     let path = out.join("ros2_run.json");
     let json = serde_json::to_string_pretty(&summary)?;
     std::fs::write(&path, json + "\n").with_context(|| format!("writing {}", path.display()))?;
     println!(
-        "{}: {:.1} s simulated in real time, {} scans and {} odometry messages published, {} \
+        "{}: {:.1} s simulated {}, {} scans and {} odometry messages published, {} \
          commands received, first motion at {}, mean |d - d0| {} (d0 = {d0} m), {} collisions, \
          {:.1} m driven -> {}",
         scenario.name,
         summary.simulated_s,
+        match time {
+            SimTime::Wall => "in real time".to_owned(),
+            SimTime::Published { rate } => format!("on /clock at {rate} x real time"),
+        },
         summary.scans_published,
         summary.odometry_published,
         summary.commands_received,

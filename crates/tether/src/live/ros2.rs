@@ -2,10 +2,11 @@
 //! [`Input`]s, and the commands and results as topics, an output like any other
 //! ([`CommandSink`]), so that `run` and `ros2` share one loop and one safety path.
 //!
-//! Time: the loop runs on the host's clock ([`MonotonicClock`], wall time that never
-//! jumps). A scan keeps its header stamp when that is plausible on this clock (at most
-//! 1 s old and not in the future); otherwise (a publisher with a skewed clock or zero
-//! stamps) it is stamped on arrival, and that is counted and reported once.
+//! Time: the loop runs on the host's clock ([`super::clock::MonotonicClock`], wall time
+//! that never jumps) or, with `use_sim_time`, on `/clock` ([`SimClock`]). A scan keeps
+//! its header stamp when that is plausible on this clock (at most 1 s old and not in the
+//! future); otherwise (a publisher with a skewed clock or zero stamps) it is stamped on
+//! arrival, and that is counted and reported once.
 
 use std::io;
 use std::sync::Arc;
@@ -16,8 +17,8 @@ use std::thread::JoinHandle;
 use ros2_client::dds::Publisher;
 use tether_core::{Pose2, Robot, World};
 use tether_io::mcap::{
-    CompressedImageMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg, OdometryMsg, PoseArrayMsg,
-    PoseWithCovarianceStampedMsg, StringMsg,
+    ClockMsg, CompressedImageMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg, OdometryMsg,
+    PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg,
 };
 use tether_io::mcap::{Header, Ros2Message, TwistMsg, TwistStampedMsg};
 use tether_io::scip::Clock;
@@ -25,7 +26,7 @@ use tether_pipeline::Tick;
 use tether_ros2::{Received, Ros2Error, RosNode, Wire, offer, qos, spawn_reader};
 
 use super::base::{CommandLine, CommandSink};
-use super::clock::MonotonicClock;
+use super::clock::{LiveClock, SimClock};
 use super::run_loop::Input;
 use crate::results::TickMessages;
 
@@ -60,7 +61,7 @@ pub fn loop_stamp(header_ns: i64, now_ns: i64) -> Option<i64> {
 pub fn start_scan_reader(
     node: &mut RosNode,
     topic: &str,
-    clock: MonotonicClock,
+    clock: LiveClock,
     tx: SyncSender<Input>,
     stop: Receiver<()>,
     counters: Arc<ScanCounters>,
@@ -109,12 +110,60 @@ pub fn start_scan_reader(
     })
 }
 
+/// Subscribes to `/clock` (`rosgraph_msgs/msg/Clock`, best effort, keep last 1, which
+/// matches every publisher) and sets `clock` from it; each advance wakes the loop
+/// ([`Input::ClockAdvanced`]) so that its timer runs on simulated time.
+pub fn start_clock_reader(
+    node: &mut RosNode,
+    topic: &str,
+    clock: SimClock,
+    tx: SyncSender<Input>,
+    stop: Receiver<()>,
+) -> Result<JoinHandle<()>, Ros2Error> {
+    let domain = node.identity().domain_id;
+    let subscription = node.subscribe::<ClockMsg>(topic, qos::clock())?;
+    let topic_name = topic.to_owned();
+    let mut dropped = 0;
+    let mut warned = false;
+    spawn_reader(
+        "ros2-clock",
+        subscription,
+        stop,
+        move |received| match received {
+            Received::Message { message, .. } => {
+                let ns = message.clock.ns();
+                if !clock.set(ns) {
+                    if !warned {
+                        tracing::warn!(
+                            "{topic_name}: the clock went back to {:.3} s; ignored (restart tether \
+                         ros2 after restarting the simulation)",
+                            ns as f64 * 1e-9
+                        );
+                        warned = true;
+                    }
+                    return true;
+                }
+                // A full queue is no loss: the loop reads the clock, not the messages.
+                offer(&tx, Input::ClockAdvanced, &mut dropped)
+            }
+            Received::Malformed(why) => {
+                tracing::warn!("{topic_name}: a sample skipped: {why}");
+                true
+            }
+        },
+    )
+    .map_err(|e| Ros2Error::Join {
+        domain,
+        message: format!("cannot start the clock reader thread: {e}"),
+    })
+}
+
 /// Subscribes to the base's odometry on `topic` and sends each pose to the loop, stamped
 /// as scans are ([`loop_stamp`]).
 pub fn start_odometry_reader(
     node: &mut RosNode,
     topic: &str,
-    clock: MonotonicClock,
+    clock: LiveClock,
     tx: SyncSender<Input>,
     stop: Receiver<()>,
     counters: Arc<ScanCounters>,
@@ -260,7 +309,7 @@ pub fn start_camera_reader(
     topic: &str,
     compressed: bool,
     size_px: (u32, u32),
-    clock: MonotonicClock,
+    clock: LiveClock,
     latest: Arc<LatestFrame>,
     stop: Receiver<()>,
     counters: Arc<CameraCounters>,

@@ -62,7 +62,15 @@ pub enum Input {
         /// datum's stamp.
         moving: Twist,
     },
+    /// The simulated clock moved on (`/clock`, `use_sim_time`): nothing to process,
+    /// but the control timer may be due.
+    ClockAdvanced,
 }
+
+/// A clock that stands still this long in wall time (a simulator that stopped
+/// publishing `/clock`) gets the robot a stop: the timer, and with it the watchdog,
+/// runs on that clock and would never fire.
+pub const CLOCK_STALL: Duration = Duration::from_secs(1);
 
 /// Longest time odometry is carried forward by its velocity, s.
 const ODOMETRY_EXTRAPOLATION_S: f64 = 0.2;
@@ -155,6 +163,8 @@ pub struct RunSummary {
     pub odometry_messages: u64,
     /// Scans and frames skipped because the odometry had stopped.
     pub skipped_stale_odometry: u64,
+    /// Times the clock stood still for [`CLOCK_STALL`] and the robot was stopped.
+    pub clock_stalls: u64,
 }
 
 /// The MCAP recording of a live run: the scans (`/scan`), the dead-reckoned odometry
@@ -390,6 +400,27 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
         Ok(())
     }
 
+    /// The clock stands still: a stop to every output, until it moves again.
+    fn clock_stalled(&mut self, now: Stamp) -> Result<(), Ending> {
+        self.summary.clock_stalls += 1;
+        tracing::warn!(
+            "the clock has not moved for {:.1} s (has the simulator stopped publishing \
+             /clock?): the robot is stopped until it moves again",
+            CLOCK_STALL.as_secs_f64()
+        );
+        let line = CommandLine {
+            stop: Some("clock_stalled"),
+            ..CommandLine::new(now.ns(), "timer", 0.0, 0.0, self.config.track_width_m)
+        };
+        for sink in self.sinks.iter_mut() {
+            sink.send(&line).map_err(|e| Ending::OutputFailed {
+                output: sink.name().to_owned(),
+                error: e.to_string(),
+            })?;
+        }
+        Ok(())
+    }
+
     fn run(&mut self, inputs: &Receiver<Input>, stop: &AtomicBool) -> Ending {
         let period_ns = i64::try_from(self.config.control_period.as_nanos())
             .unwrap_or(i64::MAX)
@@ -401,11 +432,24 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
             .map(|d| start.saturating_add_ns(i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)));
         let mut next_timer = start.saturating_add_ns(period_ns);
         let mut camera_alive = true;
+        // When the clock last moved (wall time), and whether the stop for a stalled
+        // clock has gone out.
+        let (mut clock_seen, mut clock_moved_at, mut stall_stopped) =
+            (start, std::time::Instant::now(), false);
         loop {
             if stop.load(Ordering::Relaxed) {
                 return Ending::Interrupted;
             }
             let now = self.now();
+            if now > clock_seen {
+                (clock_seen, clock_moved_at, stall_stopped) =
+                    (now, std::time::Instant::now(), false);
+            } else if !stall_stopped && clock_moved_at.elapsed() >= CLOCK_STALL {
+                stall_stopped = true;
+                if let Err(e) = self.clock_stalled(now) {
+                    return e;
+                }
+            }
             if end.is_some_and(|end| now >= end) {
                 return Ending::Duration;
             }
@@ -447,6 +491,7 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
                     }
                     Ok(())
                 }
+                Ok(Input::ClockAdvanced) => Ok(()),
                 Ok(Input::Odometry {
                     stamp,
                     world_from_robot,
@@ -547,6 +592,7 @@ pub fn run<W: std::io::Write + std::io::Seek>(
             target: TargetLog::new(),
             odometry_messages: 0,
             skipped_stale_odometry: 0,
+            clock_stalls: 0,
         },
         scan_period_s,
         travelled_to: tether_core::Point2::ORIGIN,

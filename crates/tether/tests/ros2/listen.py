@@ -12,7 +12,7 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
-from peer import LaserScan, MarkerArray, ParticipantEntitiesInfo, PoseArray, TFMessage, Twist, qos, valid
+from peer import Clock, LaserScan, MarkerArray, ParticipantEntitiesInfo, PoseArray, TFMessage, Twist, qos, valid
 
 
 def main():
@@ -32,6 +32,7 @@ def main():
             dp, Topic(dp, "rt/tether/people", PoseArray), qos=qos(True, 100)
         ),
         "scan": DataReader(dp, Topic(dp, "rt/scan", LaserScan), qos=qos(False, 5)),
+        "clock": DataReader(dp, Topic(dp, "rt/clock", Clock), qos=qos(False, 1)),
         "markers": DataReader(
             dp, Topic(dp, "rt/tether/markers", MarkerArray), qos=qos(True, 100)
         ),
@@ -47,6 +48,9 @@ def main():
     nodes = set()
     # Namespaces of the markers seen, and the labels of the target's track.
     marker_namespaces = set()
+    # The newest /clock and the newest stamp on tether/people, ns.
+    clock_ns = None
+    people_stamp_ns = None
     target_labels = set()
     start = time.monotonic()
     end = start + a.seconds
@@ -71,6 +75,12 @@ def main():
                     moving += 1
                 if name == "people" and s.poses:
                     people_seen += 1
+                if name == "people":
+                    t = s.header.stamp.sec * 1_000_000_000 + s.header.stamp.nanosec
+                    people_stamp_ns = max(t, people_stamp_ns or t)
+                if name == "clock":
+                    t = s.clock.sec * 1_000_000_000 + s.clock.nanosec
+                    clock_ns = max(t, clock_ns or t)
                 if name == "markers":
                     for m in s.markers:
                         marker_namespaces.add(m.ns)
@@ -88,6 +98,8 @@ def main():
                 "people_with_someone": people_seen,
                 "nodes": sorted(nodes),
                 "marker_namespaces": sorted(marker_namespaces),
+                "clock_ns": clock_ns,
+                "people_stamp_ns": people_stamp_ns,
                 "target_labels": sorted(target_labels),
                 "tf_static": mounts,
             }
