@@ -7,11 +7,12 @@
 //! the `tether` crate's (`tether ros2`); this crate knows nothing of tracking.
 
 pub mod args;
+pub mod graph;
 pub mod node;
 pub mod tf;
 pub mod wire;
 
 pub use args::{ArgsError, ParamValue, Remap, RosArgs, domain_id};
-pub use node::{NodeIdentity, Received, Ros2Error, RosNode, offer, qos, spawn_reader};
+pub use node::{GraphWatcher, NodeIdentity, Received, Ros2Error, RosNode, offer, qos, spawn_reader};
 pub use tf::StaticTransforms;
 pub use wire::Wire;

@@ -13,6 +13,7 @@ use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{Name, NodeName, NodeOptions, QosProfile};
 use tether_io::mcap::Ros2Message;
 
+use crate::graph;
 use crate::wire::{Wire, type_name};
 
 /// Quality of service as ROS 2's profiles name it (SPEC 12).
@@ -93,6 +94,8 @@ pub struct RosNode {
     identity: NodeIdentity,
     node: Node,
     spinner: Option<JoinHandle<()>>,
+    /// This node's topics, to compare with the graph's ([`RosNode::graph_mismatches`]).
+    endpoints: Vec<graph::Endpoint>,
     // Dropped last: the participant says goodbye to its peers when it goes.
     _context: Context,
 }
@@ -128,6 +131,7 @@ impl RosNode {
             identity,
             node,
             spinner: Some(spinner),
+            endpoints: Vec::new(),
             _context: context,
         })
     }
@@ -160,6 +164,7 @@ impl RosNode {
         qos: QosProfile,
     ) -> Result<Subscription<Wire<M>>, Ros2Error> {
         let topic = self.topic::<M>(full_name, &qos)?;
+        self.remember::<M>(full_name, &qos, graph::Direction::Subscription);
         self.node
             .create_subscription(&topic, Some(qos))
             .map_err(|e| Ros2Error::Topic {
@@ -176,6 +181,7 @@ impl RosNode {
         qos: QosProfile,
     ) -> Result<Publisher<Wire<M>>, Ros2Error> {
         let topic = self.topic::<M>(full_name, &qos)?;
+        self.remember::<M>(full_name, &qos, graph::Direction::Publication);
         self.node
             .create_publisher(&topic, Some(qos))
             .map_err(|e| Ros2Error::Topic {
@@ -183,6 +189,29 @@ impl RosNode {
                 kind: M::TYPE,
                 message: e.to_string(),
             })
+    }
+
+    fn remember<M: Ros2Message>(
+        &mut self,
+        full_name: &str,
+        qos: &QosProfile,
+        direction: graph::Direction,
+    ) {
+        self.endpoints.push(graph::Endpoint {
+            topic: full_name.to_owned(),
+            type_name: M::TYPE.to_owned(),
+            qos: qos.into(),
+            direction,
+        });
+    }
+
+    /// A watcher of the graph against this node's topics as they are now; it can go to
+    /// another thread.
+    pub fn graph_watcher(&self) -> GraphWatcher {
+        GraphWatcher {
+            participant: self._context.domain_participant(),
+            ours: self.endpoints.clone(),
+        }
     }
 
     /// How many subscriptions on the graph match `full_name`.
@@ -203,6 +232,52 @@ impl Drop for RosNode {
                 let _ = spinner.join();
             }
         }
+    }
+}
+
+/// Compares a node's topics with what discovery has found on the graph.
+pub struct GraphWatcher {
+    participant: ros2_client::dds::rustdds::DomainParticipant,
+    ours: Vec<graph::Endpoint>,
+}
+
+impl GraphWatcher {
+    /// What does not fit between the node's topics and the publishers and subscribers
+    /// discovered so far on the same topics (other types, QoS that DDS will not match).
+    pub fn mismatches(&self) -> Vec<graph::Mismatch> {
+        use ros2_client::dds::rustdds::RTPSEntity;
+        let own = self.participant.guid().prefix;
+        let mut theirs = Vec::new();
+        for w in self.participant.discovered_writers() {
+            if w.writer_proxy.remote_writer_guid.prefix == own {
+                continue;
+            }
+            let t = &w.publication_topic_data;
+            theirs.extend(graph::Endpoint::from_dds(
+                &t.topic_name,
+                &t.type_name,
+                t.qos(),
+                graph::Direction::Publication,
+            ));
+        }
+        for r in self.participant.discovered_readers() {
+            if r.reader_proxy.remote_reader_guid.prefix == own {
+                continue;
+            }
+            let t = &r.subscription_topic_data;
+            // ros2-client nodes read `/clock` as a bare `builtin_interfaces/Time`: a
+            // quirk of theirs, not a subscriber tether could serve.
+            if t.topic_name() == "rt/clock" && t.type_name().contains("builtin_interfaces") {
+                continue;
+            }
+            theirs.extend(graph::Endpoint::from_dds(
+                t.topic_name(),
+                t.type_name(),
+                t.qos(),
+                graph::Direction::Subscription,
+            ));
+        }
+        graph::check(&self.ours, &theirs)
     }
 }
 

@@ -490,3 +490,48 @@ fn on_sim_time_the_clock_drives_both_at_twice_real_time() {
     // robot got a stop for it.
     assert!(ros2.contains("the clock has not moved"), "{ros2}");
 }
+
+#[test]
+fn publishers_and_subscribers_dds_will_not_connect_are_reported_with_the_fix() {
+    if !peer_available() {
+        return;
+    }
+    let dir = scratch("ros2-misfit");
+    let bin = env!("CARGO_BIN_EXE_tether");
+    let misfit = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/misfit.py");
+    let script = format!(
+        "ip link set lo up && ip link set lo multicast on && \
+         (cd '{tests}' && python3 '{misfit}' --seconds 9) & \
+         '{bin}' ros2 --duration 7 2> '{d}/ros2.err'; R=$?; wait; exit $R",
+        tests = misfit.parent().unwrap().display(),
+        misfit = misfit.display(),
+        d = dir.display(),
+    );
+    let out = Command::new("unshare")
+        .args(["-n", "sh", "-c", &script])
+        .output()
+        .expect("unshare runs");
+    let log = std::fs::read_to_string(dir.join("ros2.err")).unwrap_or_default();
+    assert!(out.status.success(), "{}\n{log}", text(&out.stderr));
+    for expected in [
+        // The wrong type on the scans, and how to point tether elsewhere.
+        "/scan: a publisher sends std_msgs/msg/String, but tether reads \
+         sensor_msgs/msg/LaserScan",
+        "-r scan:=",
+        // A /tf_static that a late joiner would never get.
+        "/tf_static: a publisher offers durability volatile where the tether subscription \
+         asks for transient local",
+        "make the publisher transient local",
+        // Jazzy's TwistStamped controllers.
+        "/cmd_vel: a subscriber expects geometry_msgs/msg/TwistStamped",
+        "-p cmd_vel_stamped:=true",
+        // A subscriber that wants more than tether offers.
+        "/tether/people: tether's publisher offers durability volatile where the subscriber \
+         asks for transient local",
+    ] {
+        assert!(log.contains(expected), "no {expected:?} in:\n{log}");
+    }
+    // Each is said once, and counted at the end.
+    assert_eq!(log.matches("/scan: a publisher sends").count(), 1, "{log}");
+    assert!(log.contains("4 mismatches with the graph's topics"), "{log}");
+}

@@ -29,6 +29,10 @@
 //! that stands still for 1 s stops the robot), `image_transport` (`raw`, the default,
 //! or `compressed`).
 //!
+//! The graph: every second the node compares its topics with the publishers and
+//! subscribers discovery has found on them, and warns once about each that DDS will not
+//! connect (another message type, a QoS that does not match), saying what to change.
+//!
 //! The camera: frames are taken as they arrive; the detector gets the newest one when
 //! it is free (frames it had no time for are counted as superseded, never queued).
 
@@ -54,7 +58,8 @@ use tether_io::mcap::TfMessage;
 use tether_io::scip::Clock;
 use tether_pipeline::{Pipeline, PipelineConfig};
 use tether_ros2::{
-    NodeIdentity, ParamValue, Received, RosArgs, RosNode, StaticTransforms, qos, spawn_reader,
+    GraphWatcher, NodeIdentity, ParamValue, Received, RosArgs, RosNode, StaticTransforms, qos,
+    spawn_reader,
 };
 use tether_scanmatch::ScanMatcherConfig;
 
@@ -271,6 +276,38 @@ fn mount_from_tf(
     }
 }
 
+/// How often the node compares its topics with the graph's.
+const GRAPH_CHECK_PERIOD: Duration = Duration::from_secs(1);
+
+/// Warns, once each, about publishers and subscribers on tether's topics that DDS will
+/// not connect to it (another type, an incompatible QoS), with the fix; returns how many
+/// there were when `stop` fires.
+fn watch_graph(
+    watcher: GraphWatcher,
+    stop: mpsc::Receiver<()>,
+) -> anyhow::Result<std::thread::JoinHandle<usize>> {
+    std::thread::Builder::new()
+        .name("ros2-graph".into())
+        .spawn(move || {
+            let mut told = std::collections::BTreeSet::new();
+            loop {
+                for mismatch in watcher.mismatches() {
+                    let text = mismatch.to_string();
+                    if told.insert(text.clone()) {
+                        tracing::warn!("{text}");
+                    }
+                }
+                if !matches!(
+                    stop.recv_timeout(GRAPH_CHECK_PERIOD),
+                    Err(mpsc::RecvTimeoutError::Timeout)
+                ) {
+                    return told.len();
+                }
+            }
+        })
+        .context("starting the graph thread")
+}
+
 /// How long the node waits at the start for `/clock` with `use_sim_time`.
 const CLOCK_WAIT: Duration = Duration::from_secs(10);
 
@@ -485,6 +522,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         reader_stops,
         Arc::clone(&counters),
     )?;
+    let (stop_graph, graph_stops) = mpsc::channel::<()>();
+    let graph_thread = watch_graph(node.graph_watcher(), graph_stops)?;
     tracing::info!(
         "node {}{}{} on ROS 2 domain {domain_id}: scans from {scan_topic}, commands to {}, \
          results in {fixed_frame}",
@@ -533,6 +572,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let _ = stop_odometry.send(());
     let _ = stop_tf.send(());
     let _ = stop_clock.send(());
+    let _ = stop_graph.send(());
     drop(rx);
     latest.close();
     for (stop, _) in &camera_threads {
@@ -551,6 +591,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             tracing::error!("the {name} thread panicked");
         }
     }
+    let graph_problems = graph_thread.join().unwrap_or_else(|_| {
+        tracing::error!("the graph thread panicked");
+        0
+    });
     drop(sinks);
     drop(node);
     let load = |c: &std::sync::atomic::AtomicU64| c.load(Ordering::Relaxed);
@@ -589,6 +633,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     tracing::info!("{}", summary.target.one_line(pipeline.selector().stats()));
+    if graph_problems > 0 {
+        tracing::warn!(
+            "{graph_problems} mismatches with the graph's topics were reported above (types \
+             or QoS that DDS does not connect)"
+        );
+    }
     let mut problems: Vec<String> = summary
         .final_stop_failures
         .iter()
