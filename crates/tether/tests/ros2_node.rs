@@ -87,8 +87,14 @@ impl Seen {
     }
 }
 
-/// Runs the peer (and through it `tether ros2 ARGS`) in a fresh namespace.
+/// Runs the peer (and through it `tether ros2 ARGS`) in a fresh namespace; the peer
+/// publishes the laser's mount on `/tf_static` first.
 fn peer(bag: &Path, peer_args: &[&str], tether_args: &[&str]) -> Seen {
+    peer_with(bag, peer_args, tether_args, true)
+}
+
+/// [`peer`], with or without the mount on `/tf_static`.
+fn peer_with(bag: &Path, peer_args: &[&str], tether_args: &[&str], mount: bool) -> Seen {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/peer.py");
     let mut inner = vec![
         "python3".to_owned(),
@@ -106,8 +112,10 @@ fn peer(bag: &Path, peer_args: &[&str], tether_args: &[&str]) -> Seen {
         .0
         .laser
         .mount;
-    inner.push("--mount".into());
-    inner.extend([m.x_m, m.y_m, m.yaw_rad, m.height_m].map(|v| v.to_string()));
+    if mount {
+        inner.push("--mount".into());
+        inner.extend([m.x_m, m.y_m, m.yaw_rad, m.height_m].map(|v| v.to_string()));
+    }
     inner.push("--".into());
     inner.extend(tether_args.iter().map(|s| (*s).to_owned()));
     let quoted: Vec<String> = inner.iter().map(|a| format!("'{a}'")).collect();
@@ -533,5 +541,49 @@ fn publishers_and_subscribers_dds_will_not_connect_are_reported_with_the_fix() {
     }
     // Each is said once, and counted at the end.
     assert_eq!(log.matches("/scan: a publisher sends").count(), 1, "{log}");
-    assert!(log.contains("4 mismatches with the graph's topics"), "{log}");
+    assert!(
+        log.contains("4 mismatches with the graph's topics"),
+        "{log}"
+    );
+}
+
+#[test]
+fn without_a_mount_on_tf_static_the_config_s_is_published_for_others() {
+    if !peer_available() {
+        return;
+    }
+    let dir = scratch("ros2-publish-mount");
+    let bag = corridor_bag(&dir);
+    let seen = peer_with(
+        &bag,
+        &["--seconds", "12", "--read-tf-static", "8"],
+        &["--scenario", "corridor"],
+        false,
+    );
+    let j = &seen.json;
+    let stderr = j["stderr"].as_str().unwrap_or_default();
+    assert_eq!(j["exit_code"], 0, "{stderr}");
+    assert!(
+        stderr.contains("no transform from base_link to laser on /tf_static"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("published the config's laser mount on /tf_static"),
+        "{stderr}"
+    );
+    // A late joiner gets it (transient local), with the scenario's mount.
+    let m = tether_sim::Scenario::resolve("corridor")
+        .unwrap()
+        .0
+        .laser
+        .mount;
+    let mounts = j["tf_static"].as_array().unwrap();
+    assert!(
+        mounts.iter().any(|t| t[0] == "base_link"
+            && t[1] == "laser"
+            && (Seen::f(&t[2]) - m.x_m).abs() < 1e-9
+            && (Seen::f(&t[3]) - m.y_m).abs() < 1e-9
+            && (Seen::f(&t[4]) - m.height_m).abs() < 1e-9),
+        "{mounts:?}"
+    );
 }

@@ -54,7 +54,7 @@ use tether::live::ros2::{
 use tether::live::run_loop::{self, Ending, Input, LoopConfig, Recorder};
 use tether::results::TickMessages;
 use tether_core::LaserMount;
-use tether_io::mcap::TfMessage;
+use tether_io::mcap::{Header, Pose3, TfMessage, TransformStampedMsg};
 use tether_io::scip::Clock;
 use tether_pipeline::{Pipeline, PipelineConfig};
 use tether_ros2::{
@@ -192,7 +192,8 @@ const TF_WAIT: Duration = Duration::from_secs(5);
 /// Takes the laser's mount from `/tf_static` (`base_frame` -> the scans' frame) when it
 /// is published within [`TF_WAIT`] of the start: the robot's description is what a ROS
 /// robot says about itself. Otherwise the config's (or the default) mount stays, with a
-/// warning naming the frames. The scans that arrive meanwhile are dropped.
+/// warning naming the frames. The scans that arrive meanwhile are dropped. Returns the
+/// scans' frame when a scan came but no transform to it.
 fn mount_from_tf(
     rx: &mpsc::Receiver<Input>,
     transforms: &Mutex<StaticTransforms>,
@@ -200,7 +201,7 @@ fn mount_from_tf(
     scan_topic: &str,
     mount_given: bool,
     pipeline: &mut PipelineConfig,
-) {
+) -> Option<String> {
     let started = std::time::Instant::now();
     let mut scan_frame = None;
     while started.elapsed() < TF_WAIT {
@@ -240,7 +241,7 @@ fn mount_from_tf(
                 mount.height_m
             );
             pipeline.laser.mount = mount;
-            return;
+            return None;
         }
     }
     let m = pipeline.laser.mount;
@@ -249,7 +250,7 @@ fn mount_from_tf(
     } else {
         "the default"
     };
-    match scan_frame {
+    match &scan_frame {
         Some(frame) => {
             let heard = transforms
                 .lock()
@@ -274,6 +275,38 @@ fn mount_from_tf(
             TF_WAIT.as_secs()
         ),
     }
+    scan_frame
+}
+
+/// The laser's mount as the robot's description: `base_frame` -> `scan_frame` on
+/// `/tf_static` (latched), for RViz and other nodes, when the config gives the mount
+/// and nobody else publishes it. The publisher must live as long as the node.
+fn publish_mount(
+    node: &mut RosNode,
+    topic: &str,
+    base_frame: &str,
+    scan_frame: &str,
+    mount: LaserMount,
+    stamp_ns: i64,
+) -> anyhow::Result<ros2_client::dds::Publisher<tether_ros2::Wire<TfMessage>>> {
+    let publisher = node.publisher::<TfMessage>(topic, qos::latched(1))?;
+    let mut pose = Pose3::planar(mount.x_m, mount.y_m, mount.yaw_rad);
+    pose.position_m[2] = mount.height_m;
+    let message = TfMessage {
+        transforms: vec![TransformStampedMsg {
+            header: Header::new(tether_core::Stamp::from_ns(stamp_ns), base_frame),
+            child_frame_id: scan_frame.to_owned(),
+            transform: pose,
+        }],
+    };
+    publisher
+        .publish(tether_ros2::Wire(message))
+        .map_err(|e| anyhow::anyhow!("publishing the laser mount on {topic}: {e:?}"))?;
+    tracing::info!(
+        "published the config's laser mount on {topic}: {base_frame} -> {scan_frame} (nobody \
+         else did)"
+    );
+    Ok(publisher)
 }
 
 /// How often the node compares its topics with the graph's.
@@ -537,7 +570,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         outputs.cmd_vel
     );
 
-    mount_from_tf(
+    let unmounted_frame = mount_from_tf(
         &rx,
         &transforms,
         &base_frame,
@@ -545,6 +578,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         mount_given,
         &mut pipeline_config,
     );
+    let mount_publisher = match unmounted_frame {
+        Some(frame) if mount_given => Some(publish_mount(
+            &mut node,
+            &topic("tf_static"),
+            &base_frame,
+            &frame,
+            pipeline_config.laser.mount,
+            clock.now_ns(),
+        )?),
+        _ => None,
+    };
     let mut pipeline = Pipeline::new(pipeline_config, None)?;
     let track_width_m = pipeline.config().limits.track_width_m;
     let scan_period_s = pipeline.config().laser.scan_period_s;
@@ -596,6 +640,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         0
     });
     drop(sinks);
+    drop(mount_publisher);
     drop(node);
     let load = |c: &std::sync::atomic::AtomicU64| c.load(Ordering::Relaxed);
     tracing::info!(

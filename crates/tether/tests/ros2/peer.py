@@ -319,6 +319,13 @@ def main():
         help="cmd_vel is TwistStamped (tether -p cmd_vel_stamped:=true): measure the "
         "latency from each scan to the command it caused",
     )
+    ap.add_argument(
+        "--read-tf-static",
+        type=float,
+        metavar="S",
+        help="join rt/tf_static (transient local) S seconds into the scans and report "
+        "the transforms received",
+    )
     ap.add_argument("tether_args", nargs="*", help="more arguments for tether ros2")
     a = ap.parse_args()
 
@@ -421,8 +428,17 @@ def main():
 
     states, people = [], []
     nodes = set()
+    tf_static_reader = None
+    tf_static_seen = []
 
     def drain():
+        if tf_static_reader is not None:
+            for s in valid(tf_static_reader.take(N=100)):
+                for t in s.transforms:
+                    v = t.transform.translation
+                    tf_static_seen.append(
+                        [t.header.frame_id, t.child_frame_id, v.x, v.y, v.z]
+                    )
         for s in valid(state_reader.take(N=1000)):
             states.append([time.monotonic(), s.data])
         for s in valid(people_reader.take(N=1000)):
@@ -462,6 +478,16 @@ def main():
         offset = (t_ns - first_t) * 1e-9
         if offset > a.seconds:
             break
+        if (
+            a.read_tf_static is not None
+            and tf_static_reader is None
+            and offset >= a.read_tf_static
+        ):
+            tf_static_reader = DataReader(
+                dp,
+                Topic(dp, "rt/tf_static", TFMessage),
+                qos=qos(True, 100, transient_local=True),
+            )
         while time.monotonic() - wall0 < offset:
             maybe_image(time.monotonic() - wall0)
             drain()
@@ -552,6 +578,7 @@ def main():
                 "target_state": states,
                 "people": people,
                 "nodes": sorted(nodes),
+                "tf_static": tf_static_seen,
                 "interrupted_at": interrupted_at,
                 "exited_at": exited_at,
                 "exit_code": child.returncode,
