@@ -587,3 +587,42 @@ fn without_a_mount_on_tf_static_the_config_s_is_published_for_others() {
         "{mounts:?}"
     );
 }
+
+#[test]
+fn a_flood_of_bad_scans_and_odometry_neither_crashes_nor_moves_the_robot() {
+    if !peer_available() {
+        return;
+    }
+    let flood = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/flood.py");
+    let script = format!(
+        "ip link set lo up && ip link set lo multicast on && cd '{tests}' && \
+         exec python3 '{flood}' --tether '{bin}' --seconds 6",
+        tests = flood.parent().unwrap().display(),
+        flood = flood.display(),
+        bin = env!("CARGO_BIN_EXE_tether"),
+    );
+    let out = Command::new("unshare")
+        .args(["-n", "sh", "-c", &script])
+        .output()
+        .expect("unshare runs");
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}\n{stdout}", text(&out.stderr));
+    let j: serde_json::Value = serde_json::from_str(stdout.trim()).expect("the flood's JSON");
+    let log = j["stderr"].as_str().unwrap_or_default();
+    eprintln!(
+        "flood: {} scans at {:.0} Hz, {} odometry messages",
+        j["sent"]["scans"], j["rate_hz"], j["sent"]["odometry"]
+    );
+    assert_eq!(j["exit_code"], 0, "{log}");
+    // Far more than a laser's 10-40 Hz, for seconds.
+    assert!(j["rate_hz"].as_f64().unwrap() > 200.0, "{j}");
+    // Nobody is in the scans: the robot never moves, but it is commanded (stops) all
+    // along, and the last command is the final stop.
+    assert!(j["commands"].as_u64().unwrap() > 50, "{j}");
+    assert_eq!(j["moving_commands"], 0, "{log}");
+    // What was refused is said, and counted.
+    assert!(log.contains("an odometry message refused: its pose is not finite"), "{log}");
+    assert!(log.contains("stamped on arrival"), "{log}");
+    assert!(log.contains("interrupted"), "{log}");
+    assert!(!log.contains("panicked"), "{log}");
+}

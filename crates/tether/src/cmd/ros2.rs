@@ -645,14 +645,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let load = |c: &std::sync::atomic::AtomicU64| c.load(Ordering::Relaxed);
     tracing::info!(
         "{}: {} scans ({} dropped while the loop was behind, {} stamped on arrival, {} \
-         malformed samples), {} odometry messages used ({} scans skipped on stale \
-         odometry), {} ticks ({} with a target)",
+         malformed samples), {} odometry messages used ({} refused, {} scans skipped on \
+         stale odometry), {} ticks ({} with a target)",
         summary.ending.name(),
         load(&counters.delivered),
         load(&counters.dropped),
         load(&counters.restamped),
         load(&counters.malformed),
         summary.odometry_messages,
+        load(&counters.odometry_refused),
         summary.skipped_stale_odometry,
         summary.ticks,
         summary.ticks_with_target,

@@ -44,9 +44,17 @@ pub struct ScanCounters {
     pub dropped: AtomicU64,
     /// Scans stamped on arrival because their header stamp was implausible.
     pub restamped: AtomicU64,
-    /// Samples (scans, odometry) that did not decode or were not usable.
+    /// Scans that did not decode or were not usable.
     pub malformed: AtomicU64,
+    /// Odometry messages refused: undecodable, a non-finite pose, or a velocity no
+    /// ground robot has ([`MAX_ODOMETRY_SPEED_MPS`], [`MAX_ODOMETRY_TURN_RADPS`]).
+    pub odometry_refused: AtomicU64,
 }
+
+/// Fastest forward speed an odometry message may report, m/s.
+pub const MAX_ODOMETRY_SPEED_MPS: f64 = 20.0;
+/// Fastest turn rate an odometry message may report, rad/s.
+pub const MAX_ODOMETRY_TURN_RADPS: f64 = 20.0;
 
 /// The stamp the loop uses for a scan stamped `header_ns` that arrived at `now_ns`.
 pub fn loop_stamp(header_ns: i64, now_ns: i64) -> Option<i64> {
@@ -93,7 +101,11 @@ pub fn start_scan_reader(
                 Input::Scan(scan)
             }
             Received::Malformed(why) => {
-                counters.malformed.fetch_add(1, Ordering::Relaxed);
+                if counters.malformed.fetch_add(1, Ordering::Relaxed) == 0 {
+                    tracing::warn!(
+                        "{topic_name}: a sample skipped: {why} (further ones are counted)"
+                    );
+                }
                 Input::LaserFault(format!("{topic_name}: a sample skipped: {why}"))
             }
         };
@@ -179,19 +191,32 @@ pub fn start_odometry_reader(
                 let stamp = loop_stamp(message.header.stamp.ns(), now).unwrap_or(now);
                 let pose = message.pose;
                 let world_from_robot: Pose2<World, Robot> = pose.pose2();
-                if !(world_from_robot.x.is_finite()
-                    && world_from_robot.y.is_finite()
-                    && world_from_robot.yaw.is_finite())
-                {
-                    counters.malformed.fetch_add(1, Ordering::Relaxed);
-                    return true;
-                }
                 let moving = tether_control::Twist {
                     v_mps: message.twist.v_mps(),
                     w_radps: message.twist.w_radps(),
                 };
-                if !(moving.v_mps.is_finite() && moving.w_radps.is_finite()) {
-                    counters.malformed.fetch_add(1, Ordering::Relaxed);
+                let problem = if !(world_from_robot.x.is_finite()
+                    && world_from_robot.y.is_finite()
+                    && world_from_robot.yaw.is_finite())
+                {
+                    Some("its pose is not finite".to_owned())
+                } else if !(moving.v_mps.abs() <= MAX_ODOMETRY_SPEED_MPS
+                    && moving.w_radps.abs() <= MAX_ODOMETRY_TURN_RADPS)
+                {
+                    Some(format!(
+                        "its velocity ({} m/s, {} rad/s) is not a ground robot's",
+                        moving.v_mps, moving.w_radps
+                    ))
+                } else {
+                    None
+                };
+                if let Some(problem) = problem {
+                    if counters.odometry_refused.fetch_add(1, Ordering::Relaxed) == 0 {
+                        tracing::warn!(
+                            "{topic_name}: an odometry message refused: {problem} (further \
+                             ones are counted)"
+                        );
+                    }
                     return true;
                 }
                 Input::Odometry {
@@ -201,8 +226,11 @@ pub fn start_odometry_reader(
                 }
             }
             Received::Malformed(why) => {
-                counters.malformed.fetch_add(1, Ordering::Relaxed);
-                tracing::debug!("{topic_name}: a sample skipped: {why}");
+                if counters.odometry_refused.fetch_add(1, Ordering::Relaxed) == 0 {
+                    tracing::warn!(
+                        "{topic_name}: a sample skipped: {why} (further ones are counted)"
+                    );
+                }
                 return true;
             }
         };
