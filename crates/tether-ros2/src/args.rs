@@ -1,21 +1,74 @@
-//! The ROS 2 command line: `--ros-args` (remapping, parameters, node name and
-//! namespace) and `ROS_DOMAIN_ID`, as `rcl` reads them.
+//! The ROS 2 command line: `--ros-args` (remapping, parameters and parameter files,
+//! node name and namespace) and `ROS_DOMAIN_ID`, as `rcl` reads them.
 //!
 //! ```text
 //! tether ros2 --ros-args -r scan:=/front/scan -r __ns:=/robot1 -p follow_distance:=1.5
+//! tether ros2 --ros-args --params-file tether.yaml -p use_sim_time:=true
 //! ```
 //!
 //! A `--ros-args` block runs to a lone `--` or to the end; there may be several. Inside
 //! it: `-r`/`--remap FROM:=TO` (`NODE:FROM:=TO` applies only to the node called
 //! `NODE`), with the special names `__ns` and `__node` (also `__name`);
-//! `-p`/`--param NAME:=VALUE`, whose value is typed as a YAML scalar (`true`, `42`,
-//! `1.5`, anything else a string; quotes keep a string); and the logging flags, which
-//! are accepted and left to tether's own `-v`. Anything else is an error that names
-//! the argument, as `rcl` refuses it.
+//! `-p`/`--param NAME:=VALUE` (`NODE:NAME:=VALUE` only for the node called `NODE`),
+//! whose value is typed as a YAML scalar (`true`, `42`, `1.5`, anything else a string;
+//! quotes keep a string) or, written `[a, b]`, is an array as in a parameter file;
+//! `--params-file FILE`; and the logging flags, which are accepted and left to tether's
+//! own `-v`. Anything else is an error that names the argument, as `rcl` refuses it.
+//!
+//! # Parameter files
+//!
+//! `--params-file FILE` reads the YAML of `rcl_yaml_param_parser`:
+//!
+//! ```yaml
+//! /**:                          # every node
+//!   ros__parameters:
+//!     use_sim_time: true
+//! /robot1/tether:               # or `tether`, `/*/tether`, `/**/tether`
+//!   ros__parameters:
+//!     follow_distance: 1.2
+//!     limits: {max_speed: 0.3}  # the parameter `limits.max_speed`
+//!     frames: [odom, base_link] # a string array
+//! ```
+//!
+//! Top-level keys are node names, absolute or not (`tether` is `/tether`); keys nested
+//! above `ros__parameters` join with `/` (`robot1: {tether: {ros__parameters: ...}}` is
+//! `robot1/tether`). A name token `*` matches one name of the node's fully qualified
+//! name and `**` any number of them, none included (rclcpp's rule); a `*` inside a token
+//! (`/robot*/tether`) is refused, as rcl refuses it. Mappings under `ros__parameters`
+//! flatten into dotted names. Plain scalars are typed as `-p` values are
+//! ([`ParamValue::parse`]); quoted ones and `!!str` ones stay strings. (rcl also takes
+//! `yes`/`no`/`on`/`off` for booleans and C forms such as `0x10` for numbers; here they
+//! are strings, and a parameter that wants a number or a boolean says so.) A sequence
+//! of scalars of one type is an array. As in rcl, a sequence mixing types (integers
+//! with doubles too), an empty sequence, a parameter without a value and an alias are
+//! refused; so are a node block without `ros__parameters` and bad names. Each error
+//! names the file, the line, the node and the parameter.
+//!
+//! # Which values apply
+//!
+//! [`RosArgs::params`] holds what applies to the node named by `__node` and `__ns`
+//! (else `tether` in `/`), merged as rcl and rclcpp merge them. Every `-p` and every node
+//! block of every file goes, in command-line order, into one list of entries
+//! ([`RosArgs::param_blocks`]), one for each node name as written; a `-p` without
+//! `NODE:` belongs to the entry `/**`. A name seen again adds to its first entry, where a
+//! parameter set again takes the later value. The node's parameters are those of the
+//! entries whose name matches its fully qualified name, in the list's order, a later
+//! entry overriding an earlier one. So:
+//!
+//! - the same parameter for the same node name, in a later file or a later `-p`, takes
+//!   the later value;
+//! - between different names, the one that first appeared later wins. A `-p` joins
+//!   `/**`: `--params-file f.yaml -p x:=1` gives `x = 1` when `f.yaml` holds only
+//!   `tether` blocks or only `/**` ones, but f's value when f has a `/**` block and after
+//!   it a `tether` one; `-p x:=1 --params-file f.yaml` gives f's value whenever f sets
+//!   `x` for the node.
 
 use std::collections::BTreeMap;
 
-/// A parameter value as given on the command line.
+use yaml_rust2::parser::{Event, Parser};
+use yaml_rust2::scanner::TScalarStyle;
+
+/// A parameter value, from the command line or a parameter file.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ParamValue {
     /// `true` / `false` (YAML 1.2 spellings, any case).
@@ -26,6 +79,14 @@ pub enum ParamValue {
     Double(f64),
     /// Anything else, or a quoted value.
     String(String),
+    /// A sequence of booleans.
+    BoolArray(Vec<bool>),
+    /// A sequence of whole numbers.
+    IntegerArray(Vec<i64>),
+    /// A sequence of numbers with a fraction or an exponent.
+    DoubleArray(Vec<f64>),
+    /// A sequence of strings.
+    StringArray(Vec<String>),
 }
 
 impl ParamValue {
@@ -84,6 +145,20 @@ impl ParamValue {
             _ => None,
         }
     }
+
+    /// The type's name as ROS 2 spells it (`integer`, `double_array`, ...).
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            ParamValue::Bool(_) => "bool",
+            ParamValue::Integer(_) => "integer",
+            ParamValue::Double(_) => "double",
+            ParamValue::String(_) => "string",
+            ParamValue::BoolArray(_) => "bool_array",
+            ParamValue::IntegerArray(_) => "integer_array",
+            ParamValue::DoubleArray(_) => "double_array",
+            ParamValue::StringArray(_) => "string_array",
+        }
+    }
 }
 
 /// One `-r FROM:=TO`.
@@ -97,13 +172,28 @@ pub struct Remap {
     pub to: String,
 }
 
+/// The parameters given for one node name or pattern (see the module's *Which values
+/// apply*).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ParamBlock {
+    /// The node name as written: `tether`, `/robot1/tether`, `/**`, `/*/tether`, ...
+    pub node: String,
+    /// Its parameters, by (dotted) name.
+    pub params: BTreeMap<String, ParamValue>,
+}
+
 /// What `--ros-args` and the environment say.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RosArgs {
     /// Topic remappings, in the order given (the first that matches wins, as in `rcl`).
     pub remaps: Vec<Remap>,
-    /// `-p NAME:=VALUE`; a later value of the same name replaces an earlier one.
+    /// The parameters that apply to the node `__node` in `__ns` (else the default node
+    /// name, `tether` for [`RosArgs::parse`], in `/`): the `-p` values and the parameter
+    /// files' blocks that match it, merged as rcl does ([`RosArgs::params_for`]).
     pub params: BTreeMap<String, ParamValue>,
+    /// Every `-p` and parameter file block, one entry for each node name in the order
+    /// the names first appeared (`-p NAME:=VALUE` is `/**`).
+    pub param_blocks: Vec<ParamBlock>,
     /// `__node:=NAME`.
     pub node_name: Option<String>,
     /// `__ns:=/NS`.
@@ -129,18 +219,40 @@ pub enum ArgsError {
         "`{0}` is not a valid ROS 2 name (letters, digits, `_`, `/`; not starting with a digit)"
     )]
     BadName(String),
+    /// A `-p` value written as an array (`[...]`) that is not one.
+    #[error("-p {name}:={value}: {problem}")]
+    BadValue {
+        /// The parameter.
+        name: String,
+        /// The value as given.
+        value: String,
+        /// What is wrong with it.
+        problem: String,
+    },
     /// An argument inside `--ros-args` that is not a ROS 2 one.
     #[error(
         "`{0}` inside --ros-args is not a ROS 2 argument (-r FROM:=TO, -p NAME:=VALUE, \
          --params-file FILE, --log-level LEVEL; end the block with `--`)"
     )]
     Unknown(String),
-    /// `--params-file`: not read yet.
-    #[error(
-        "--params-file {0}: parameter files are not read yet; give each parameter with \
-         -p NAME:=VALUE"
-    )]
-    ParamsFile(String),
+    /// `--params-file FILE` that cannot be read.
+    #[error("--params-file {path}: cannot read it: {reason}")]
+    ParamsFileRead {
+        /// The file as given.
+        path: String,
+        /// Why (the system's words).
+        reason: String,
+    },
+    /// `--params-file FILE` whose content rcl would refuse.
+    #[error("--params-file {path}, line {line}: {problem}")]
+    ParamsFile {
+        /// The file as given.
+        path: String,
+        /// Where (from 1).
+        line: usize,
+        /// What is wrong, with the node and the parameter.
+        problem: String,
+    },
     /// `ROS_DOMAIN_ID` out of range.
     #[error("ROS_DOMAIN_ID={0}: must be a whole number from 0 to 232")]
     DomainId(String),
@@ -159,6 +271,41 @@ pub fn is_valid_name(name: &str) -> bool {
         })
 }
 
+/// Whether `name` is a parameter name: ROS 2 names (without `~`) joined by `.`.
+fn is_valid_param_name(name: &str) -> bool {
+    name.split('.')
+        .all(|part| !part.starts_with('~') && is_valid_name(part))
+}
+
+/// Whether the node name (or pattern) `pattern` of a parameter block matches the node
+/// `fully_qualified_name` (`/robot1/tether`), as rclcpp matches them: a token `*` is one
+/// name, `**` any number of names (none included), any other token itself; a pattern
+/// without a leading `/` is absolute all the same.
+pub fn node_matches(pattern: &str, fully_qualified_name: &str) -> bool {
+    let tokens = |s: &'_ str| -> Vec<String> {
+        s.strip_prefix('/')
+            .unwrap_or(s)
+            .split('/')
+            .map(str::to_owned)
+            .collect()
+    };
+    let (p, n) = (tokens(pattern), tokens(fully_qualified_name));
+    // matches[i][j]: the pattern from token i matches the name from token j.
+    let mut matches = vec![vec![false; n.len() + 1]; p.len() + 1];
+    matches[p.len()][n.len()] = true;
+    for i in (0..p.len()).rev() {
+        for j in (0..=n.len()).rev() {
+            let one = j < n.len() && !n[j].is_empty();
+            matches[i][j] = match p[i].as_str() {
+                "**" => matches[i + 1][j] || (one && matches[i][j + 1]),
+                "*" => one && matches[i + 1][j + 1],
+                token => one && n[j] == token && matches[i + 1][j + 1],
+            };
+        }
+    }
+    matches[0][0]
+}
+
 fn assignment<'a>(flag: &str, value: &'a str) -> Result<(&'a str, &'a str), ArgsError> {
     value
         .split_once(":=")
@@ -168,10 +315,27 @@ fn assignment<'a>(flag: &str, value: &'a str) -> Result<(&'a str, &'a str), Args
         })
 }
 
+/// The node block name a `-p` without `NODE:` belongs to.
+const EVERY_NODE: &str = "/**";
+
 impl RosArgs {
-    /// Reads every `--ros-args` block of `args`; the arguments outside them are
-    /// returned for the program's own parser.
+    /// The node name [`RosArgs::parse`] resolves the parameters for without `__node`.
+    pub const DEFAULT_NODE_NAME: &'static str = "tether";
+
+    /// Reads every `--ros-args` block of `args` (and the parameter files they name);
+    /// the arguments outside them are returned for the program's own parser.
+    /// [`RosArgs::params`] is resolved for `__node` and `__ns`, else
+    /// [`RosArgs::DEFAULT_NODE_NAME`] in `/`.
     pub fn parse<S: AsRef<str>>(args: &[S]) -> Result<(RosArgs, Vec<String>), ArgsError> {
+        Self::parse_for_node(args, Self::DEFAULT_NODE_NAME)
+    }
+
+    /// [`RosArgs::parse`] for a node whose name without `__node` is
+    /// `default_node_name`.
+    pub fn parse_for_node<S: AsRef<str>>(
+        args: &[S],
+        default_node_name: &str,
+    ) -> Result<(RosArgs, Vec<String>), ArgsError> {
         let mut ros = RosArgs::default();
         let mut rest = Vec::new();
         let mut inside = false;
@@ -193,14 +357,8 @@ impl RosArgs {
                 "--" => inside = false,
                 "--ros-args" => {}
                 "-r" | "--remap" => ros.remap(value(arg)?)?,
-                "-p" | "--param" => {
-                    let (name, v) = assignment(arg, value(arg)?)?;
-                    if !is_valid_name(name) && !name.contains('.') {
-                        return Err(ArgsError::BadName(name.to_owned()));
-                    }
-                    ros.params.insert(name.to_owned(), ParamValue::parse(v));
-                }
-                "--params-file" => return Err(ArgsError::ParamsFile(value(arg)?.to_owned())),
+                "-p" | "--param" => ros.param(value(arg)?)?,
+                "--params-file" => ros.read_params_file(value(arg)?)?,
                 "--log-level" | "--log-config-file" | "-e" | "--enclave" => {
                     value(arg)?;
                 }
@@ -213,7 +371,84 @@ impl RosArgs {
                 other => return Err(ArgsError::Unknown(other.to_owned())),
             }
         }
+        let node_name = ros.node_name.as_deref().unwrap_or(default_node_name);
+        let namespace = ros.namespace.as_deref().unwrap_or("/");
+        ros.params = ros.params_for(node_name, namespace);
         Ok((ros, rest))
+    }
+
+    /// The parameters that apply to the node `node_name` in `namespace` (`/robot1`;
+    /// `/` or empty: the root): those of the [`RosArgs::param_blocks`] whose name
+    /// matches, a later block overriding an earlier one.
+    pub fn params_for(&self, node_name: &str, namespace: &str) -> BTreeMap<String, ParamValue> {
+        let namespace = namespace.trim_end_matches('/');
+        let fully_qualified = if namespace.is_empty() || namespace.starts_with('/') {
+            format!("{namespace}/{node_name}")
+        } else {
+            format!("/{namespace}/{node_name}")
+        };
+        let mut params = BTreeMap::new();
+        for block in &self.param_blocks {
+            if node_matches(&block.node, &fully_qualified) {
+                params.extend(block.params.iter().map(|(k, v)| (k.clone(), v.clone())));
+            }
+        }
+        params
+    }
+
+    /// The parameters of the entry for `node`, made at the end when it is new.
+    fn entry(&mut self, node: &str) -> &mut BTreeMap<String, ParamValue> {
+        let index = match self.param_blocks.iter().position(|b| b.node == node) {
+            Some(index) => index,
+            None => {
+                self.param_blocks.push(ParamBlock {
+                    node: node.to_owned(),
+                    params: BTreeMap::new(),
+                });
+                self.param_blocks.len() - 1
+            }
+        };
+        &mut self.param_blocks[index].params
+    }
+
+    fn param(&mut self, rule: &str) -> Result<(), ArgsError> {
+        let (lhs, text) = assignment("-p", rule)?;
+        // `NODE:NAME`; a `:` can only be the node separator (names have none).
+        let (node, name) = match lhs.split_once(':') {
+            Some((node, name)) => {
+                if !is_valid_name(node) || node.contains('/') || node.starts_with('~') {
+                    return Err(ArgsError::BadName(node.to_owned()));
+                }
+                (node, name)
+            }
+            None => (EVERY_NODE, lhs),
+        };
+        if !is_valid_param_name(name) {
+            return Err(ArgsError::BadName(name.to_owned()));
+        }
+        let value = command_line_value(text).map_err(|problem| ArgsError::BadValue {
+            name: name.to_owned(),
+            value: text.to_owned(),
+            problem,
+        })?;
+        self.entry(node).insert(name.to_owned(), value);
+        Ok(())
+    }
+
+    fn read_params_file(&mut self, path: &str) -> Result<(), ArgsError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ArgsError::ParamsFileRead {
+            path: path.to_owned(),
+            reason: e.to_string(),
+        })?;
+        let blocks = param_blocks(&text).map_err(|p| ArgsError::ParamsFile {
+            path: path.to_owned(),
+            line: p.line,
+            problem: p.text,
+        })?;
+        for block in blocks {
+            self.entry(&block.node).extend(block.params);
+        }
+        Ok(())
     }
 
     fn remap(&mut self, rule: &str) -> Result<(), ArgsError> {
@@ -292,11 +527,474 @@ pub fn domain_id(value: Option<&str>) -> Result<u16, ArgsError> {
     }
 }
 
+/// What is wrong with a parameter file, and where.
+#[derive(Debug)]
+struct Problem {
+    line: usize,
+    text: String,
+}
+
+impl Problem {
+    fn new(line: usize, text: impl Into<String>) -> Problem {
+        Problem {
+            line,
+            text: text.into(),
+        }
+    }
+}
+
+/// A YAML node and the line it starts on.
+#[derive(Debug)]
+struct Node {
+    line: usize,
+    kind: Kind,
+}
+
+#[derive(Debug)]
+enum Kind {
+    /// `typed`: a plain scalar without `!!str`, typed as `-p` values are; else a string.
+    Scalar {
+        text: String,
+        typed: bool,
+    },
+    Seq(Vec<Node>),
+    Map(Vec<(Node, Node)>),
+}
+
+/// A sequence or mapping not closed yet.
+enum Open {
+    Seq(usize, Vec<Node>),
+    /// With the key waiting for its value.
+    Map(usize, Vec<(Node, Node)>, Option<Node>),
+}
+
+/// Deeper nesting than this is refused (and keeps the walks over the tree shallow).
+const MAX_DEPTH: usize = 64;
+
+/// The key under a node name that holds its parameters.
+const PARAMS_KEY: &str = "ros__parameters";
+
+/// The YAML documents of `text`, with their lines.
+fn load_yaml(text: &str) -> Result<Vec<Node>, Problem> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut parser = Parser::new_from_str(text);
+    let mut documents = Vec::new();
+    let mut open: Vec<Open> = Vec::new();
+    loop {
+        let (event, mark) = parser.next_token().map_err(|e| {
+            Problem::new(
+                e.marker().line(),
+                format!("not YAML: {} (column {})", e.info(), e.marker().col() + 1),
+            )
+        })?;
+        let line = mark.line();
+        let node = match event {
+            Event::StreamEnd => break,
+            Event::Nothing | Event::StreamStart | Event::DocumentStart | Event::DocumentEnd => {
+                continue;
+            }
+            Event::Alias(_) => {
+                return Err(Problem::new(
+                    line,
+                    "an alias (`*name`): rcl does not read aliases; write the value out",
+                ));
+            }
+            Event::Scalar(text, style, _, tag) => {
+                let str_tag =
+                    tag.is_some_and(|t| t.handle == "tag:yaml.org,2002:" && t.suffix == "str");
+                Node {
+                    line,
+                    kind: Kind::Scalar {
+                        text,
+                        typed: style == TScalarStyle::Plain && !str_tag,
+                    },
+                }
+            }
+            Event::SequenceStart(..) | Event::MappingStart(..) => {
+                if open.len() >= MAX_DEPTH {
+                    return Err(Problem::new(
+                        line,
+                        format!("nested deeper than {MAX_DEPTH} levels"),
+                    ));
+                }
+                open.push(if matches!(event, Event::SequenceStart(..)) {
+                    Open::Seq(line, Vec::new())
+                } else {
+                    Open::Map(line, Vec::new(), None)
+                });
+                continue;
+            }
+            Event::SequenceEnd | Event::MappingEnd => match open.pop() {
+                Some(Open::Seq(line, items)) => Node {
+                    line,
+                    kind: Kind::Seq(items),
+                },
+                Some(Open::Map(line, entries, _)) => Node {
+                    line,
+                    kind: Kind::Map(entries),
+                },
+                None => return Err(Problem::new(line, "not YAML: a close without an open")),
+            },
+        };
+        match open.last_mut() {
+            None => documents.push(node),
+            Some(Open::Seq(_, items)) => items.push(node),
+            Some(Open::Map(_, entries, key)) => match key.take() {
+                None => *key = Some(node),
+                Some(key) => entries.push((key, node)),
+            },
+        }
+    }
+    Ok(documents)
+}
+
+/// The node blocks of a parameter file, in the file's order.
+fn param_blocks(text: &str) -> Result<Vec<ParamBlock>, Problem> {
+    let mut blocks = Vec::new();
+    for document in load_yaml(text)? {
+        match &document.kind {
+            Kind::Map(entries) => node_blocks("", entries, &mut blocks)?,
+            // An empty document (`---` alone, or only comments).
+            Kind::Scalar { text, typed: true } if text.is_empty() => {}
+            _ => {
+                return Err(Problem::new(
+                    document.line,
+                    "the top level must map node names to their blocks \
+                     (`tether:`, under it `ros__parameters:`, under that the parameters)",
+                ));
+            }
+        }
+    }
+    Ok(blocks)
+}
+
+/// The text of a mapping key.
+fn key_text(key: &Node) -> Result<&str, Problem> {
+    match &key.kind {
+        Kind::Scalar { text, .. } if !text.is_empty() => Ok(text),
+        Kind::Scalar { .. } => Err(Problem::new(key.line, "an empty key")),
+        _ => Err(Problem::new(
+            key.line,
+            "a key must be a name, not a list or a mapping",
+        )),
+    }
+}
+
+fn is_params_key(key: &Node) -> bool {
+    matches!(&key.kind, Kind::Scalar { text, .. } if text == PARAMS_KEY)
+}
+
+/// Reads the node level of a file: node names (joined below `namespace`) down to their
+/// `ros__parameters`.
+fn node_blocks(
+    namespace: &str,
+    entries: &[(Node, Node)],
+    out: &mut Vec<ParamBlock>,
+) -> Result<(), Problem> {
+    for (key, value) in entries {
+        let key_name = key_text(key)?;
+        if key_name == PARAMS_KEY {
+            return Err(Problem::new(
+                key.line,
+                "`ros__parameters` needs a node name above it (`tether:`, and under it \
+                 `ros__parameters:`)",
+            ));
+        }
+        let name = if namespace.is_empty() {
+            key_name.to_owned()
+        } else if namespace.ends_with('/') {
+            format!("{namespace}{key_name}")
+        } else {
+            format!("{namespace}/{key_name}")
+        };
+        let no_params = || {
+            Problem::new(
+                key.line,
+                format!(
+                    "node `{name}` has no `ros__parameters`: a node's parameters go under \
+                     `{name}:` then `ros__parameters:`"
+                ),
+            )
+        };
+        let Kind::Map(inner) = &value.kind else {
+            return Err(no_params());
+        };
+        if !inner.iter().any(|(k, _)| is_params_key(k)) {
+            if inner.is_empty() {
+                return Err(no_params());
+            }
+            // More of the node's name (`robot1:` then `tether:`).
+            node_blocks(&name, inner, out)?;
+            continue;
+        }
+        if let Some((other, _)) = inner.iter().find(|(k, _)| !is_params_key(k)) {
+            return Err(Problem::new(
+                other.line,
+                format!(
+                    "node `{name}`: nothing may stand beside its `ros__parameters` (found \
+                     `{}`; a parameter goes under `ros__parameters`)",
+                    key_text(other)?
+                ),
+            ));
+        }
+        check_node_name(&name).map_err(|why| {
+            Problem::new(
+                key.line,
+                format!("`{name}` is not a node name rcl accepts: {why}"),
+            )
+        })?;
+        for (params_key, params) in inner {
+            let Kind::Map(params) = &params.kind else {
+                return Err(Problem::new(
+                    params_key.line,
+                    format!(
+                        "node `{name}`: `ros__parameters` must be a mapping of parameter \
+                         names to values"
+                    ),
+                ));
+            };
+            let mut block = ParamBlock {
+                node: name.clone(),
+                params: BTreeMap::new(),
+            };
+            flatten(&name, "", params, &mut block.params)?;
+            out.push(block);
+        }
+    }
+    Ok(())
+}
+
+/// rcl's check of a node name in a parameter file: names between `/`, or the
+/// wildcards `*` and `**` standing alone.
+fn check_node_name(name: &str) -> Result<(), &'static str> {
+    let body = name.strip_prefix('/').unwrap_or(name);
+    for token in body.split('/') {
+        if token == "*" || token == "**" {
+            continue;
+        }
+        if token.is_empty() {
+            return Err("it has an empty name between `/`");
+        }
+        if token.contains('*') {
+            return Err(
+                "`*` (one name) and `**` (any number of names) stand only alone between `/` \
+                 (`/*/tether`, `/**/tether`)",
+            );
+        }
+        if token.starts_with(|c: char| c.is_ascii_digit()) {
+            return Err("a name in it starts with a digit");
+        }
+        if !token.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            return Err("names are letters, digits and `_`, between `/`");
+        }
+    }
+    Ok(())
+}
+
+/// The parameters of `entries` (under `prefix`, dotted) into `out`; a name given again
+/// takes the later value, as in rcl.
+fn flatten(
+    node: &str,
+    prefix: &str,
+    entries: &[(Node, Node)],
+    out: &mut BTreeMap<String, ParamValue>,
+) -> Result<(), Problem> {
+    for (key, value) in entries {
+        let key_name = key_text(key)?;
+        let name = if prefix.is_empty() {
+            key_name.to_owned()
+        } else {
+            format!("{prefix}.{key_name}")
+        };
+        if !is_valid_param_name(&name) {
+            return Err(Problem::new(
+                key.line,
+                format!(
+                    "node `{node}`: `{name}` is not a valid parameter name (names of letters, \
+                     digits and `_`, not starting with a digit, joined by `.`)"
+                ),
+            ));
+        }
+        match &value.kind {
+            Kind::Map(inner) if !inner.is_empty() => flatten(node, &name, inner, out)?,
+            _ => {
+                // An empty value's line is the next token's: name the key's.
+                let empty = matches!(&value.kind, Kind::Scalar { text, .. } if text.is_empty());
+                let v = param_value(value).map_err(|p| Problem {
+                    line: if empty { key.line } else { p.line },
+                    text: format!("node `{node}`, parameter `{name}`: {}", p.text),
+                })?;
+                out.insert(name, v);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A parameter's value: a scalar, or a sequence of scalars of one type.
+fn param_value(value: &Node) -> Result<ParamValue, Problem> {
+    match &value.kind {
+        Kind::Seq(items) => array(value.line, items),
+        _ => scalar(value),
+    }
+}
+
+fn scalar(node: &Node) -> Result<ParamValue, Problem> {
+    match &node.kind {
+        Kind::Scalar { text, typed: true } if text.is_empty() => Err(Problem::new(
+            node.line,
+            "no value (write `''` for an empty string)",
+        )),
+        Kind::Scalar { text, typed: true } => Ok(ParamValue::parse(text)),
+        Kind::Scalar { text, typed: false } => Ok(ParamValue::String(text.clone())),
+        Kind::Map(entries) if entries.is_empty() => {
+            Err(Problem::new(node.line, "no value (an empty mapping)"))
+        }
+        Kind::Map(_) => Err(Problem::new(
+            node.line,
+            "a mapping inside a list: an array holds single values",
+        )),
+        Kind::Seq(_) => Err(Problem::new(
+            node.line,
+            "a list inside a list: an array holds single values",
+        )),
+    }
+}
+
+/// A value as a file would write it, for messages.
+fn shown(value: &ParamValue) -> String {
+    match value {
+        ParamValue::String(s) => format!("{s:?}"),
+        ParamValue::Bool(b) => b.to_string(),
+        ParamValue::Integer(i) => i.to_string(),
+        ParamValue::Double(x) => format!("{x:?}"),
+        other => format!("{other:?}"),
+    }
+}
+
+/// An array of `items`, all of one type, as rcl requires.
+fn array(line: usize, items: &[Node]) -> Result<ParamValue, Problem> {
+    let values = items
+        .iter()
+        .map(|item| Ok((item.line, scalar(item)?)))
+        .collect::<Result<Vec<_>, Problem>>()?;
+    let Some((_, first)) = values.first() else {
+        return Err(Problem::new(
+            line,
+            "an empty list: rcl cannot tell the array's type and refuses it",
+        ));
+    };
+    let kind = first.type_name();
+    if let Some((odd_line, odd)) = values.iter().find(|(_, v)| v.type_name() != kind) {
+        let numbers = [kind, odd.type_name()]
+            .iter()
+            .all(|t| matches!(*t, "integer" | "double"));
+        return Err(Problem::new(
+            *odd_line,
+            format!(
+                "an array holds one type: {} (a {}) among {kind}s; rcl refuses mixed arrays{}",
+                shown(odd),
+                odd.type_name(),
+                if numbers {
+                    " (write whole numbers as `1.0` for an array of doubles)"
+                } else {
+                    ""
+                }
+            ),
+        ));
+    }
+    let values = values.into_iter().map(|(_, v)| v);
+    Ok(match kind {
+        "bool" => ParamValue::BoolArray(values.filter_map(|v| v.as_bool()).collect()),
+        "integer" => ParamValue::IntegerArray(
+            values
+                .filter_map(|v| match v {
+                    ParamValue::Integer(i) => Some(i),
+                    _ => None,
+                })
+                .collect(),
+        ),
+        "double" => ParamValue::DoubleArray(values.filter_map(|v| v.as_f64()).collect()),
+        _ => ParamValue::StringArray(
+            values
+                .filter_map(|v| match v {
+                    ParamValue::String(s) => Some(s),
+                    _ => None,
+                })
+                .collect(),
+        ),
+    })
+}
+
+/// A `-p` value: a scalar typed as YAML types a plain one, or, written `[...]`, an array
+/// read as a parameter file's.
+fn command_line_value(text: &str) -> Result<ParamValue, String> {
+    if !text.trim_start().starts_with('[') {
+        return Ok(ParamValue::parse(text));
+    }
+    let documents = load_yaml(text).map_err(|p| p.text)?;
+    match documents.as_slice() {
+        [
+            Node {
+                line,
+                kind: Kind::Seq(items),
+            },
+        ] => array(*line, items).map_err(|p| p.text),
+        _ => Err("not one YAML list (`[1, 2, 3]`)".to_owned()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
 
+    use std::path::PathBuf;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    use proptest::prelude::*;
+
     use super::*;
+
+    /// A file under the temporary directory, removed when dropped.
+    struct TempFile(PathBuf);
+
+    impl TempFile {
+        fn new(text: &str) -> TempFile {
+            static NEXT: AtomicUsize = AtomicUsize::new(0);
+            let path = std::env::temp_dir().join(format!(
+                "tether-ros2-params-{}-{}.yaml",
+                std::process::id(),
+                NEXT.fetch_add(1, Ordering::Relaxed)
+            ));
+            std::fs::write(&path, text).unwrap();
+            TempFile(path)
+        }
+
+        fn path(&self) -> &str {
+            self.0.to_str().unwrap()
+        }
+    }
+
+    impl Drop for TempFile {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_file(&self.0);
+        }
+    }
+
+    /// `--ros-args` followed by `args`, where `@N` is the path of `files[N]`.
+    fn ros(files: &[&TempFile], args: &[&str]) -> Result<RosArgs, ArgsError> {
+        let mut all = vec!["--ros-args".to_owned()];
+        for arg in args {
+            match arg.strip_prefix('@') {
+                Some(n) => all.push(files[n.parse::<usize>().unwrap()].path().to_owned()),
+                None => all.push((*arg).to_owned()),
+            }
+        }
+        RosArgs::parse(&all).map(|(ros, rest)| {
+            assert!(rest.is_empty(), "{rest:?}");
+            ros
+        })
+    }
 
     #[test]
     fn remaps_params_name_and_namespace_come_out_of_the_block() {
@@ -358,6 +1056,51 @@ mod tests {
     }
 
     #[test]
+    fn dash_p_takes_a_node_prefix_and_arrays() {
+        let ros = ros(
+            &[],
+            &[
+                "-p",
+                "tether:speed:=0.5",
+                "-p",
+                "other:speed:=9",
+                "-p",
+                "ids:=[1, 2, 3]",
+                "-p",
+                "frames:=[odom, 'base_link']",
+                "-p",
+                "note:=a [b]",
+            ],
+        )
+        .unwrap();
+        assert_eq!(ros.params["speed"], ParamValue::Double(0.5));
+        assert_eq!(ros.params["ids"], ParamValue::IntegerArray(vec![1, 2, 3]));
+        assert_eq!(
+            ros.params["frames"],
+            ParamValue::StringArray(vec!["odom".into(), "base_link".into()])
+        );
+        assert_eq!(ros.params["note"].as_str(), Some("a [b]"));
+        assert_eq!(
+            ros.params_for("other", "/")["speed"],
+            ParamValue::Integer(9)
+        );
+        let e = RosArgs::parse(&["--ros-args", "-p", "xs:=[1, 2.5]"]).unwrap_err();
+        assert!(
+            matches!(&e, ArgsError::BadValue { name, .. } if name == "xs"),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("mixed"), "{e}");
+        assert!(matches!(
+            RosArgs::parse(&["--ros-args", "-p", "xs:=[]"]).unwrap_err(),
+            ArgsError::BadValue { .. }
+        ));
+        assert_eq!(
+            RosArgs::parse(&["--ros-args", "-p", "a..b:=1"]).unwrap_err(),
+            ArgsError::BadName("a..b".into())
+        );
+    }
+
+    #[test]
     fn what_rcl_refuses_is_an_error_that_names_it() {
         let e = |args: &[&str]| RosArgs::parse(args).unwrap_err();
         assert_eq!(
@@ -376,11 +1119,417 @@ mod tests {
             e(&["--ros-args", "--config", "x"]),
             ArgsError::Unknown("--config".into())
         );
-        assert!(
-            e(&["--ros-args", "--params-file", "p.yaml"])
-                .to_string()
-                .contains("-p NAME:=VALUE")
+        assert_eq!(
+            e(&["--ros-args", "--params-file"]),
+            ArgsError::MissingValue("--params-file".into())
         );
+    }
+
+    const FILE: &str = r#"
+# Every node.
+/**:
+  ros__parameters:
+    use_sim_time: true
+    shared: 1
+tether:
+  ros__parameters:
+    follow_distance: 1.2
+    fixed_frame: odom
+    quoted: '42'
+    tagged: !!str true
+    nothing: "null"
+    limits:
+      max_speed: 0.3
+      turn: {max: 1, min: -1}
+    dotted.name: 2
+    bools: [true, false, True]
+    ints: [1, -2, 3]
+    doubles: [0.5, 1e3, -.inf]
+    strings: [odom, "1", base_link]
+    block:
+      - a
+      - b
+other:
+  ros__parameters:
+    follow_distance: 9.0
+"#;
+
+    #[test]
+    fn a_params_file_gives_the_node_its_blocks_with_nested_names_and_arrays() {
+        let f = TempFile::new(FILE);
+        let ros = ros(&[&f], &["--params-file", "@0"]).unwrap();
+        let p = &ros.params;
+        assert_eq!(p["use_sim_time"], ParamValue::Bool(true));
+        assert_eq!(p["shared"], ParamValue::Integer(1));
+        assert_eq!(p["follow_distance"], ParamValue::Double(1.2));
+        assert_eq!(p["fixed_frame"].as_str(), Some("odom"));
+        assert_eq!(p["quoted"], ParamValue::String("42".into()));
+        assert_eq!(p["tagged"], ParamValue::String("true".into()));
+        assert_eq!(p["nothing"], ParamValue::String("null".into()));
+        assert_eq!(p["limits.max_speed"], ParamValue::Double(0.3));
+        assert_eq!(p["limits.turn.max"], ParamValue::Integer(1));
+        assert_eq!(p["limits.turn.min"], ParamValue::Integer(-1));
+        assert_eq!(p["dotted.name"], ParamValue::Integer(2));
+        assert_eq!(p["bools"], ParamValue::BoolArray(vec![true, false, true]));
+        assert_eq!(p["ints"], ParamValue::IntegerArray(vec![1, -2, 3]));
+        assert_eq!(
+            p["doubles"],
+            ParamValue::DoubleArray(vec![0.5, 1000.0, f64::NEG_INFINITY])
+        );
+        assert_eq!(
+            p["strings"],
+            ParamValue::StringArray(vec!["odom".into(), "1".into(), "base_link".into()])
+        );
+        assert_eq!(
+            p["block"],
+            ParamValue::StringArray(vec!["a".into(), "b".into()])
+        );
+        assert_eq!(p.len(), 16, "{p:?}");
+        assert_eq!(p["ints"].type_name(), "integer_array");
+        // The other node's block is kept, and applies to it.
+        let blocks: Vec<&str> = ros.param_blocks.iter().map(|b| b.node.as_str()).collect();
+        assert_eq!(blocks, ["/**", "tether", "other"]);
+        let other = ros.params_for("other", "/");
+        assert_eq!(other["follow_distance"], ParamValue::Double(9.0));
+        assert_eq!(other["use_sim_time"], ParamValue::Bool(true));
+        assert!(!other.contains_key("fixed_frame"));
+    }
+
+    #[test]
+    fn dash_p_after_a_file_and_a_later_file_override() {
+        let a = TempFile::new("tether:\n  ros__parameters:\n    x: 1\n    y: 1\n    z: 1\n");
+        let b = TempFile::new("tether:\n  ros__parameters:\n    y: 2\n");
+        let ros = ros(
+            &[&a, &b],
+            &["--params-file", "@0", "--params-file", "@1", "-p", "z:=3"],
+        )
+        .unwrap();
+        assert_eq!(ros.params["x"], ParamValue::Integer(1));
+        assert_eq!(ros.params["y"], ParamValue::Integer(2));
+        assert_eq!(ros.params["z"], ParamValue::Integer(3));
+        // The same with the files the other way round.
+        let swapped = ros_of(&[&b, &a], &["--params-file", "@0", "--params-file", "@1"]);
+        assert_eq!(swapped.params["y"], ParamValue::Integer(1));
+        // A `/**` file and a later `-p`: the `-p` replaces the value in `/**`.
+        let every = TempFile::new("/**:\n  ros__parameters:\n    z: 1\n");
+        let ros3 = ros_of(&[&every], &["--params-file", "@0", "-p", "z:=3"]);
+        assert_eq!(ros3.params["z"], ParamValue::Integer(3));
+    }
+
+    fn ros_of(files: &[&TempFile], args: &[&str]) -> RosArgs {
+        ros(files, args).unwrap()
+    }
+
+    #[test]
+    fn between_node_names_the_one_that_first_appeared_later_wins_as_in_rcl() {
+        let node = TempFile::new("tether:\n  ros__parameters:\n    x: 2\n");
+        // `-p` first: the file's `tether` entry comes after `/**` and wins.
+        let r = ros_of(&[&node], &["-p", "x:=1", "--params-file", "@0"]);
+        assert_eq!(r.params["x"], ParamValue::Integer(2));
+        // A `/**` block and after it a `tether` block: a later `-p` joins `/**`, and
+        // the `tether` block still wins.
+        let both = TempFile::new(
+            "/**:\n  ros__parameters:\n    x: 0\ntether:\n  ros__parameters:\n    x: 2\n",
+        );
+        let r = ros_of(&[&both], &["--params-file", "@0", "-p", "x:=1"]);
+        assert_eq!(r.params["x"], ParamValue::Integer(2));
+        // The other way round in the file: `/**` came later, so it and the `-p` win.
+        let reversed = TempFile::new(
+            "tether:\n  ros__parameters:\n    x: 2\n/**:\n  ros__parameters:\n    x: 0\n",
+        );
+        let r = ros_of(&[&reversed], &["--params-file", "@0"]);
+        assert_eq!(r.params["x"], ParamValue::Integer(0));
+        let r = ros_of(&[&reversed], &["--params-file", "@0", "-p", "x:=1"]);
+        assert_eq!(r.params["x"], ParamValue::Integer(1));
+        // `tether` and `/tether` are two entries, as in rcl; both apply.
+        let slash = TempFile::new("/tether:\n  ros__parameters:\n    x: 3\n");
+        let r = ros_of(
+            &[&node, &slash],
+            &["--params-file", "@0", "--params-file", "@1"],
+        );
+        assert_eq!(r.params["x"], ParamValue::Integer(3));
+        assert_eq!(r.param_blocks.len(), 2);
+    }
+
+    #[test]
+    fn wildcards_match_as_rclcpp_does() {
+        for (pattern, name) in [
+            ("/**", "/tether"),
+            ("/**", "/robot1/tether"),
+            ("**", "/a/b/c"),
+            ("/**/tether", "/tether"),
+            ("/**/tether", "/robot1/tether"),
+            ("/**/tether", "/a/b/tether"),
+            ("/*/tether", "/robot1/tether"),
+            ("/robot1/*", "/robot1/tether"),
+            ("*", "/tether"),
+            ("/*", "/tether"),
+            ("tether", "/tether"),
+            ("/tether", "/tether"),
+            ("robot1/tether", "/robot1/tether"),
+            ("/robot1/**", "/robot1/a/tether"),
+        ] {
+            assert!(node_matches(pattern, name), "{pattern} should match {name}");
+        }
+        for (pattern, name) in [
+            ("/**/tether", "/robot1/other"),
+            ("/*/tether", "/tether"),
+            ("/*/tether", "/a/b/tether"),
+            ("*", "/robot1/tether"),
+            ("tether", "/robot1/tether"),
+            ("/robot1/tether", "/robot2/tether"),
+            ("/robot1/*", "/robot1/a/tether"),
+        ] {
+            assert!(
+                !node_matches(pattern, name),
+                "{pattern} should not match {name}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_blocks_apply_to_the_name_and_namespace_given_anywhere_on_the_line() {
+        let f = TempFile::new(
+            "/**/tether:\n  ros__parameters:\n    a: 1\n\
+             /*/tether:\n  ros__parameters:\n    b: 2\n\
+             /robot1/other:\n  ros__parameters:\n    c: 3\n\
+             robot1:\n  tether:\n    ros__parameters:\n      d: 4\n\
+             /robot1/:\n  follower:\n    ros__parameters:\n      e: 5\n",
+        );
+        // `__ns` after the file still decides.
+        let r = ros_of(&[&f], &["--params-file", "@0", "-r", "__ns:=/robot1"]);
+        let names: Vec<&str> = r.params.keys().map(String::as_str).collect();
+        assert_eq!(names, ["a", "b", "d"]);
+        let blocks: Vec<&str> = r.param_blocks.iter().map(|b| b.node.as_str()).collect();
+        assert_eq!(
+            blocks,
+            [
+                "/**/tether",
+                "/*/tether",
+                "/robot1/other",
+                "robot1/tether",
+                "/robot1/follower"
+            ]
+        );
+        let r = ros_of(&[&f], &["--params-file", "@0"]);
+        assert_eq!(r.params.keys().collect::<Vec<_>>(), ["a"]);
+        let r = ros_of(
+            &[&f],
+            &[
+                "--params-file",
+                "@0",
+                "-r",
+                "__node:=follower",
+                "-r",
+                "__ns:=robot1",
+            ],
+        );
+        assert_eq!(r.params.keys().collect::<Vec<_>>(), ["e"]);
+        assert_eq!(
+            r.params_for("other", "/robot1")["c"],
+            ParamValue::Integer(3)
+        );
+        assert_eq!(
+            RosArgs::parse_for_node(
+                &[
+                    "--ros-args",
+                    "--params-file",
+                    f.path(),
+                    "-r",
+                    "__ns:=/robot1"
+                ],
+                "other"
+            )
+            .unwrap()
+            .0
+            .params
+            .keys()
+            .collect::<Vec<_>>(),
+            ["c"]
+        );
+    }
+
+    #[test]
+    fn an_empty_file_or_node_sets_nothing() {
+        for text in [
+            "",
+            "# nothing\n",
+            "---\n",
+            "tether:\n  ros__parameters: {}\n",
+        ] {
+            let f = TempFile::new(text);
+            let r = ros_of(&[&f], &["--params-file", "@0"]);
+            assert!(r.params.is_empty(), "{text:?}");
+        }
+    }
+
+    /// The line and problem of a file `rcl` would refuse.
+    fn file_error(yaml: &str) -> (usize, String) {
+        let f = TempFile::new(yaml);
+        match ros(&[&f], &["--params-file", "@0"]) {
+            Err(e @ ArgsError::ParamsFile { .. }) => {
+                let text = e.to_string();
+                assert!(text.contains(f.path()), "{text}");
+                let ArgsError::ParamsFile { line, problem, .. } = e else {
+                    unreachable!()
+                };
+                (line, problem)
+            }
+            other => panic!("{yaml:?}: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn each_bad_file_is_an_error_that_names_the_file_the_line_and_the_parameter() {
+        let missing = std::env::temp_dir().join("tether-ros2-no-such-params.yaml");
+        let e = RosArgs::parse(&["--ros-args", "--params-file", missing.to_str().unwrap()])
+            .unwrap_err();
+        let ArgsError::ParamsFileRead { path, .. } = &e else {
+            panic!("{e:?}")
+        };
+        assert!(path.ends_with("no-such-params.yaml"), "{path}");
+        assert!(e.to_string().contains("cannot read"), "{e}");
+
+        let cases: &[(&str, usize, &[&str])] = &[
+            // YAML syntax.
+            (
+                "tether:\n  ros__parameters:\n    a: [1, 2\n    b: 3\n",
+                4,
+                &["not YAML"],
+            ),
+            (
+                "tether:\n  ros__parameters:\n    a: 1\n   b: 2\n",
+                4,
+                &["not YAML"],
+            ),
+            (
+                "tether:\n  ros__parameters:\n    a: 'open\n",
+                3,
+                &["not YAML", "column 8"],
+            ),
+            // A node without `ros__parameters`.
+            (
+                "tether:\n  follow_distance: 1.0\n",
+                2,
+                &["`tether/follow_distance`", "ros__parameters"],
+            ),
+            (
+                "tether: 1\n",
+                1,
+                &["node `tether` has no `ros__parameters`"],
+            ),
+            (
+                "tether: {}\n",
+                1,
+                &["node `tether` has no `ros__parameters`"],
+            ),
+            ("ros__parameters:\n  a: 1\n", 1, &["needs a node name"]),
+            (
+                "tether:\n  ros__parameters:\n    a: 1\n  speed: 2\n",
+                4,
+                &["node `tether`", "`speed`"],
+            ),
+            ("- tether\n", 1, &["top level"]),
+            // `ros__parameters` that is not a mapping.
+            (
+                "tether:\n  ros__parameters: 5\n",
+                2,
+                &["node `tether`", "must be a mapping"],
+            ),
+            (
+                "tether:\n  ros__parameters:\n    - a\n",
+                2,
+                &["must be a mapping"],
+            ),
+            ("tether:\n  ros__parameters:\n", 2, &["must be a mapping"]),
+            // Bad names.
+            (
+                "tether:\n  ros__parameters:\n    9lives: 1\n",
+                3,
+                &["`9lives`", "parameter name"],
+            ),
+            (
+                "tether:\n  ros__parameters:\n    a:\n      b-c: 1\n",
+                4,
+                &["`a.b-c`"],
+            ),
+            (
+                "/robot*/tether:\n  ros__parameters:\n    a: 1\n",
+                1,
+                &["`/robot*/tether`", "alone"],
+            ),
+            (
+                "/a//tether:\n  ros__parameters:\n    a: 1\n",
+                1,
+                &["`/a//tether`"],
+            ),
+            (
+                "1robot:\n  ros__parameters:\n    a: 1\n",
+                1,
+                &["`1robot`", "digit"],
+            ),
+            // Arrays: mixed types, ints with doubles, empty, nested.
+            (
+                "tether:\n  ros__parameters:\n    a: [1, x]\n",
+                3,
+                &[
+                    "node `tether`, parameter `a`",
+                    "\"x\" (a string) among integers",
+                    "mixed",
+                ],
+            ),
+            (
+                "tether:\n  ros__parameters:\n    gains:\n      - 1\n      - 2.5\n",
+                5,
+                &["parameter `gains`", "2.5 (a double) among integers", "1.0"],
+            ),
+            (
+                "tether:\n  ros__parameters:\n    a: [true, 1]\n",
+                3,
+                &["parameter `a`", "among bools"],
+            ),
+            (
+                "tether:\n  ros__parameters:\n    a: []\n",
+                3,
+                &["parameter `a`", "empty list", "refuses"],
+            ),
+            (
+                "tether:\n  ros__parameters:\n    a: [[1]]\n",
+                3,
+                &["parameter `a`", "list inside a list"],
+            ),
+            (
+                "tether:\n  ros__parameters:\n    a: [{b: 1}]\n",
+                3,
+                &["parameter `a`", "mapping inside"],
+            ),
+            // No value; aliases.
+            (
+                "tether:\n  ros__parameters:\n    a:\n    b: 1\n",
+                3,
+                &["parameter `a`", "no value"],
+            ),
+            (
+                "tether:\n  ros__parameters:\n    a: {}\n",
+                3,
+                &["parameter `a`", "no value"],
+            ),
+            (
+                "tether:\n  ros__parameters:\n    a: &x 1\n    b: *x\n",
+                4,
+                &["alias"],
+            ),
+        ];
+        for (yaml, line, words) in cases {
+            let (got_line, problem) = file_error(yaml);
+            assert_eq!(got_line, *line, "{yaml:?}: {problem}");
+            for word in *words {
+                assert!(
+                    problem.contains(word),
+                    "{yaml:?}: {problem:?} lacks {word:?}"
+                );
+            }
+        }
     }
 
     #[test]
@@ -400,6 +1549,81 @@ mod tests {
         }
         for bad in ["", "/", "1scan", "a//b", "a-b", "sc an", "a/"] {
             assert!(!is_valid_name(bad), "{bad}");
+        }
+        for good in ["a", "a.b", "limits.max_speed", "a_1.b2.c"] {
+            assert!(is_valid_param_name(good), "{good}");
+        }
+        for bad in ["", ".", "a.", ".a", "a..b", "a.9", "~a", "a.b-c"] {
+            assert!(!is_valid_param_name(bad), "{bad}");
+        }
+    }
+
+    /// A scalar or an array, as a file would hold it (no NaN: it equals nothing).
+    fn value() -> impl Strategy<Value = ParamValue> {
+        let double = any::<f64>().prop_filter("NaN", |x| !x.is_nan());
+        let string = "[ -~\u{e9}\u{4e2d}]{0,12}";
+        prop_oneof![
+            any::<bool>().prop_map(ParamValue::Bool),
+            any::<i64>().prop_map(ParamValue::Integer),
+            double.clone().prop_map(ParamValue::Double),
+            string.prop_map(ParamValue::String),
+            prop::collection::vec(any::<bool>(), 1..4).prop_map(ParamValue::BoolArray),
+            prop::collection::vec(any::<i64>(), 1..4).prop_map(ParamValue::IntegerArray),
+            prop::collection::vec(double, 1..4).prop_map(ParamValue::DoubleArray),
+            prop::collection::vec(string, 1..4).prop_map(ParamValue::StringArray),
+        ]
+    }
+
+    /// `value` as YAML: doubles always with a fraction or an exponent, strings quoted.
+    fn yaml(value: &ParamValue) -> String {
+        let double = |x: f64| match x {
+            f64::INFINITY => ".inf".to_owned(),
+            f64::NEG_INFINITY => "-.inf".to_owned(),
+            x => format!("{x:?}"),
+        };
+        let string = |s: &str| format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""));
+        let list = |items: Vec<String>| format!("[{}]", items.join(", "));
+        match value {
+            ParamValue::Bool(b) => b.to_string(),
+            ParamValue::Integer(i) => i.to_string(),
+            ParamValue::Double(x) => double(*x),
+            ParamValue::String(s) => string(s),
+            ParamValue::BoolArray(v) => list(v.iter().map(bool::to_string).collect()),
+            ParamValue::IntegerArray(v) => list(v.iter().map(i64::to_string).collect()),
+            ParamValue::DoubleArray(v) => list(v.iter().map(|x| double(*x)).collect()),
+            ParamValue::StringArray(v) => list(v.iter().map(|s| string(s)).collect()),
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn any_valid_flat_parameters_read_back_equal(
+            params in prop::collection::btree_map(
+                "[a-z_][a-z0-9_]{0,6}(\\.[a-z_][a-z0-9_]{0,6}){0,2}",
+                value(),
+                0..12,
+            )
+        ) {
+            let mut text = String::from("tether:\n  ros__parameters:\n");
+            for (name, v) in &params {
+                text.push_str(&format!("    {name}: {}\n", yaml(v)));
+            }
+            if params.is_empty() {
+                text = "tether:\n  ros__parameters: {}\n".to_owned();
+            }
+            let blocks = param_blocks(&text).map_err(|p| {
+                TestCaseError::fail(format!("{text}\nline {}: {}", p.line, p.text))
+            })?;
+            prop_assert_eq!(blocks.len(), 1);
+            prop_assert_eq!(&blocks[0].params, &params, "{}", text);
+        }
+
+        #[test]
+        fn any_text_is_read_or_refused_without_a_panic(
+            text in "[a-z_/*:\\-\\[\\]{},&!#'\" .0-9\n]{0,120}|\\PC{0,120}"
+        ) {
+            let _ = param_blocks(&text);
+            let _ = command_line_value(&text);
         }
     }
 }

@@ -58,7 +58,10 @@ pub fn ros_type_name(dds_type: &str) -> String {
     let parts: Vec<&str> = dds_type.split("::").collect();
     match parts.as_slice() {
         [package, kind, "dds_", name] => {
-            format!("{package}/{kind}/{}", name.strip_suffix('_').unwrap_or(name))
+            format!(
+                "{package}/{kind}/{}",
+                name.strip_suffix('_').unwrap_or(name)
+            )
         }
         _ => dds_type.to_owned(),
     }
@@ -274,8 +277,13 @@ mod tests {
         assert_eq!(e.topic, "/robot1/scan");
         assert_eq!(e.type_name, SCAN);
         assert!(
-            Endpoint::from_dds("DCPSParticipant", "x", qos(true, false), Direction::Publication)
-                .is_none()
+            Endpoint::from_dds(
+                "DCPSParticipant",
+                "x",
+                qos(true, false),
+                Direction::Publication
+            )
+            .is_none()
         );
         assert_eq!(ros_type_name("odd"), "odd");
     }
@@ -291,8 +299,18 @@ mod tests {
             ep("/scan", SCAN, qos(true, false), Direction::Publication),
             ep("/scan", SCAN, qos(false, false), Direction::Publication),
             // Another reader of the scans is none of our business.
-            ep("/scan", "std_msgs/msg/String", qos(false, false), Direction::Subscription),
-            ep("/cmd_vel", TWIST, qos(false, false), Direction::Subscription),
+            ep(
+                "/scan",
+                "std_msgs/msg/String",
+                qos(false, false),
+                Direction::Subscription,
+            ),
+            ep(
+                "/cmd_vel",
+                TWIST,
+                qos(false, false),
+                Direction::Subscription,
+            ),
             ep("/other", SCAN, qos(false, false), Direction::Publication),
         ];
         assert!(check(&ours, &theirs).is_empty());
@@ -305,8 +323,18 @@ mod tests {
             ep("/cmd_vel", TWIST, qos(true, false), Direction::Publication),
         ];
         let theirs = [
-            ep("/scan", "sensor_msgs/msg/PointCloud2", qos(false, false), Direction::Publication),
-            ep("/cmd_vel", STAMPED, qos(true, false), Direction::Subscription),
+            ep(
+                "/scan",
+                "sensor_msgs/msg/PointCloud2",
+                qos(false, false),
+                Direction::Publication,
+            ),
+            ep(
+                "/cmd_vel",
+                STAMPED,
+                qos(true, false),
+                Direction::Subscription,
+            ),
         ];
         let found = check(&ours, &theirs);
         assert_eq!(found.len(), 2, "{found:?}");
@@ -342,13 +370,24 @@ mod tests {
             "{text:?}"
         );
         assert!(
-            text.iter().any(|t| t.starts_with("/cmd_vel")
-                && t.contains("make the subscriber ask for volatile")),
+            text.iter()
+                .any(|t| t.starts_with("/cmd_vel")
+                    && t.contains("make the subscriber ask for volatile")),
             "{text:?}"
         );
         // A best-effort publisher to a reliable reader: the other policy that fails.
-        let reliable_reader = [ep("/tf_static", TF, qos(true, false), Direction::Subscription)];
-        let best_effort = [ep("/tf_static", TF, qos(false, false), Direction::Publication)];
+        let reliable_reader = [ep(
+            "/tf_static",
+            TF,
+            qos(true, false),
+            Direction::Subscription,
+        )];
+        let best_effort = [ep(
+            "/tf_static",
+            TF,
+            qos(false, false),
+            Direction::Publication,
+        )];
         let found = check(&reliable_reader, &best_effort);
         assert!(
             matches!(&found[..], [Mismatch::IncompatibleQos { policy, .. }] if policy == "reliability"),

@@ -6,6 +6,21 @@
 //! files use ([`wire`]). The live loop that runs the pipeline on what arrives here is
 //! the `tether` crate's (`tether ros2`); this crate knows nothing of tracking.
 
+#[cfg(all(feature = "jazzy", feature = "humble"))]
+compile_error!(
+    "tether-ros2: the features `jazzy` and `humble` exclude each other (build with \
+     --no-default-features --features humble for a Humble graph)"
+);
+#[cfg(not(any(feature = "jazzy", feature = "humble")))]
+compile_error!("tether-ros2: choose the ROS 2 distribution: feature `jazzy` or `humble`");
+
+/// The ROS 2 distribution this build joins.
+pub const DISTRIBUTION: &str = if cfg!(feature = "humble") {
+    "humble"
+} else {
+    "jazzy"
+};
+
 pub mod args;
 pub mod graph;
 pub mod node;
@@ -13,6 +28,8 @@ pub mod tf;
 pub mod wire;
 
 pub use args::{ArgsError, ParamValue, Remap, RosArgs, domain_id};
-pub use node::{GraphWatcher, NodeIdentity, Received, Ros2Error, RosNode, offer, qos, spawn_reader};
+pub use node::{
+    GraphWatcher, NodeIdentity, Received, Ros2Error, RosNode, offer, qos, spawn_reader,
+};
 pub use tf::StaticTransforms;
 pub use wire::Wire;

@@ -621,7 +621,10 @@ fn a_flood_of_bad_scans_and_odometry_neither_crashes_nor_moves_the_robot() {
     assert!(j["commands"].as_u64().unwrap() > 50, "{j}");
     assert_eq!(j["moving_commands"], 0, "{log}");
     // What was refused is said, and counted.
-    assert!(log.contains("an odometry message refused: its pose is not finite"), "{log}");
+    assert!(
+        log.contains("an odometry message refused: its pose is not finite"),
+        "{log}"
+    );
     assert!(log.contains("stamped on arrival"), "{log}");
     assert!(log.contains("interrupted"), "{log}");
     assert!(!log.contains("panicked"), "{log}");

@@ -558,8 +558,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (stop_graph, graph_stops) = mpsc::channel::<()>();
     let graph_thread = watch_graph(node.graph_watcher(), graph_stops)?;
     tracing::info!(
-        "node {}{}{} on ROS 2 domain {domain_id}: scans from {scan_topic}, commands to {}, \
-         results in {fixed_frame}",
+        "node {}{}{} on ROS 2 domain {domain_id} ({} graph ids): scans from {scan_topic}, \
+         commands to {}, results in {fixed_frame}",
         identity.namespace,
         if identity.namespace.ends_with('/') {
             ""
@@ -567,6 +567,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "/"
         },
         identity.name,
+        tether_ros2::DISTRIBUTION,
         outputs.cmd_vel
     );
 

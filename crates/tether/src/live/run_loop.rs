@@ -811,4 +811,62 @@ mod tests {
         assert!(!summary.ending.is_clean());
         assert_eq!(lines.lock().unwrap().last().unwrap().input, "final");
     }
+
+    #[test]
+    fn a_clock_that_stands_still_gets_the_robot_a_stop_and_time_then_runs_on() {
+        // Simulated time that advances 50 ms at a time, then stands still for longer
+        // than CLOCK_STALL, then advances again.
+        let clock = super::super::clock::SimClock::new();
+        clock.set(1_000_000_000);
+        let (tx, rx) = mpsc::sync_channel(8);
+        let (sink, lines) = keep(None);
+        let mut sinks = vec![sink];
+        let stop = Arc::new(AtomicBool::new(false));
+        let driver = {
+            let clock = clock.clone();
+            let stop = Arc::clone(&stop);
+            std::thread::spawn(move || {
+                let mut t = 1_000_000_000;
+                for step in 0..60 {
+                    if step == 20 {
+                        std::thread::sleep(CLOCK_STALL + Duration::from_millis(400));
+                    }
+                    t += 50_000_000;
+                    clock.set(t);
+                    let _ = tx.try_send(Input::ClockAdvanced);
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                stop.store(true, Ordering::Relaxed);
+            })
+        };
+        let mut pipeline = Pipeline::new(PipelineConfig::default(), None).unwrap();
+        let live_clock = super::super::clock::LiveClock::Sim(clock.clone());
+        let summary = run(
+            &mut pipeline,
+            &live_clock,
+            &rx,
+            &mut sinks,
+            None::<&mut Recorder<Cursor<Vec<u8>>>>,
+            &stop,
+            &config(None),
+            0.1,
+        );
+        driver.join().unwrap();
+        assert_eq!(summary.clock_stalls, 1);
+        let lines = lines.lock().unwrap();
+        let stalled: Vec<_> = lines
+            .iter()
+            .filter(|l| l.stop == Some("clock_stalled"))
+            .collect();
+        assert_eq!(stalled.len(), 1, "one stop for the stall");
+        assert_eq!((stalled[0].v_mps, stalled[0].w_radps), (0.0, 0.0));
+        // Timer ticks ran on simulated time: 60 steps of 50 ms are about 60 ticks of
+        // the 20 Hz timer, however long the wall clock took.
+        let timer_ticks = lines.iter().filter(|l| l.input == "timer").count();
+        assert!(
+            (50..=62).contains(&timer_ticks),
+            "{timer_ticks} timer ticks"
+        );
+        assert_eq!(lines.last().unwrap().input, "final");
+    }
 }
