@@ -286,7 +286,7 @@ fn the_base_s_odometry_is_the_robot_s_pose() {
     let used = count_before(stderr, " odometry messages used");
     assert!(used * 10 >= odom_sent * 9, "{used} of {odom_sent} used");
     assert!(
-        stderr.contains("(0 scans skipped on stale odometry)"),
+        stderr.contains("(0 refused, 0 scans skipped on stale odometry)"),
         "{stderr}"
     );
 }
