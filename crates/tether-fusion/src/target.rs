@@ -32,6 +32,14 @@ use crate::tracker::{MotionBounds, Track};
 /// Uncertainty of where a track was born (one observation of a person), m.
 const BIRTH_SIGMA_M: f64 = 0.15;
 
+/// A target whose track was updated by a whole person (a pair of legs, the camera) this
+/// recently, and is updated now, is being seen, s: about three scans of a slow laser.
+const SEEN_WHOLE_S: f64 = 0.5;
+
+/// A target's track updated now and, before that, at most this long ago is observed
+/// steadily, s (two to three scans of a 7.5-10 Hz laser).
+const STEADY_GAP_S: f64 = 0.3;
+
 /// Target selection settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -476,6 +484,10 @@ pub struct TargetSelector {
     seen: BTreeSet<u64>,
     /// Tracks born, while the target was unseen, where it could not have been.
     born_elsewhere: BTreeSet<u64>,
+    /// Tracks born apart from the target while it was observed (seen whole a moment
+    /// before, or steadily): somebody else if still away from it when it is lost (the
+    /// target's track, not the new one, may have been on the wrong thing).
+    born_apart: BTreeSet<u64>,
     /// Tracks that have been the target: the same person, whatever the tracker has
     /// done since, until shown otherwise.
     former: BTreeSet<u64>,
@@ -492,6 +504,11 @@ pub struct TargetSelector {
     /// While lost for `restart_after_s`: the one track standing in front of the robot,
     /// and since when.
     presented: Option<(u64, Stamp)>,
+    /// The lost target's track as it was when lost: its (not weak) updates and its last
+    /// evidence of a whole person. Coming back, it must show more than that.
+    evidence_at_loss: Option<(u64, u32, Option<Stamp>)>,
+    /// The locked track, its last update and the update before that.
+    target_updates: Option<(u64, Stamp, Option<Stamp>)>,
 }
 
 impl TargetSelector {
@@ -512,11 +529,14 @@ impl TargetSelector {
             seen: BTreeSet::new(),
             former: BTreeSet::new(),
             born_elsewhere: BTreeSet::new(),
+            born_apart: BTreeSet::new(),
             born_at_target: BTreeSet::new(),
             refused: BTreeSet::new(),
             ambiguous_sets: BTreeSet::new(),
             refusals_now: Vec::new(),
             presented: None,
+            evidence_at_loss: None,
+            target_updates: None,
         }
     }
 
@@ -647,7 +667,37 @@ impl TargetSelector {
                 .map(|t| t.position().mean),
             _ => None,
         };
+        // The target observed now, and seen whole a moment ago or observed steadily
+        // (not a coasting track that took a stray return): a track born now away from
+        // it is a second person, even before the two have been seen apart for
+        // `beside_s` (a bystander found while the target walks into an occlusion).
+        let locked = match self.state {
+            TargetState::Locked { track } => tracks.iter().find(|t| t.id == track),
+            _ => None,
+        };
+        let previous_update = match (locked, self.target_updates) {
+            (Some(t), Some((id, last, previous))) if id == t.id => {
+                if t.last_update > last {
+                    Some(last)
+                } else {
+                    previous
+                }
+            }
+            _ => None,
+        };
+        self.target_updates = locked.map(|t| (t.id, t.last_update, previous_update));
+        let target_seen_now = locked
+            .filter(|t| {
+                t.last_update == now
+                    && (t
+                        .last_pair
+                        .is_some_and(|p| now.secs_since(p) <= SEEN_WHOLE_S)
+                        || previous_update.is_some_and(|p| now.secs_since(p) <= STEADY_GAP_S))
+            })
+            .map(|t| t.position());
         self.born_elsewhere
+            .retain(|id| tracks.iter().any(|t| t.id == *id));
+        self.born_apart
             .retain(|id| tracks.iter().any(|t| t.id == *id));
         // While the target is unseen (its track coasting, or lost), where it can be is
         // bounded: a track born outside that is somebody else from birth (a bystander
@@ -657,7 +707,7 @@ impl TargetSelector {
                 .iter()
                 .find(|t| t.id == track)
                 .filter(|t| t.last_update < now)
-                .map(|t| t.anchor),
+                .map(|t| self.good_anchor(t)),
             TargetState::Lost {
                 since,
                 last,
@@ -681,6 +731,18 @@ impl TargetSelector {
             {
                 self.born_at_target.insert(t.id);
             }
+            // Apart beyond doubt: by more than `encounter_distance_m` and three
+            // standard deviations of each (a camera-born track's monocular range is
+            // loose far away).
+            let sd = |g: &Gaussian2<World>| g.cov.principal_axes().0.max(0.0).sqrt();
+            if t.born == now
+                && target_seen_now.is_some_and(|p| {
+                    p.mean.distance_m(t.birth_position)
+                        > self.config.encounter_distance_m + 3.0 * (sd(&p) + sd(&t.position()))
+                })
+            {
+                self.born_apart.insert(t.id);
+            }
             if let Some(a) = unseen_from
                 && t.born > a.stamp
                 && !self.reachable_from(&a, t.birth_position, BIRTH_SIGMA_M, t.born)
@@ -692,7 +754,7 @@ impl TargetSelector {
             TargetState::Searching => self.choose(now, tracks, view),
             TargetState::Locked { track } => match tracks.iter().find(|t| t.id == track) {
                 Some(t) if fresh(t) => {
-                    self.last_good = Some(t.anchor);
+                    self.last_good = Some(self.good_anchor(t));
                     if t.last_pair == Some(now) {
                         self.count_beside(t, tracks, now, dt);
                     }
@@ -723,7 +785,7 @@ impl TargetSelector {
                     {
                         self.lose(track, found, Some(a), tracks, view)
                     } else {
-                        let anchor = found.map(|t| t.anchor).or(self.last_good);
+                        let anchor = found.map(|t| self.good_anchor(t)).or(self.last_good);
                         self.lose(track, found, anchor, tracks, view)
                     }
                 }
@@ -759,6 +821,41 @@ impl TargetSelector {
             self.alone = None;
         }
         self.state
+    }
+
+    /// Track `t`'s last good estimate: its estimate after its last update, unless the
+    /// single-leg updates since its last update by a whole person (a pair of legs, the
+    /// camera; at most `encounter_max_s` before) have left that walk, when it is the
+    /// estimate after that whole-person update. A coasting target's track may
+    /// take a phantom return, the edge of a pillar or a bystander's leg that its wide
+    /// reach covers, and run off after them; where the person can be is bounded from
+    /// where they were last seen whole, never from that runaway (SPEC 5; issue 14).
+    fn good_anchor(&self, t: &Track) -> crate::tracker::Anchor {
+        let last = t.anchor;
+        let Some(p) = t.pair_anchor else {
+            return last;
+        };
+        let dt = last.stamp.secs_since(p.stamp);
+        if dt <= 0.0 || dt > self.config.encounter_max_s {
+            return last;
+        }
+        // Single-leg updates that carry on the walk seen whole are the person's own: the
+        // last update is good when it lies within `handover_within_sigma` of where that
+        // walk leads (`sigma` as in [`Self::off_prediction_sigma`]).
+        let predicted = p.position.mean + p.velocity * dt;
+        let sd2 = |c: &tether_core::Cov2| c.principal_axes().0.max(0.0);
+        let spread = 0.5 * self.config.encounter_accel_mps2 * dt * dt;
+        let var = sd2(&p.position.cov)
+            + sd2(&last.position.cov)
+            + (p.velocity_sigma_mps * dt).powi(2)
+            + spread * spread;
+        if last.position.mean.distance_m(predicted)
+            <= self.config.handover_within_sigma * var.max(1e-6).sqrt()
+        {
+            last
+        } else {
+            p
+        }
     }
 
     /// How many standard deviations track `t` is (at `at`) from where the target, alone
@@ -809,7 +906,7 @@ impl TargetSelector {
         });
         if !company {
             if t.last_update == now {
-                self.alone = Some(t.anchor);
+                self.alone = Some(self.good_anchor(t));
             }
             return TargetState::Locked { track: t.id };
         }
@@ -820,9 +917,17 @@ impl TargetSelector {
             return TargetState::Locked { track: t.id };
         };
         let d_target = self.off_motion_sq(&a, t, now);
+        // The candidates are the company: a swap of identities happens between tracks
+        // that meet, and a track away from the target that only fits the reference's
+        // extrapolation is not one (the target may have turned where it was hidden).
         let mut others: Vec<(f64, &Track)> = tracks
             .iter()
-            .filter(|u| u.id != t.id && u.confirmed && u.last_update == now)
+            .filter(|u| {
+                u.id != t.id
+                    && u.confirmed
+                    && u.last_update == now
+                    && u.position().mean.distance_m(here) < c.encounter_distance_m
+            })
             .map(|u| (self.off_motion_sq(&a, u, now), u))
             .collect();
         others.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.id.cmp(&y.1.id)));
@@ -976,11 +1081,20 @@ impl TargetSelector {
             .filter(|t| {
                 self.beside.get(&t.id).is_some_and(|&s| s >= beside_s)
                     || anchor.is_some_and(|a| self.there_before(t, &a))
+                    || (self.born_apart.contains(&t.id)
+                        && anchor.is_some_and(|a| {
+                            t.position().mean.distance_m(a.position.mean)
+                                > self.config.encounter_distance_m
+                        }))
             })
             .map(|t| t.id)
             .collect();
         self.refused.clear();
         self.ambiguous_sets.clear();
+        self.evidence_at_loss = tracks
+            .iter()
+            .find(|t| t.id == track)
+            .map(|t| (track, t.hits, t.last_pair));
         match anchor {
             Some(a) => TargetState::Lost {
                 track,
@@ -1055,12 +1169,16 @@ impl TargetSelector {
         let alone = self
             .alone
             .filter(|al| now.secs_since(al.stamp) <= self.config.encounter_max_s && now > al.stamp);
-        let a = alone.unwrap_or(t.anchor);
+        // Where the target was last seen whole: a track that coasts on single legs may
+        // be running off after somebody else's.
+        let good = self.good_anchor(t);
+        let a = alone.unwrap_or(good);
         // Near where the target was last seen, or where its motion from when it was
         // alone would have taken it.
         let r = self.config.encounter_distance_m;
         let near = |p: Point2<World>| {
             p.distance_m(t.anchor.position.mean) <= r
+                || p.distance_m(good.position.mean) <= r
                 || alone.is_some_and(|al| {
                     p.distance_m(al.position.mean + al.velocity * now.secs_since(al.stamp)) <= r
                 })
@@ -1146,7 +1264,19 @@ impl TargetSelector {
             }
             if t.id == track {
                 // The tracker kept its identity: back, if it is still where the target
-                // could be (a track that ran off after something else is not).
+                // could be (a track that ran off after something else is not), and
+                // shows the person again: a whole person (a pair of legs, the camera)
+                // or two updates since the loss. A coasting track's reach is wide; one
+                // false positive in it (a phantom return, a bystander's leg) must not
+                // bring the lock back onto a track that has lost its person.
+                if let Some((id, hits, last_pair)) = self.evidence_at_loss
+                    && id == track
+                    && t.hits < hits + 2
+                    && t.last_pair <= last_pair
+                {
+                    self.refuse(t.id, Refusal::NoLegPair);
+                    continue;
+                }
                 let p = t.position();
                 let sd = p.cov.principal_axes().0.max(0.0).sqrt();
                 if self.within_reach(p.mean, sd, now) {
@@ -1305,6 +1435,12 @@ mod tests {
     fn track(id: u64, x: f64, y: f64, last_ms: i64, both: bool) -> Track {
         let g = Gaussian2::<World>::new(Point2::new(x, y), Cov2::isotropic(0.05).unwrap()).unwrap();
         let t = Stamp::from_ns(last_ms * 1_000_000);
+        let anchor = Anchor {
+            stamp: t,
+            position: g,
+            velocity: Vector2::ZERO,
+            velocity_sigma_mps: 0.1,
+        };
         Track {
             id,
             filter: CvFilter::new(&g, 0.3),
@@ -1314,17 +1450,13 @@ mod tests {
             last_update: t,
             last_laser: Some(t),
             last_vision: both.then_some(t),
-            anchor: Anchor {
-                stamp: t,
-                position: g,
-                velocity: Vector2::ZERO,
-                velocity_sigma_mps: 0.1,
-            },
+            anchor,
             birth_position: Point2::new(x - 1.0, y),
             walked_m: 1.0,
             pair_hits: 5,
             weak_hits: 0,
             last_pair: Some(t),
+            pair_anchor: Some(anchor),
             duplicate_since: None,
         }
     }
@@ -1454,6 +1586,120 @@ mod tests {
                 .locked_track()
                 .is_none()
         );
+    }
+
+    /// `t` moved to `(x, y)` by a single-leg update at `ms` (its last whole-person
+    /// estimate kept).
+    fn single_leg_update(t: &Track, x: f64, y: f64, ms: i64) -> Track {
+        let mut u = t.clone();
+        let g = Gaussian2::<World>::new(Point2::new(x, y), Cov2::isotropic(0.05).unwrap()).unwrap();
+        u.filter = CvFilter::new(&g, 0.3);
+        u.last_update = Stamp::from_ns(ms * 1_000_000);
+        u.last_laser = Some(u.last_update);
+        u.anchor = Anchor {
+            stamp: u.last_update,
+            position: g,
+            velocity: Vector2::ZERO,
+            velocity_sigma_mps: 0.1,
+        };
+        u.hits += 1;
+        u
+    }
+
+    #[test]
+    fn one_stray_return_does_not_bring_back_a_lost_target_s_track() {
+        let laser_only = TargetConfig {
+            require_both_sensors: false,
+            ..TargetConfig::default()
+        };
+        let mut s = TargetSelector::new(laser_only, MotionBounds::default());
+        let t = track(1, 2.0, 0.0, 0, false);
+        s.update(at(0), std::slice::from_ref(&t), Pose2::IDENTITY);
+        let lost = s.update(at(1100), std::slice::from_ref(&t), Pose2::IDENTITY);
+        assert_eq!(lost.loss_reason(), Some(LossReason::Unseen));
+        // A phantom return in the coasting track's reach: one single-leg update.
+        let stray = single_leg_update(&t, 2.5, 0.5, 1200);
+        assert_eq!(
+            s.update(at(1200), std::slice::from_ref(&stray), Pose2::IDENTITY)
+                .locked_track(),
+            None
+        );
+        assert_eq!(s.refusals(), &[(1, Refusal::NoLegPair)]);
+        // The person again: a second update (or a pair of legs) brings the lock back.
+        let again = single_leg_update(&stray, 2.4, 0.4, 1300);
+        assert_eq!(
+            s.update(at(1300), &[again], Pose2::IDENTITY).locked_track(),
+            Some(1)
+        );
+    }
+
+    #[test]
+    fn a_target_that_coasts_on_single_legs_is_searched_for_from_where_it_was_seen_whole() {
+        // Seen whole at (2, 0) at 0 ms; then its track runs off on single legs to
+        // (4.5, 0) by 700 ms, and goes silent.
+        let run_off = |s: &mut TargetSelector| {
+            let t = track(1, 2.0, 0.0, 0, true);
+            s.update(at(0), std::slice::from_ref(&t), Pose2::IDENTITY);
+            let runaway = single_leg_update(&t, 4.5, 0.0, 700);
+            s.update(at(700), std::slice::from_ref(&runaway), Pose2::IDENTITY);
+            let lost = s.update(at(1800), &[runaway], Pose2::IDENTITY);
+            assert!(lost.loss_reason().is_some());
+        };
+        // A new track beyond the runaway is out of reach of the person...
+        let mut s = selector();
+        run_off(&mut s);
+        let beyond = track(9, 6.5, 0.0, 1800, true);
+        assert_eq!(
+            s.update(at(1800), &[beyond], Pose2::IDENTITY)
+                .locked_track(),
+            None
+        );
+        assert_eq!(s.refusals(), &[(9, Refusal::OutOfReach)]);
+        // ...while one near where the person was last seen whole takes the target up.
+        let mut s = selector();
+        run_off(&mut s);
+        let person = track(9, 1.4, 1.0, 1800, true);
+        assert_eq!(
+            s.update(at(1800), &[person], Pose2::IDENTITY)
+                .locked_track(),
+            Some(9)
+        );
+    }
+
+    #[test]
+    fn a_track_born_away_from_the_observed_target_is_somebody_else_if_still_away() {
+        // Track 2 is born 3 m from the target while the target is observed (seen whole
+        // 0.1 s before, and steadily: not yet there when it was last seen whole).
+        let born_apart = || {
+            let mut s = selector();
+            let t0 = track(1, 2.0, 0.0, 0, true);
+            s.update(at(0), std::slice::from_ref(&t0), Pose2::IDENTITY);
+            let mut b = track(2, 2.0, 3.0, 100, true);
+            b.born = at(100);
+            let t1 = single_leg_update(&t0, 2.0, 0.0, 100);
+            s.update(at(100), &[t1.clone(), b.clone()], Pose2::IDENTITY);
+            (s, t1, b)
+        };
+        let moved = |x: f64, y: f64, ms: i64| {
+            let mut u = track(2, x, y, ms, true);
+            u.born = at(100);
+            u
+        };
+        // The target walks behind something and is lost; the other track walks on, and
+        // is offered when it could be the target as far as walking goes.
+        let (mut s, _, b) = born_apart();
+        let lost = s.update(at(1200), &[b], Pose2::IDENTITY);
+        assert!(lost.loss_reason().is_some());
+        let state = s.update(at(2500), &[moved(2.0, 3.0, 2500)], Pose2::IDENTITY);
+        assert_eq!(state.locked_track(), None);
+        assert_eq!(s.refusals(), &[(2, Refusal::SomebodyElse)]);
+        // It came onto the target before the loss: the target's track may have been on
+        // the wrong thing, so it is not ruled out.
+        let (mut s, t1, _) = born_apart();
+        let near = moved(2.2, 0.3, 1100);
+        s.update(at(1100), &[t1, near.clone()], Pose2::IDENTITY);
+        let state = s.update(at(1200), &[near], Pose2::IDENTITY);
+        assert_eq!(state.locked_track(), Some(2));
     }
 
     #[test]
@@ -1657,6 +1903,7 @@ mod tests {
         t.filter.x[2] = v.0;
         t.filter.x[3] = v.1;
         t.anchor.velocity = Vector2::new(v.0, v.1);
+        t.pair_anchor = Some(t.anchor);
         t
     }
 

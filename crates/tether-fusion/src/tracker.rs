@@ -368,6 +368,10 @@ pub struct Track {
     pub weak_hits: u32,
     /// Last update by evidence of a whole person: a pair of legs, or the camera.
     pub last_pair: Option<Stamp>,
+    /// The track's estimate right after its last update by evidence of a whole person
+    /// (see `last_pair`): a single leg may be a phantom, a bush or somebody else's leg
+    /// that a coasting track took, a pair of legs or the camera hardly.
+    pub pair_anchor: Option<Anchor>,
     /// Since when this track has stayed within `duplicate_distance_m` of an older
     /// confirmed track.
     pub duplicate_since: Option<Stamp>,
@@ -695,6 +699,7 @@ impl Tracker {
             t.pair_hits += u32::from(o.leg_pair);
             if o.leg_pair || o.source != Source::Laser {
                 t.last_pair = Some(stamp);
+                t.pair_anchor = Some(t.anchor);
             }
             t.walked_m = t
                 .walked_m
@@ -747,6 +752,8 @@ impl Tracker {
                 pair_hits: u32::from(o.leg_pair),
                 weak_hits: 0,
                 last_pair: (o.leg_pair || o.source != Source::Laser).then_some(stamp),
+                pair_anchor: (o.leg_pair || o.source != Source::Laser)
+                    .then_some(Anchor::of(&filter, stamp)),
                 duplicate_since: None,
             });
             self.stats.tracks_started += 1;

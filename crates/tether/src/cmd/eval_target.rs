@@ -108,6 +108,15 @@ pub fn evaluate(
     mut on_run: impl FnMut(),
 ) -> anyhow::Result<Pooled> {
     let driver = mode.config(scenario, base);
+    // Laser only is the scenario with its camera off, as `tether sim --laser-only` and
+    // the demo run it, so that a bad seed is rerun as it was measured.
+    let laser_only;
+    let run_scenario = if mode == Mode::Laser {
+        laser_only = super::demo::laser_only(scenario);
+        &laser_only
+    } else {
+        scenario
+    };
     let mut p = Pooled {
         scenario: scenario.name.clone(),
         mode,
@@ -127,7 +136,7 @@ pub fn evaluate(
     };
     let (mut on_target, mut d_err, mut band) = (0u64, Vec::new(), Vec::new());
     for seed in 0..seeds {
-        let log = closed_loop::run(scenario, seed, &driver, &[], &[])
+        let log = closed_loop::run(run_scenario, seed, &driver, &[], &[])
             .with_context(|| format!("{} seed {seed}", scenario.name))?;
         let m = measure(&log);
         let t = measure_target_lock(&log);

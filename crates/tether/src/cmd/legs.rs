@@ -61,6 +61,9 @@ struct PersonLine {
 struct ScanLine {
     stamp_ns: i64,
     legs: Vec<LegLine>,
+    /// Candidates the classifier nearly accepted (within `weak_margin` of its
+    /// threshold): they only keep confirmed tracks alive.
+    weak_legs: Vec<LegLine>,
     people: Vec<PersonLine>,
 }
 
@@ -135,18 +138,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let scan = &message.message.scan;
         malformed += scan.malformed_beams();
         let detection = detector.detect(scan);
+        let leg_line = |l: &tether_laser::Leg| LegLine {
+            x: l.centre_in_laser.x,
+            y: l.centre_in_laser.y,
+            radius_m: l.radius_m,
+            score: l.score,
+        };
         let line = ScanLine {
             stamp_ns: scan.stamp.ns(),
-            legs: detection
-                .legs
-                .iter()
-                .map(|l| LegLine {
-                    x: l.centre_in_laser.x,
-                    y: l.centre_in_laser.y,
-                    radius_m: l.radius_m,
-                    score: l.score,
-                })
-                .collect(),
+            legs: detection.legs.iter().map(leg_line).collect(),
+            weak_legs: detection.weak_legs.iter().map(leg_line).collect(),
             people: detection
                 .people
                 .iter()
