@@ -841,16 +841,8 @@ impl TargetSelector {
         }
         // Single-leg updates that carry on the walk seen whole are the person's own: the
         // last update is good when it lies within `handover_within_sigma` of where that
-        // walk leads (`sigma` as in [`Self::off_prediction_sigma`]).
-        let predicted = p.position.mean + p.velocity * dt;
-        let sd2 = |c: &tether_core::Cov2| c.principal_axes().0.max(0.0);
-        let spread = 0.5 * self.config.encounter_accel_mps2 * dt * dt;
-        let var = sd2(&p.position.cov)
-            + sd2(&last.position.cov)
-            + (p.velocity_sigma_mps * dt).powi(2)
-            + spread * spread;
-        if last.position.mean.distance_m(predicted)
-            <= self.config.handover_within_sigma * var.max(1e-6).sqrt()
+        // walk leads.
+        if self.off_walk_sigma(&p, &last.position, last.stamp) <= self.config.handover_within_sigma
         {
             last
         } else {
@@ -862,15 +854,21 @@ impl TargetSelector {
     /// at `a`, would be: `|p_t - (p_a + v_a dt)| / sqrt(sigma_a^2 + sigma_t^2 + (sigma_v
     /// dt)^2 + (A dt^2 / 2)^2)`, `A` = `encounter_accel_mps2`.
     fn off_prediction_sigma(&self, a: &crate::tracker::Anchor, t: &Track, at: Stamp) -> f64 {
+        self.off_walk_sigma(a, &t.position(), at)
+    }
+
+    /// How many standard deviations the estimate `g` (at `at`) is from where the walk
+    /// of `a` leads: the formula of [`Self::off_prediction_sigma`].
+    fn off_walk_sigma(&self, a: &crate::tracker::Anchor, g: &Gaussian2<World>, at: Stamp) -> f64 {
         let dt = at.secs_since(a.stamp).max(0.0);
         let predicted = a.position.mean + a.velocity * dt;
         let sd2 = |c: &tether_core::Cov2| c.principal_axes().0.max(0.0);
         let spread = 0.5 * self.config.encounter_accel_mps2 * dt * dt;
         let var = sd2(&a.position.cov)
-            + sd2(&t.position().cov)
+            + sd2(&g.cov)
             + (a.velocity_sigma_mps * dt).powi(2)
             + spread * spread;
-        t.position().mean.distance_m(predicted) / var.max(1e-6).sqrt()
+        g.mean.distance_m(predicted) / var.max(1e-6).sqrt()
     }
 
     /// The squared normalised distance of track `t` (at `at`) from the target's motion
