@@ -6,7 +6,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use tether_io::mcap::{
-    ClockMsg, CompressedImageMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg, OdometryMsg,
+    ClockMsg, CompressedImageMsg, Detection2DArrayMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg, OdometryMsg,
     PoseArrayMsg, PoseWithCovarianceStampedMsg, Ros2Message, StringMsg, TfMessage, TwistMsg,
     TwistStampedMsg, from_cdr, to_cdr,
 };
@@ -28,7 +28,7 @@ fuzz_target!(|data: &[u8]| {
     };
     let mut payload = vec![0x00, 0x01, 0x00, 0x00];
     payload.extend_from_slice(body);
-    match kind % 12 {
+    match kind % 13 {
         0 => check::<LaserScanMsg>(&payload),
         1 => check::<TwistMsg>(&payload),
         2 => check::<TwistStampedMsg>(&payload),
@@ -40,6 +40,7 @@ fuzz_target!(|data: &[u8]| {
         8 => check::<TfMessage>(&payload),
         9 => check::<MarkerArrayMsg>(&payload),
         10 => check::<ClockMsg>(&payload),
+        11 => check::<Detection2DArrayMsg>(&payload),
         _ => check::<StringMsg>(&payload),
     }
 });

@@ -2,12 +2,29 @@
 """rosbags' CDR (ROS 2 Jazzy types) of the messages cdr_oracle.rs builds, as hex, one
 per line: the independent oracle for tether's codec of `geometry_msgs/msg/TwistStamped`
 `tf2_msgs/msg/TFMessage`, `visualization_msgs/msg/MarkerArray` and
-`rosgraph_msgs/msg/Clock`."""
+`rosgraph_msgs/msg/Clock`, and `vision_msgs/msg/Detection2DArray` (vision_msgs 4.x,
+registered here from its .msg files, since rosbags' stores do not carry it)."""
 
 import numpy as np
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 ts = get_typestore(Stores.ROS2_JAZZY)
+VISION_MSGS = {
+    "vision_msgs/msg/Point2D": "float64 x\nfloat64 y\n",
+    "vision_msgs/msg/Pose2D": "vision_msgs/Point2D position\nfloat64 theta\n",
+    "vision_msgs/msg/BoundingBox2D": "vision_msgs/Pose2D center\nfloat64 size_x\nfloat64 size_y\n",
+    "vision_msgs/msg/ObjectHypothesis": "string class_id\nfloat64 score\n",
+    "vision_msgs/msg/ObjectHypothesisWithPose": (
+        "vision_msgs/ObjectHypothesis hypothesis\ngeometry_msgs/PoseWithCovariance pose\n"
+    ),
+    "vision_msgs/msg/Detection2D": (
+        "std_msgs/Header header\nvision_msgs/ObjectHypothesisWithPose[] results\n"
+        "vision_msgs/BoundingBox2D bbox\nstring id\n"
+    ),
+    "vision_msgs/msg/Detection2DArray": "std_msgs/Header header\nvision_msgs/Detection2D[] detections\n",
+}
+for name, text in VISION_MSGS.items():
+    ts.register(get_types_from_msg(text, name))
 T = ts.types
 Time = T["builtin_interfaces/msg/Time"]
 Header = T["std_msgs/msg/Header"]
@@ -97,11 +114,50 @@ markers = MarkerArray(
     ]
 )
 clock = Clock(clock=Time(sec=42, nanosec=7))
+PoseWithCovariance = T["geometry_msgs/msg/PoseWithCovariance"]
+
+
+def hypothesis(class_id, score):
+    return T["vision_msgs/msg/ObjectHypothesisWithPose"](
+        hypothesis=T["vision_msgs/msg/ObjectHypothesis"](class_id=class_id, score=score),
+        pose=PoseWithCovariance(
+            pose=Pose(
+                position=Point(x=0.0, y=0.0, z=0.0),
+                orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0),
+            ),
+            covariance=np.zeros(36, np.float64),
+        ),
+    )
+
+
+def detection(results, theta, id):
+    return T["vision_msgs/msg/Detection2D"](
+        header=header(7, 250_000_000, "camera"),
+        results=results,
+        bbox=T["vision_msgs/msg/BoundingBox2D"](
+            center=T["vision_msgs/msg/Pose2D"](
+                position=T["vision_msgs/msg/Point2D"](x=140.0, y=88.5), theta=theta
+            ),
+            size_x=80.0,
+            size_y=96.0,
+        ),
+        id=id,
+    )
+
+
+detections = T["vision_msgs/msg/Detection2DArray"](
+    header=header(7, 250_000_000, "camera"),
+    detections=[
+        detection([hypothesis("person", 0.9), hypothesis("chair", 0.125)], 0.0, "3"),
+        detection([], 0.5, ""),
+    ],
+)
 for msg, name in [
     (twist, "geometry_msgs/msg/TwistStamped"),
     (tf, "tf2_msgs/msg/TFMessage"),
     (empty, "tf2_msgs/msg/TFMessage"),
     (markers, "visualization_msgs/msg/MarkerArray"),
     (clock, "rosgraph_msgs/msg/Clock"),
+    (detections, "vision_msgs/msg/Detection2DArray"),
 ]:
     print(bytes(ts.serialize_cdr(msg, name)).hex())

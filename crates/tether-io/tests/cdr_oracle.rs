@@ -1,6 +1,7 @@
 //! tether's CDR of `geometry_msgs/msg/TwistStamped`, `tf2_msgs/msg/TFMessage`,
-//! `visualization_msgs/msg/MarkerArray` and `rosgraph_msgs/msg/Clock` (what `tether ros2`
-//! publishes on `cmd_vel` and `tether/markers`, reads from `/tf_static` and `/clock`) against Python
+//! `visualization_msgs/msg/MarkerArray`, `rosgraph_msgs/msg/Clock` and
+//! `vision_msgs/msg/Detection2DArray` (what `tether ros2` publishes on `cmd_vel` and
+//! `tether/markers`, reads from `/tf_static`, `/clock` and `detections`) against Python
 //! `rosbags`' serializer, byte for byte (`tests/cdr_oracle.py` builds the same
 //! messages). Skips, printing why, without `rosbags`, unless `TETHER_REQUIRE_SHARED=1`.
 
@@ -10,8 +11,9 @@ use std::process::Command;
 
 use tether_core::Stamp;
 use tether_io::mcap::{
-    ClockMsg, Header, MarkerArrayMsg, MarkerMsg, MeshFile, Pose3, TfMessage, TransformStampedMsg,
-    TwistMsg, TwistStampedMsg, from_cdr, to_cdr,
+    ClockMsg, Detection2DArrayMsg, Detection2DMsg, Header, MarkerArrayMsg, MarkerMsg, MeshFile,
+    ObjectHypothesisMsg, Pose3, TfMessage, TransformStampedMsg, TwistMsg, TwistStampedMsg,
+    from_cdr, to_cdr,
 };
 
 fn rosbags_payloads() -> Option<Vec<Vec<u8>>> {
@@ -139,12 +141,39 @@ fn published_and_subscribed_messages_are_rosbags_cdr_byte_for_byte() {
     let clock = ClockMsg {
         clock: Stamp::from_ns(42_000_000_007),
     };
+    let camera = Header::new(Stamp::from_ns(7_250_000_000), "camera");
+    let b = tether_core::PixelBox {
+        x: 100.0,
+        y: 40.5,
+        w: 80.0,
+        h: 96.0,
+    };
+    let mut first = Detection2DMsg::from_box(
+        camera.clone(),
+        &b,
+        ObjectHypothesisMsg::class("person", 0.9),
+        "3",
+    );
+    first
+        .results
+        .push(ObjectHypothesisMsg::class("chair", 0.125));
+    let second = Detection2DMsg {
+        results: Vec::new(),
+        theta_rad: 0.5,
+        id: String::new(),
+        ..first.clone()
+    };
+    let detections = Detection2DArrayMsg {
+        header: camera,
+        detections: vec![first, second],
+    };
     let ours = [
         to_cdr(&twist).unwrap(),
         to_cdr(&tf).unwrap(),
         to_cdr(&TfMessage::default()).unwrap(),
         to_cdr(&markers).unwrap(),
         to_cdr(&clock).unwrap(),
+        to_cdr(&detections).unwrap(),
     ];
     assert_eq!(expected.len(), ours.len());
     for (i, (theirs, ours)) in expected.iter().zip(&ours).enumerate() {
@@ -155,6 +184,10 @@ fn published_and_subscribed_messages_are_rosbags_cdr_byte_for_byte() {
     assert_eq!(from_cdr::<TfMessage>(&expected[1]).unwrap(), tf);
     assert_eq!(from_cdr::<MarkerArrayMsg>(&expected[3]).unwrap(), markers);
     assert_eq!(from_cdr::<ClockMsg>(&expected[4]).unwrap(), clock);
+    assert_eq!(
+        from_cdr::<Detection2DArrayMsg>(&expected[5]).unwrap(),
+        detections
+    );
     assert!(
         from_cdr::<TfMessage>(&expected[2])
             .unwrap()

@@ -107,6 +107,16 @@ impl RosNode {
             domain: identity.domain_id,
             message: e.to_string(),
         };
+        // RustDDS announces the IPv4 addresses it finds when the participant is made,
+        // once: with none (a network namespace whose loopback is still down, a robot
+        // booting before its network) the node would be on no graph for its whole life.
+        if !has_ipv4_address(&netdev::get_interfaces()) {
+            return Err(join(
+                &"no network interface has an IPv4 address, so DDS would announce none and \
+                  no peer could reach this node; bring one up first (at least the loopback: \
+                  `ip link set lo up`)",
+            ));
+        }
         let context = Context::with_options(ContextOptions::new().domain_id(identity.domain_id))
             .map_err(|e| join(&e))?;
         let name =
@@ -233,6 +243,12 @@ impl Drop for RosNode {
             }
         }
     }
+}
+
+/// Whether any interface that is up has an IPv4 address (RustDDS's unicast transport is
+/// IPv4 only).
+fn has_ipv4_address(interfaces: &[netdev::Interface]) -> bool {
+    interfaces.iter().any(|i| i.is_up() && !i.ipv4.is_empty())
 }
 
 /// Compares a node's topics with what discovery has found on the graph.

@@ -90,7 +90,8 @@ mod tests {
 
     use tether_core::{LaserScan, Stamp};
     use tether_io::mcap::{
-        CompressedImageMsg, ImageMsg, LaserScanMsg, OdometryMsg, TwistMsg, TwistStampedMsg,
+        CompressedImageMsg, Detection2DArrayMsg, ImageMsg, LaserScanMsg, OdometryMsg, TwistMsg,
+        TwistStampedMsg,
     };
 
     use super::*;
@@ -178,6 +179,7 @@ mod tests {
             let _ = from_dds_payload::<OdometryMsg>(&payload);
             let _ = from_dds_payload::<ImageMsg>(&payload);
             let _ = from_dds_payload::<CompressedImageMsg>(&payload);
+            let _ = from_dds_payload::<Detection2DArrayMsg>(&payload);
         }
 
         #[test]

@@ -11,7 +11,8 @@ use clap::{Parser, Subcommand};
 #[derive(Debug, Parser)]
 #[command(name = "tether", version, about, long_about = None)]
 struct Cli {
-    /// More log output (-v: debug, -vv: trace). `RUST_LOG` overrides it.
+    /// More log output (-v: debug, -vv: trace, both with the DDS middleware's own log,
+    /// which is silent by default). `RUST_LOG` overrides it.
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
     verbose: u8,
     #[command(subcommand)]
@@ -51,6 +52,7 @@ enum Command {
     /// Run the live robot: laser, optional camera, pipeline, base (see configs/robot.example.toml).
     Run(cmd::run::Args),
     /// Run tether as a ROS 2 node: scans from `scan`, commands to `cmd_vel` (no ROS installation needed).
+    #[cfg(feature = "ros2")]
     Ros2(cmd::ros2::Args),
     /// Emulate a Hokuyo URG-04LX (SCIP 2.0) on a pseudo-terminal or TCP, serving simulated scans.
     UrgEmulator(cmd::urg_emulator::Args),
@@ -70,6 +72,7 @@ enum Calibrate {
 fn main() -> std::process::ExitCode {
     // `--ros-args ... [--]` is ROS 2's, not clap's: taken out before clap parses the rest.
     let raw: Vec<String> = std::env::args().collect();
+    #[cfg(feature = "ros2")]
     let (ros, rest) = match tether_ros2::RosArgs::parse(&raw) {
         Ok(parsed) => parsed,
         Err(e) => {
@@ -77,10 +80,22 @@ fn main() -> std::process::ExitCode {
             return std::process::ExitCode::FAILURE;
         }
     };
+    #[cfg(not(feature = "ros2"))]
+    let rest = {
+        if raw.iter().any(|a| a == "--ros-args") {
+            eprintln!(
+                "error: --ros-args: this tether was built without ROS 2 (cargo feature `jazzy` \
+                 or `humble`, on by default)"
+            );
+            return std::process::ExitCode::FAILURE;
+        }
+        raw.clone()
+    };
     let had_ros_args = raw.len() != rest.len();
     let cli = Cli::parse_from(rest);
     init_logging(cli.verbose);
     let result = match cli.command {
+        #[cfg(feature = "ros2")]
         Command::Ros2(mut args) => {
             args.ros = ros;
             cmd::ros2::run(args)
@@ -132,7 +147,9 @@ fn error_text(err: &anyhow::Error) -> String {
 
 fn init_logging(verbose: u8) {
     let default = match verbose {
-        0 => "warn,tether=info",
+        // RustDDS and ros2-client log through `log`: their warnings are mostly
+        // per-packet chatter, so they are heard only when asked for.
+        0 => "warn,tether=info,rustdds=off,ros2_client=off",
         1 => "debug",
         _ => "trace",
     };

@@ -7,6 +7,7 @@
 //! printing why, where namespaces or the Python peer are unavailable, unless
 //! `TETHER_REQUIRE_SHARED=1` (set in CI) makes that a failure.
 
+#![cfg(feature = "ros2")]
 #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
 
 mod common;
@@ -44,6 +45,21 @@ fn peer_available() -> bool {
         runs("python3", &["-c", "import cyclonedds, rosbags"]),
         "the Python peer needs `pip install cyclonedds rosbags`",
     )
+}
+
+/// Runs `sh -c SCRIPT` in a fresh network namespace once its loopback is up (with
+/// multicast): the interface must be up before any participant starts, or DDS finds no
+/// address to announce and the participant is invisible for the whole run.
+fn in_private_network(script: &str) -> std::process::Output {
+    Command::new("unshare")
+        .args([
+            "-n",
+            "sh",
+            "-c",
+            &format!("ip link set lo up && ip link set lo multicast on || exit 97\n{script}"),
+        ])
+        .output()
+        .expect("unshare runs")
 }
 
 /// A simulated laser-only `corridor` run as a ROS 1 bag (`/scan`).
@@ -119,18 +135,7 @@ fn peer_with(bag: &Path, peer_args: &[&str], tether_args: &[&str], mount: bool) 
     inner.push("--".into());
     inner.extend(tether_args.iter().map(|s| (*s).to_owned()));
     let quoted: Vec<String> = inner.iter().map(|a| format!("'{a}'")).collect();
-    let out = Command::new("unshare")
-        .args([
-            "-n",
-            "sh",
-            "-c",
-            &format!(
-                "ip link set lo up && ip link set lo multicast on && exec {}",
-                quoted.join(" ")
-            ),
-        ])
-        .output()
-        .expect("unshare runs");
+    let out = in_private_network(&format!("exec {}", quoted.join(" ")));
     let stdout = text(&out.stdout);
     assert!(
         out.status.success(),
@@ -350,27 +355,23 @@ struct ClosedLoop {
     sim_log: String,
 }
 
-/// `tether sim --scenario corridor --laser-only --ros2 SIM_ARGS` and `tether ros2
-/// --scenario corridor ROS2_ARGS` as two processes, with the Python listener, on one
+/// `tether sim --scenario corridor --ros2 SIM_ARGS` and `tether ros2 --scenario
+/// corridor ROS2_ARGS` as two processes, with the Python listener, on one
 /// private graph. `tether ros2` is stopped with SIGINT when the simulation has ended.
 fn closed_loop_over_dds(name: &str, sim_args: &str, ros2_args: &str, listen_s: f64) -> ClosedLoop {
     let dir = scratch(name);
     let bin = env!("CARGO_BIN_EXE_tether");
     let listen = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/listen.py");
     let script = format!(
-        "ip link set lo up && ip link set lo multicast on && \
-         '{bin}' ros2 --scenario corridor {ros2_args} 2> '{d}/ros2.err' & ROS2=$!; \
+        "'{bin}' ros2 --scenario corridor {ros2_args} 2> '{d}/ros2.err' & ROS2=$!; \
          python3 '{listen}' --seconds {listen_s} > '{d}/listen.json' & LISTEN=$!; \
-         '{bin}' sim --scenario corridor --laser-only --ros2 {sim_args} --out '{d}/sim' \
+         '{bin}' sim --scenario corridor --ros2 {sim_args} --out '{d}/sim' \
          > '{d}/sim.out' 2> '{d}/sim.err'; sleep 2; kill -INT $ROS2; wait $ROS2; ROS2_RC=$?; \
          wait $LISTEN; exit $ROS2_RC",
         d = dir.display(),
         listen = listen.display(),
     );
-    let out = Command::new("unshare")
-        .args(["-n", "sh", "-c", &script])
-        .output()
-        .expect("unshare runs");
+    let out = in_private_network(&script);
     let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap_or_default();
     assert!(
         out.status.success(),
@@ -398,7 +399,12 @@ fn closed_loop_over_dds(name: &str, sim_args: &str, ros2_args: &str, listen_s: f
 fn check_closed_loop(what: &str, c: &ClosedLoop, bound_m: f64) {
     let run = &c.run;
     eprintln!("{}", c.sim_log.trim());
-    let error = Seen::f(&run["mean_abs_distance_error_m"]);
+    let Some(error) = run["mean_abs_distance_error_m"].as_f64() else {
+        panic!(
+            "the robot never moved: {run}\ntether ros2:\n{}\nlistener: {}",
+            c.ros2_log, c.seen
+        );
+    };
     eprintln!(
         "corridor over DDS, {what}: mean |d - d0| {error:.3} m (by second: {})",
         run["abs_distance_error_by_second_m"]
@@ -450,7 +456,12 @@ fn tether_ros2_follows_the_simulated_robot_over_dds_and_a_peer_sees_it() {
     if !peer_available() {
         return;
     }
-    let c = closed_loop_over_dds("ros2-sim", "--duration 25", "", 24.0);
+    let c = closed_loop_over_dds(
+        "ros2-sim",
+        "--laser-only --duration 25",
+        "--laser-only",
+        24.0,
+    );
     // 0.09 to 0.15 m over ten runs here.
     check_closed_loop("real time", &c, 0.2);
     assert!(c.seen["clock_ns"].is_null(), "no /clock in real time");
@@ -471,14 +482,49 @@ fn tether_ros2_follows_the_simulated_robot_over_dds_and_a_peer_sees_it() {
 }
 
 #[test]
+fn with_the_simulated_camera_on_detections_the_robot_follows_on_both_sensors() {
+    if !peer_available() {
+        return;
+    }
+    let c = closed_loop_over_dds("ros2-sim-camera", "--duration 25", "", 24.0);
+    check_closed_loop("real time, laser and camera", &c, 0.2);
+    // Both sensors vouch for the person at once: the robot sets off before the laser
+    // alone could (a walk of 0.5 m), and the camera's people go out as results.
+    assert!(Seen::f(&c.run["first_motion_s"]) < 1.0, "{}", c.run);
+    let frames = c.run["camera_frames_published"].as_u64().unwrap();
+    assert!(frames > 300, "{}", c.run);
+    let seen = &c.seen;
+    assert!(seen["boxes"].as_u64().unwrap() > 200, "{seen}");
+    assert_eq!(seen["bad_boxes"], 0, "{seen}");
+    assert!(!seen["truth_ids"].as_array().unwrap().is_empty(), "{seen}");
+    assert!(
+        seen["vision_people_with_someone"].as_u64().unwrap() > 100,
+        "{seen}"
+    );
+    let ros2 = &c.ros2_log;
+    assert!(ros2.contains("camera: boxes from /detections"), "{ros2}");
+    let received: u64 = ros2
+        .split("camera: ")
+        .nth(2)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no camera summary: {ros2}"));
+    assert!(received > 300, "{ros2}");
+    assert!(
+        ros2.contains("0 malformed; 0 boxes refused (not finite, not positive or outside the image), 0 of another class"),
+        "{ros2}"
+    );
+}
+
+#[test]
 fn on_sim_time_the_clock_drives_both_at_twice_real_time() {
     if !peer_available() {
         return;
     }
     let c = closed_loop_over_dds(
         "ros2-sim-time",
-        "--duration 25 --use-sim-time --rate 2",
-        "--ros-args -p use_sim_time:=true",
+        "--laser-only --duration 25 --use-sim-time --rate 2",
+        "--laser-only --ros-args -p use_sim_time:=true",
         12.0,
     );
     // 0.08 to 0.24 m over fifteen runs here.
@@ -508,17 +554,13 @@ fn publishers_and_subscribers_dds_will_not_connect_are_reported_with_the_fix() {
     let bin = env!("CARGO_BIN_EXE_tether");
     let misfit = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/misfit.py");
     let script = format!(
-        "ip link set lo up && ip link set lo multicast on && \
-         (cd '{tests}' && python3 '{misfit}' --seconds 9) & \
+        "(cd '{tests}' && python3 '{misfit}' --seconds 9) & \
          '{bin}' ros2 --duration 7 2> '{d}/ros2.err'; R=$?; wait; exit $R",
         tests = misfit.parent().unwrap().display(),
         misfit = misfit.display(),
         d = dir.display(),
     );
-    let out = Command::new("unshare")
-        .args(["-n", "sh", "-c", &script])
-        .output()
-        .expect("unshare runs");
+    let out = in_private_network(&script);
     let log = std::fs::read_to_string(dir.join("ros2.err")).unwrap_or_default();
     assert!(out.status.success(), "{}\n{log}", text(&out.stderr));
     for expected in [
@@ -595,16 +637,13 @@ fn a_flood_of_bad_scans_and_odometry_neither_crashes_nor_moves_the_robot() {
     }
     let flood = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/flood.py");
     let script = format!(
-        "ip link set lo up && ip link set lo multicast on && cd '{tests}' && \
+        "cd '{tests}' && \
          exec python3 '{flood}' --tether '{bin}' --seconds 6",
         tests = flood.parent().unwrap().display(),
         flood = flood.display(),
         bin = env!("CARGO_BIN_EXE_tether"),
     );
-    let out = Command::new("unshare")
-        .args(["-n", "sh", "-c", &script])
-        .output()
-        .expect("unshare runs");
+    let out = in_private_network(&script);
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "{}\n{stdout}", text(&out.stderr));
     let j: serde_json::Value = serde_json::from_str(stdout.trim()).expect("the flood's JSON");
@@ -628,4 +667,33 @@ fn a_flood_of_bad_scans_and_odometry_neither_crashes_nor_moves_the_robot() {
     assert!(log.contains("stamped on arrival"), "{log}");
     assert!(log.contains("interrupted"), "{log}");
     assert!(!log.contains("panicked"), "{log}");
+}
+
+#[test]
+fn a_node_with_no_address_to_announce_refuses_to_start() {
+    if !skip_unless(
+        runs("unshare", &["-n", "true"]),
+        "cannot make a private network namespace (`unshare -n` needs root)",
+    ) {
+        return;
+    }
+    // A fresh namespace's loopback is down and has no address: DDS would announce
+    // nothing, so the node would be on no graph for its whole life.
+    let out = Command::new("unshare")
+        .args([
+            "-n",
+            env!("CARGO_BIN_EXE_tether"),
+            "ros2",
+            "--duration",
+            "2",
+        ])
+        .output()
+        .expect("unshare runs");
+    let stderr = text(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("no network interface has an IPv4 address")
+            && stderr.contains("ip link set lo up"),
+        "{stderr}"
+    );
 }

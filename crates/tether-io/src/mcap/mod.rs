@@ -30,10 +30,11 @@ mod writer;
 
 pub use error::{DecodeError, EncodeError, Location, McapError};
 pub use msgs::{
-    ClockMsg, ColorRgba, CompressedFormat, CompressedImageMsg, Header, ImageMsg, ImageMsgError,
-    LaserScanMsg, MarkerArrayMsg, MarkerMsg, MeshFile, OdometryMsg, PersonArrayMsg, PixelEncoding,
-    Pose3, PoseArrayMsg, PoseWithCovarianceStampedMsg, RawLaserScan, Ros2Message, StringMsg,
-    TfMessage, TransformStampedMsg, TwistMsg, TwistStampedMsg, from_cdr, to_cdr,
+    ClockMsg, ColorRgba, CompressedFormat, CompressedImageMsg, Detection2DArrayMsg, Detection2DMsg,
+    Header, ImageMsg, ImageMsgError, LaserScanMsg, MarkerArrayMsg, MarkerMsg, MeshFile,
+    ObjectHypothesisMsg, OdometryMsg, PersonArrayMsg, PixelEncoding, Pose3, PoseArrayMsg,
+    PoseWithCovarianceStampedMsg, RawLaserScan, Ros2Message, StringMsg, TfMessage,
+    TransformStampedMsg, TwistMsg, TwistStampedMsg, from_cdr, to_cdr,
 };
 pub use reader::{
     BadMessage, Channel, Decoded, MAGIC, McapFile, Message, Messages, RawMessage, Schema,

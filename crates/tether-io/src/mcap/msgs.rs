@@ -129,7 +129,9 @@ macro_rules! pose_with_covariance_def {
     };
 }
 
+mod detections;
 mod markers;
+pub use detections::{Detection2DArrayMsg, Detection2DMsg, ObjectHypothesisMsg};
 pub use markers::{ClockMsg, ColorRgba, MarkerArrayMsg, MarkerMsg, MeshFile};
 
 /// `std_msgs/msg/Header` (ROS 2: no sequence number).

@@ -11,10 +11,12 @@ pub mod eval_target;
 pub mod eval_track;
 pub mod legs;
 pub mod replay;
+#[cfg(feature = "ros2")]
 pub mod ros2;
 pub mod run;
 pub mod scenarios;
 pub mod sim;
+#[cfg(feature = "ros2")]
 pub mod sim_ros2;
 pub mod track;
 pub mod train_cascade;

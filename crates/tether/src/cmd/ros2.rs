@@ -13,6 +13,7 @@
 //! | `clock` (in, with `use_sim_time`) | `rosgraph_msgs/msg/Clock` | best effort, keep last 1 |
 //! | `tf_static` (in) | `tf2_msgs/msg/TFMessage` (the laser's mount below `base_frame`) | reliable, transient local |
 //! | `image_raw` or `image_raw/compressed` (in, when the config has a `[camera]`) | `sensor_msgs/msg/Image` (`mono8`, `rgb8`, `bgr8`) or `sensor_msgs/msg/CompressedImage` (JPEG, PNG) | best effort, keep last 5 |
+//! | `detections` (in, with `camera_input:=detections`, and from the simulator) | `vision_msgs/msg/Detection2DArray` (upper-body boxes in pixels of the configured camera) | best effort, keep last 5 |
 //! | `cmd_vel` (out) | `geometry_msgs/msg/Twist` (or `TwistStamped`) | reliable, keep last 10 |
 //! | `tether/people`, `tether/laser_people` (out) | `geometry_msgs/msg/PoseArray` | reliable, keep last 10 |
 //! | `tether/target` (out) | `geometry_msgs/msg/PoseWithCovarianceStamped` | reliable, keep last 10 |
@@ -27,7 +28,15 @@
 //! `false`; `true`: time is the newest `/clock`, `rosgraph_msgs/msg/Clock`, which the
 //! node waits for at the start; `--duration` then counts simulated seconds, and a clock
 //! that stands still for 1 s stops the robot), `image_transport` (`raw`, the default,
-//! or `compressed`).
+//! or `compressed`), `camera_input` (`images`, the default with a `[camera]`: frames
+//! through the cascade; `detections`: boxes from a detector node, whose boxes must be
+//! upper-body boxes like the cascade's, since the monocular model reads the range from
+//! their top and size), `detection_class` (default `person`: the class of the boxes
+//! taken; a box with no hypothesis is taken too; empty: every box).
+//!
+//! With `--scenario NAME` the node is the robot of `tether sim --scenario NAME --ros2`:
+//! its laser mount, follow distance and base limits, and its camera's boxes on
+//! `detections` (`--laser-only` for a simulator started with `--laser-only`).
 //!
 //! The graph: every second the node compares its topics with the publishers and
 //! subscribers discovery has found on them, and warns once about each that DDS will not
@@ -49,7 +58,7 @@ use tether::live::clock::{LiveClock, MonotonicClock, SimClock};
 use tether::live::config::RobotConfig;
 use tether::live::ros2::{
     CameraCounters, LatestFrame, OutputTopics, RosOutputs, ScanCounters, start_camera_reader,
-    start_clock_reader, start_odometry_reader, start_scan_reader,
+    start_clock_reader, start_detections_reader, start_odometry_reader, start_scan_reader,
 };
 use tether::live::run_loop::{self, Ending, Input, LoopConfig, Recorder};
 use tether::results::TickMessages;
@@ -76,6 +85,10 @@ pub struct Args {
     /// base limits), to follow `tether sim --scenario NAME --ros2`.
     #[arg(long, value_name = "NAME", conflicts_with = "config")]
     pub scenario: Option<String>,
+    /// Follow with the laser alone: the camera of `--config` or of the scenario is not
+    /// used (for `tether sim --scenario NAME --ros2 --laser-only`).
+    #[arg(long)]
+    pub laser_only: bool,
     /// Stop after this many seconds (default: until Ctrl-C or SIGTERM).
     #[arg(long, value_name = "S")]
     pub duration: Option<f64>,
@@ -92,14 +105,26 @@ pub struct Args {
 }
 
 /// The parameters `tether ros2` reads.
-const PARAMETERS: [&str; 6] = [
+const PARAMETERS: [&str; 8] = [
     "fixed_frame",
     "base_frame",
     "cmd_vel_stamped",
     "image_transport",
+    "camera_input",
+    "detection_class",
     "follow_distance",
     "use_sim_time",
 ];
+
+/// Where the camera's people come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum CameraInput {
+    /// Images on `image_raw` (or `image_raw/compressed`), run through the cascade.
+    Images,
+    /// Boxes on `detections` (`vision_msgs/msg/Detection2DArray`) from a detector node
+    /// or the simulator.
+    Detections,
+}
 
 /// What the parameters set besides the pipeline.
 struct NodeParameters {
@@ -112,6 +137,10 @@ struct NodeParameters {
     compressed_images: bool,
     /// `use_sim_time:=true`: time from `/clock`.
     use_sim_time: bool,
+    /// `camera_input`, when given.
+    camera_input: Option<CameraInput>,
+    /// `detection_class`: the class of the boxes taken for people (empty: all).
+    detection_class: String,
 }
 
 /// A TurtleBot 4 (iRobot Create 3 base): what the node assumes without `--config`.
@@ -177,12 +206,31 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
             _ => anyhow::bail!("parameter image_transport must be raw or compressed, got {v:?}"),
         },
     };
+    let camera_input = match ros.params.get("camera_input") {
+        None => None,
+        Some(v) => Some(match v.as_str() {
+            Some("images") => CameraInput::Images,
+            Some("detections") => CameraInput::Detections,
+            _ => anyhow::bail!("parameter camera_input must be images or detections, got {v:?}"),
+        }),
+    };
+    let detection_class = match ros.params.get("detection_class") {
+        None => "person".to_owned(),
+        Some(v) => v
+            .as_str()
+            .ok_or_else(|| {
+                anyhow::anyhow!("parameter detection_class must be a class name, got {v:?}")
+            })?
+            .to_owned(),
+    };
     Ok(NodeParameters {
         fixed_frame,
         cmd_vel_stamped: stamped.then(|| base_frame.clone()),
         base_frame,
         compressed_images,
         use_sim_time,
+        camera_input,
+        detection_class,
     })
 }
 
@@ -397,17 +445,43 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         _ => turtlebot_pipeline(),
     };
-    // The camera topic is read when the config describes a camera (its intrinsics,
-    // mount and cascade; its `folder` or `v4l2` is not used); else the laser alone.
-    let camera_section = robot.as_ref().and_then(|r| r.camera.clone());
-    pipeline_config.fusion.use_vision = camera_section.is_some();
     let NodeParameters {
         fixed_frame,
         base_frame,
         cmd_vel_stamped,
         compressed_images,
         use_sim_time,
+        camera_input,
+        detection_class,
     } = parameters(&args.ros, &mut pipeline_config)?;
+    // The camera is used when the config describes one (its intrinsics, mount and, for
+    // images, cascade; its `folder` or `v4l2` is not used) or the scenario's robot has
+    // one, unless --laser-only; else the laser alone. The simulator publishes boxes,
+    // not images.
+    let scenario_camera = match &args.scenario {
+        Some(name) => tether_sim::Scenario::resolve(name)?.0.camera_sim.enabled,
+        None => false,
+    };
+    let mut camera_section = robot.as_ref().and_then(|r| r.camera.clone());
+    let camera = if args.laser_only {
+        camera_section = None;
+        None
+    } else if camera_section.is_some() {
+        Some(camera_input.unwrap_or(CameraInput::Images))
+    } else if scenario_camera {
+        anyhow::ensure!(
+            camera_input != Some(CameraInput::Images),
+            "camera_input:=images: the simulator publishes its camera's boxes on detections, \
+             not images"
+        );
+        Some(CameraInput::Detections)
+    } else {
+        None
+    };
+    if camera == Some(CameraInput::Detections) {
+        camera_section = None;
+    }
+    pipeline_config.fusion.use_vision = camera.is_some();
     let mount_given = args.config.is_some() || args.scenario.is_some();
     let domain_id = tether_ros2::domain_id(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
     let identity = NodeIdentity {
@@ -481,6 +555,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let camera_counters = Arc::new(CameraCounters::default());
     let latest = Arc::new(LatestFrame::default());
     let mut camera_threads = Vec::new();
+    if camera == Some(CameraInput::Detections) {
+        let intrinsics = pipeline_config_intrinsics;
+        let detections_topic = topic("detections");
+        let (stop_camera, camera_stops) = mpsc::channel();
+        camera_threads.push((
+            stop_camera,
+            start_detections_reader(
+                &mut node,
+                &detections_topic,
+                detection_class.clone(),
+                (intrinsics.width_px, intrinsics.height_px),
+                clock.clone(),
+                tx.clone(),
+                camera_stops,
+                Arc::clone(&camera_counters),
+            )?,
+        ));
+        tracing::info!(
+            "camera: boxes from {detections_topic}{}",
+            if detection_class.is_empty() {
+                " (every class)".to_owned()
+            } else {
+                format!(" (class {detection_class:?})")
+            }
+        );
+    }
     if let Some(section) = &camera_section {
         let intrinsics = pipeline_config_intrinsics;
         let mut detector = super::run::camera_detector(section)?;
@@ -668,8 +768,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             sim.backward_jumps()
         );
     }
-    if camera_section.is_some() {
-        tracing::info!(
+    match camera {
+        Some(CameraInput::Images) => tracing::info!(
             "camera: {} frames received, {} processed, {} superseded by a newer frame \
              before the detector got to them, {} refused for their size, {} malformed",
             load(&camera_counters.received),
@@ -677,7 +777,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             load(&camera_counters.superseded),
             load(&camera_counters.wrong_size),
             load(&camera_counters.malformed),
-        );
+        ),
+        Some(CameraInput::Detections) => tracing::info!(
+            "camera: {} detection messages received, {} processed, {} dropped while the \
+             loop was behind, {} malformed; {} boxes refused (not finite, not positive or \
+             outside the image), {} of another class",
+            load(&camera_counters.received),
+            summary.frames,
+            load(&camera_counters.superseded),
+            load(&camera_counters.malformed),
+            load(&camera_counters.bad_boxes),
+            load(&camera_counters.other_class),
+        ),
+        None => {}
     }
     tracing::info!("{}", summary.target.one_line(pipeline.selector().stats()));
     if graph_problems > 0 {

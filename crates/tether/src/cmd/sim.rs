@@ -267,6 +267,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.laser_only {
         scenario = super::demo::laser_only(&scenario);
     }
+    #[cfg(not(feature = "ros2"))]
+    anyhow::ensure!(
+        !args.ros2,
+        "--ros2: this tether was built without ROS 2 (cargo feature `jazzy` or `humble`, \
+         on by default)"
+    );
+    #[cfg(feature = "ros2")]
     if args.ros2 {
         anyhow::ensure!(
             args.rate.is_finite() && (1.0..=10.0).contains(&args.rate),

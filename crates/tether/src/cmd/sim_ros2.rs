@@ -3,8 +3,11 @@
 //! `laser`), its mount on `/tf_static` (`base_link` -> `laser`, reliable and transient
 //! local) and, when the scenario's robot has odometry, its pose on `/odom` and `/tf`
 //! (`odom` -> `base_link`, 20 Hz), and drives from `/cmd_vel` (`Twist`). Like a real
-//! base, it stops when no command has come for 0.5 s. The camera is not published
-//! (the robot is laser-only on the graph).
+//! base, it stops when no command has come for 0.5 s. Unless `--laser-only`, the
+//! camera's upper-body boxes go out on `/detections` (`vision_msgs/msg/Detection2DArray`,
+//! class `person`, best effort, frame `camera`), as a detector node's would, and their
+//! ground truth on `/sim/detections_truth` (the noise-free box of every person in front
+//! of the camera, `id` the person's, score the share of the upper body in view).
 //!
 //! With `--use-sim-time` the stamps are the simulated time from 0, published on
 //! `/clock` (`rosgraph_msgs/msg/Clock`, reliable, keep last 1) at every 10 ms step, and
@@ -26,7 +29,8 @@ use anyhow::Context;
 use tether_control::SpringConfig;
 use tether_core::{Point2, Stamp};
 use tether_io::mcap::{
-    ClockMsg, Header, LaserScanMsg, OdometryMsg, Pose3, TfMessage, TransformStampedMsg, TwistMsg,
+    ClockMsg, Detection2DArrayMsg, Detection2DMsg, Header, LaserScanMsg, ObjectHypothesisMsg,
+    OdometryMsg, Pose3, TfMessage, TransformStampedMsg, TwistMsg,
 };
 use tether_io::scip::{Clock, SystemClock};
 use tether_ros2::{NodeIdentity, Received, RosNode, Wire, qos, spawn_reader};
@@ -57,6 +61,8 @@ struct Ros2RunSummary {
     simulated_s: f64,
     scans_published: u64,
     odometry_published: u64,
+    /// Camera frames whose boxes went out on `/detections` (0 with `--laser-only`).
+    camera_frames_published: u64,
     commands_received: u64,
     /// Seconds from the start to the first command that moved the robot.
     first_motion_s: Option<f64>,
@@ -69,6 +75,18 @@ struct Ros2RunSummary {
     abs_distance_error_by_second_m: Vec<f64>,
     collisions: u32,
     distance_driven_m: f64,
+}
+
+/// The camera's frame in `base_link`: at the lens, x along the optical axis (yawed by
+/// the mount's yaw, then pitched up by its tilt), z up in the image.
+fn camera_pose(m: &tether_core::CameraMount) -> Pose3 {
+    let (sz, cz) = (0.5 * m.yaw_rad).sin_cos();
+    // Pitching up is a negative rotation about y (x towards +z).
+    let (sp, cp) = (-0.5 * m.tilt_rad).sin_cos();
+    Pose3 {
+        position_m: [m.x_m, m.y_m, m.height_m],
+        orientation: [-sz * sp, cz * sp, cp * sz, cz * cp],
+    }
 }
 
 /// Runs `scenario` on the graph until its end or Ctrl-C.
@@ -91,6 +109,17 @@ pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow:
     let clock = match time {
         SimTime::Wall => None,
         SimTime::Published { .. } => Some(node.publisher::<ClockMsg>("/clock", qos::reliable(1))?),
+    };
+    let camera = scenario.camera_sim.enabled;
+    let (detections, detections_truth) = if camera {
+        (
+            Some(node.publisher::<Detection2DArrayMsg>("/detections", qos::sensor_data())?),
+            Some(
+                node.publisher::<Detection2DArrayMsg>("/sim/detections_truth", qos::sensor_data())?,
+            ),
+        )
+    } else {
+        (None, None)
     };
     let commands = node.subscribe::<TwistMsg>("/cmd_vel", qos::reliable(10))?;
     // The simulated time now, ns, for the reader to stamp the commands with.
@@ -132,32 +161,41 @@ pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow:
         SimTime::Wall => (SystemClock.now_ns(), 1.0),
         SimTime::Published { rate } => (0, rate),
     };
-    // The robot's description: where its laser sits (sent once; late joiners get it).
+    // The robot's description: where its laser (and camera) sit (sent once; late
+    // joiners get it).
     let m = scenario.laser.mount;
     let mut mount = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
     mount.position_m[2] = m.height_m;
-    let mount = TfMessage {
-        transforms: vec![TransformStampedMsg {
+    let mut transforms = vec![TransformStampedMsg {
+        header: Header::new(Stamp::from_ns(unix0), "base_link"),
+        child_frame_id: "laser".into(),
+        transform: mount,
+    }];
+    if camera {
+        transforms.push(TransformStampedMsg {
             header: Header::new(Stamp::from_ns(unix0), "base_link"),
-            child_frame_id: "laser".into(),
-            transform: mount,
-        }],
-    };
+            child_frame_id: "camera".into(),
+            transform: camera_pose(&scenario.camera.mount),
+        });
+    }
+    let mount = TfMessage { transforms };
     tf_static
         .publish(Wire(mount))
         .map_err(|e| anyhow::anyhow!("/tf_static: {e:?}"))?;
     let mut wall0 = Instant::now();
     tracing::info!(
-        "simulating `{}` (seed {seed}) on ROS 2 domain {domain_id} {}: /scan{}{}, driving \
-         from /cmd_vel; follow with `tether ros2 --scenario {}{}`",
+        "simulating `{}` (seed {seed}) on ROS 2 domain {domain_id} {}: /scan{}{}{}, driving \
+         from /cmd_vel; follow with `tether ros2 --scenario {}{}{}`",
         scenario.name,
         match time {
             SimTime::Wall => "in real time".to_owned(),
             SimTime::Published { rate } => format!("on sim time at {rate} x real time"),
         },
         if odometry { ", /odom" } else { "" },
+        if camera { ", /detections" } else { "" },
         if clock.is_some() { ", /clock" } else { "" },
         scenario.name.trim_end_matches("-laser-only"),
+        if camera { "" } else { " --laser-only" },
         if clock.is_some() {
             " --ros-args -p use_sim_time:=true"
         } else {
@@ -171,6 +209,7 @@ pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow:
         simulated_s: 0.0,
         scans_published: 0,
         odometry_published: 0,
+        camera_frames_published: 0,
         commands_received: 0,
         first_motion_s: None,
         mean_abs_distance_error_m: None,
@@ -268,7 +307,43 @@ pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow:
                     errors.push((t_ns, (attach.distance_m(target.position) - d0).abs()));
                 }
             }
-            SensorData::Camera(_) => {}
+            SensorData::Camera(frame) => {
+                let header = Header::new(stamp, "camera");
+                let person = |score| ObjectHypothesisMsg::class("person", score);
+                let boxes = Detection2DArrayMsg {
+                    header: header.clone(),
+                    detections: frame
+                        .boxes
+                        .iter()
+                        .map(|b| Detection2DMsg::from_box(header.clone(), b, person(1.0), ""))
+                        .collect(),
+                };
+                let truth = Detection2DArrayMsg {
+                    header: header.clone(),
+                    detections: event
+                        .camera_truth
+                        .iter()
+                        .flat_map(|t| &t.people)
+                        .filter_map(|p| {
+                            let b = p.true_box?;
+                            Some(Detection2DMsg::from_box(
+                                header.clone(),
+                                &b,
+                                person(p.visible_frac * p.in_image_frac),
+                                p.id.to_string(),
+                            ))
+                        })
+                        .collect(),
+                };
+                for (publisher, message) in [(&detections, boxes), (&detections_truth, truth)] {
+                    if let Some(publisher) = publisher {
+                        publisher
+                            .publish(Wire(message))
+                            .map_err(|e| anyhow::anyhow!("/detections: {e:?}"))?;
+                    }
+                }
+                summary.camera_frames_published += 1;
+            }
         }
         summary.simulated_s = t_ns as f64 * 1e-9;
     }
@@ -291,8 +366,8 @@ pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow:
     let json = serde_json::to_string_pretty(&summary)?;
     std::fs::write(&path, json + "\n").with_context(|| format!("writing {}", path.display()))?;
     println!(
-        "{}: {:.1} s simulated {}, {} scans and {} odometry messages published, {} \
-         commands received, first motion at {}, mean |d - d0| {} (d0 = {d0} m), {} collisions, \
+        "{}: {:.1} s simulated {}, {} scans, {} odometry messages and {} camera frames \
+         published, {} commands received, first motion at {}, mean |d - d0| {} (d0 = {d0} m), {} collisions, \
          {:.1} m driven -> {}",
         scenario.name,
         summary.simulated_s,
@@ -302,6 +377,7 @@ pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow:
         },
         summary.scans_published,
         summary.odometry_published,
+        summary.camera_frames_published,
         summary.commands_received,
         summary
             .first_motion_s
@@ -314,4 +390,36 @@ pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow:
         path.display()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_camera_frame_looks_along_the_mount_s_yaw_and_up_by_its_tilt() {
+        let m = tether_core::CameraMount {
+            x_m: 0.1,
+            y_m: -0.05,
+            yaw_rad: 0.3,
+            height_m: 0.65,
+            tilt_rad: 0.4,
+        };
+        let [x, y, z, w] = camera_pose(&m).orientation;
+        assert!((x * x + y * y + z * z + w * w - 1.0).abs() < 1e-12);
+        // The optical axis (the frame's x) rotated into base_link: R e_x.
+        let axis = [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y + w * z),
+            2.0 * (x * z - w * y),
+        ];
+        let expected = [
+            m.tilt_rad.cos() * m.yaw_rad.cos(),
+            m.tilt_rad.cos() * m.yaw_rad.sin(),
+            m.tilt_rad.sin(),
+        ];
+        for (a, e) in axis.iter().zip(expected) {
+            assert!((a - e).abs() < 1e-12, "{axis:?} vs {expected:?}");
+        }
+    }
 }

@@ -6,5 +6,6 @@ pub mod camera;
 pub mod clock;
 pub mod config;
 pub mod odometry;
+#[cfg(feature = "ros2")]
 pub mod ros2;
 pub mod run_loop;

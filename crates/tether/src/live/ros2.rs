@@ -17,8 +17,8 @@ use std::thread::JoinHandle;
 use ros2_client::dds::Publisher;
 use tether_core::{Pose2, Robot, World};
 use tether_io::mcap::{
-    ClockMsg, CompressedImageMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg, OdometryMsg,
-    PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg,
+    ClockMsg, CompressedImageMsg, Detection2DArrayMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg,
+    OdometryMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg,
 };
 use tether_io::mcap::{Header, Ros2Message, TwistMsg, TwistStampedMsg};
 use tether_io::scip::Clock;
@@ -253,6 +253,100 @@ pub struct CameraCounters {
     pub wrong_size: AtomicU64,
     /// Samples that did not decode.
     pub malformed: AtomicU64,
+    /// Boxes of detection messages refused: not finite, not positive, or not inside the
+    /// camera model's image.
+    pub bad_boxes: AtomicU64,
+    /// Boxes of detection messages left out: another class than the one followed.
+    pub other_class: AtomicU64,
+}
+
+/// The boxes of a `vision_msgs/msg/Detection2DArray` that `tether ros2` takes for
+/// people: those with no hypothesis or one of class `class_id` (every box when
+/// `class_id` is empty), upright (a rotated box by the upright box that holds it), with
+/// finite, positive sizes and inside an image of `size_px` (a margin of one image
+/// around it: a person partly out of view still gives a box). Returns the boxes and how
+/// many were bad and of another class.
+pub fn detection_boxes(
+    message: &Detection2DArrayMsg,
+    class_id: &str,
+    size_px: (u32, u32),
+) -> (Vec<tether_core::PixelBox>, u64, u64) {
+    let (w, h) = (f64::from(size_px.0), f64::from(size_px.1));
+    let (mut boxes, mut bad, mut other) = (Vec::new(), 0, 0);
+    for d in &message.detections {
+        if !class_id.is_empty()
+            && !d.results.is_empty()
+            && !d.results.iter().any(|r| r.class_id == class_id)
+        {
+            other += 1;
+            continue;
+        }
+        match d.pixel_box() {
+            Some(b) if b.x > -w && b.y > -h && b.x + b.w < 2.0 * w && b.y + b.h < 2.0 * h => {
+                boxes.push(b);
+            }
+            _ => bad += 1,
+        }
+    }
+    (boxes, bad, other)
+}
+
+/// Subscribes to `topic` (`vision_msgs/msg/Detection2DArray`, sensor-data QoS: a
+/// detector node's boxes, or `tether sim --ros2`'s simulated camera) and sends each
+/// message's people boxes ([`detection_boxes`]) to the loop as a camera frame, stamped
+/// as the scans are. Never blocks DDS: a full queue drops the frame (counted as
+/// superseded).
+#[allow(
+    clippy::too_many_arguments,
+    reason = "each is a separate part of the reader"
+)]
+pub fn start_detections_reader(
+    node: &mut RosNode,
+    topic: &str,
+    class_id: String,
+    size_px: (u32, u32),
+    clock: LiveClock,
+    tx: SyncSender<Input>,
+    stop: Receiver<()>,
+    counters: Arc<CameraCounters>,
+) -> Result<JoinHandle<()>, Ros2Error> {
+    let domain = node.identity().domain_id;
+    let subscription = node.subscribe::<Detection2DArrayMsg>(topic, qos::sensor_data())?;
+    let topic_name = topic.to_owned();
+    let mut dropped = 0;
+    spawn_reader("ros2-detections", subscription, stop, move |received| {
+        let message = match received {
+            Received::Message { message, .. } => message,
+            Received::Malformed(why) => {
+                if counters.malformed.fetch_add(1, Ordering::Relaxed) == 0 {
+                    tracing::warn!("{topic_name}: a sample skipped: {why} (further ones are counted)");
+                }
+                return true;
+            }
+        };
+        counters.received.fetch_add(1, Ordering::Relaxed);
+        let (boxes, bad, other) = detection_boxes(&message, &class_id, size_px);
+        if bad > 0 && counters.bad_boxes.fetch_add(bad, Ordering::Relaxed) == 0 {
+            tracing::warn!(
+                "{topic_name}: a box with a size that is not finite and positive, or outside                  the camera model's {}x{} image, skipped (further ones are counted; are the                  boxes in pixels of the camera that --config describes?)",
+                size_px.0,
+                size_px.1
+            );
+        }
+        counters.other_class.fetch_add(other, Ordering::Relaxed);
+        let now = clock.now_ns();
+        let stamp = tether_core::Stamp::from_ns(loop_stamp(message.header.stamp.ns(), now).unwrap_or(now));
+        let before = dropped;
+        let open = offer(&tx, Input::Camera { stamp, boxes }, &mut dropped);
+        if dropped > before {
+            counters.superseded.fetch_add(1, Ordering::Relaxed);
+        }
+        open
+    })
+    .map_err(|e| Ros2Error::Join {
+        domain,
+        message: format!("cannot start the detections reader thread: {e}"),
+    })
 }
 
 /// A camera frame as it came (decoded on the detector's thread).
@@ -536,6 +630,48 @@ impl CommandSink for RosOutputs {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn detection_boxes_keep_people_inside_the_image() {
+        use tether_core::{PixelBox, Stamp};
+        use tether_io::mcap::{Detection2DMsg, ObjectHypothesisMsg};
+        let header = Header::new(Stamp::from_ns(1), "camera");
+        let at = |x: f64, w: f64, class: Option<&str>| {
+            let mut d = Detection2DMsg::from_box(
+                header.clone(),
+                &PixelBox {
+                    x,
+                    y: 50.0,
+                    w,
+                    h: 80.0,
+                },
+                ObjectHypothesisMsg::class(class.unwrap_or(""), 0.8),
+                "",
+            );
+            if class.is_none() {
+                d.results.clear();
+            }
+            d
+        };
+        let message = Detection2DArrayMsg {
+            header: header.clone(),
+            detections: vec![
+                at(100.0, 60.0, Some("person")),
+                at(200.0, 60.0, None),
+                at(300.0, 60.0, Some("chair")),
+                at(400.0, 0.0, Some("person")),
+                at(5000.0, 60.0, Some("person")),
+                at(-30.0, 60.0, Some("person")),
+            ],
+        };
+        let (boxes, bad, other) = detection_boxes(&message, "person", (640, 480));
+        let lefts: Vec<f64> = boxes.iter().map(|b| b.x).collect();
+        assert_eq!(lefts, [100.0, 200.0, -30.0]);
+        assert_eq!((bad, other), (2, 1));
+        // An empty class takes every well-formed box.
+        let (boxes, bad, other) = detection_boxes(&message, "", (640, 480));
+        assert_eq!((boxes.len(), bad, other), (4, 2, 0));
+    }
 
     #[test]
     fn plausible_stamps_are_kept_others_are_not() {

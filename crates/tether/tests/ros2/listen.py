@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """A Cyclone DDS listener on the graph of `tether sim --ros2` and `tether ros2`: counts
-what arrives on `cmd_vel`, `tether/people` and `scan` for a while, and the nodes in
+what arrives on `cmd_vel`, `tether/people`, `scan` and the simulated camera's
+`detections` for a while, and the nodes in
 `ros_discovery_info`, and prints them as one JSON object. Run it only in a private
 network namespace (see peer.py)."""
 
@@ -12,7 +13,7 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
-from peer import Clock, LaserScan, MarkerArray, ParticipantEntitiesInfo, PoseArray, TFMessage, Twist, qos, valid
+from peer import Clock, Detection2DArray, LaserScan, MarkerArray, ParticipantEntitiesInfo, PoseArray, TFMessage, Twist, qos, valid
 
 
 def main():
@@ -36,6 +37,15 @@ def main():
         "markers": DataReader(
             dp, Topic(dp, "rt/tether/markers", MarkerArray), qos=qos(True, 100)
         ),
+        "detections": DataReader(
+            dp, Topic(dp, "rt/detections", Detection2DArray), qos=qos(False, 5)
+        ),
+        "detections_truth": DataReader(
+            dp, Topic(dp, "rt/sim/detections_truth", Detection2DArray), qos=qos(False, 5)
+        ),
+        "vision_people": DataReader(
+            dp, Topic(dp, "rt/tether/vision_people", PoseArray), qos=qos(True, 100)
+        ),
     }
     discovery = DataReader(
         dp,
@@ -52,6 +62,12 @@ def main():
     clock_ns = None
     people_stamp_ns = None
     target_labels = set()
+    # The simulated camera's boxes: how many, whether each is a person with a positive
+    # size, and the person ids of the ground truth.
+    boxes = 0
+    bad_boxes = 0
+    truth_ids = set()
+    vision_people_seen = 0
     start = time.monotonic()
     end = start + a.seconds
     tf_static = None
@@ -81,6 +97,20 @@ def main():
                 if name == "clock":
                     t = s.clock.sec * 1_000_000_000 + s.clock.nanosec
                     clock_ns = max(t, clock_ns or t)
+                if name in ("detections", "detections_truth"):
+                    for d in s.detections:
+                        ok = (
+                            d.bbox.size_x > 0
+                            and d.bbox.size_y > 0
+                            and [r.hypothesis.class_id for r in d.results] == ["person"]
+                        )
+                        bad_boxes += not ok
+                        if name == "detections":
+                            boxes += 1
+                        else:
+                            truth_ids.add(d.id)
+                if name == "vision_people" and s.poses:
+                    vision_people_seen += 1
                 if name == "markers":
                     for m in s.markers:
                         marker_namespaces.add(m.ns)
@@ -102,6 +132,10 @@ def main():
                 "people_stamp_ns": people_stamp_ns,
                 "target_labels": sorted(target_labels),
                 "tf_static": mounts,
+                "boxes": boxes,
+                "bad_boxes": bad_boxes,
+                "truth_ids": sorted(truth_ids),
+                "vision_people_with_someone": vision_people_seen,
             }
         )
     )
