@@ -790,7 +790,9 @@ impl TargetSelector {
                     }
                 }
             },
-            TargetState::Lost { track, .. } => self.reacquire(now, track, tracks, view),
+            TargetState::Lost { track, since, .. } => {
+                self.reacquire(now, track, since, tracks, view)
+            }
         };
         if let TargetState::Locked { track } = self.state {
             self.former.insert(track);
@@ -1250,7 +1252,14 @@ impl TargetSelector {
         }
     }
 
-    fn reacquire(&mut self, now: Stamp, track: u64, tracks: &[Track], view: &View) -> TargetState {
+    fn reacquire(
+        &mut self,
+        now: Stamp,
+        track: u64,
+        since: Stamp,
+        tracks: &[Track],
+        view: &View,
+    ) -> TargetState {
         let lost_after_s = self.config.lost_after_s;
         let fresh = |t: &Track| now.secs_since(t.last_update) <= lost_after_s;
         let mut candidates = Vec::new();
@@ -1271,6 +1280,17 @@ impl TargetSelector {
                     && id == track
                     && t.hits < hits + 2
                     && t.last_pair <= last_pair
+                {
+                    self.refuse(t.id, Refusal::NoLegPair);
+                    continue;
+                }
+                // Nor does the camera alone bring it back while the laser, in use and
+                // seeing the place, has not seen it since the loss: a false box gates
+                // with a track that coasted off as readily as the person does, and
+                // the laser finds a person it can see.
+                if view.laser_in_use
+                    && (view.laser_sees)(t.position().mean)
+                    && t.last_laser.is_none_or(|l| l <= since)
                 {
                     self.refuse(t.id, Refusal::NoLegPair);
                     continue;

@@ -245,6 +245,21 @@ pub struct TrackerConfig {
     pub weak_keepalive_s: f64,
     /// See `weak_keepalive_s`, m.
     pub weak_max_offset_m: f64,
+    /// A lone leg, or a camera observation alone for a track the laser has tracked,
+    /// updates a track that has not been updated for this long only within
+    /// `coast_lone_leg_offset_m` of its prediction, s. A coasting track's reach grows
+    /// with the time it has been unseen, and at a realistic scanner's rate of false
+    /// positives (a few tenths per scan) one of them falls inside it within a second as
+    /// readily as the person's leg; a camera's false box, with its poor range, gates as
+    /// easily. Taking it would move the track a metre onto clutter, and the next false
+    /// positives carry it off. A leg pair, or the laser and camera together, still take
+    /// the track up anywhere in its reach; anything else farther off waits (a person
+    /// who reappears away from where their track coasted to starts a new track, which
+    /// the target selector vouches for as usual). Camera-only tracking (no laser ever
+    /// on the track) is left as it was.
+    pub coast_lone_leg_after_s: f64,
+    /// See `coast_lone_leg_after_s`, m (0: no such rule).
+    pub coast_lone_leg_offset_m: f64,
 }
 
 impl Default for TrackerConfig {
@@ -268,6 +283,8 @@ impl Default for TrackerConfig {
             duplicate_after_s: 0.8,
             weak_keepalive_s: 0.3,
             weak_max_offset_m: 0.5,
+            coast_lone_leg_after_s: 0.3,
+            coast_lone_leg_offset_m: 0.5,
         }
     }
 }
@@ -304,6 +321,8 @@ impl TrackerConfig {
             ("duplicate_after_s", self.duplicate_after_s),
             ("weak_keepalive_s", self.weak_keepalive_s),
             ("weak_max_offset_m", self.weak_max_offset_m),
+            ("coast_lone_leg_after_s", self.coast_lone_leg_after_s),
+            ("coast_lone_leg_offset_m", self.coast_lone_leg_offset_m),
         ] {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(TrackerConfigError {
@@ -566,6 +585,19 @@ impl Tracker {
         let bounds = self.config.motion;
         let weak_max_offset_m = self.config.weak_max_offset_m;
         let weak_keepalive_s = self.config.weak_keepalive_s;
+        let (lone_after_s, lone_offset_m) = (
+            self.config.coast_lone_leg_after_s,
+            self.config.coast_lone_leg_offset_m,
+        );
+        // `coast_lone_leg_after_s`: what may not take up a track that has coasted.
+        let far_off_coasting = |t: &Track, o: &Observation| {
+            lone_offset_m > 0.0
+                && ((o.source == Source::Laser && !o.leg_pair && !o.weak)
+                    || (o.source == Source::Vision && t.last_laser.is_some()))
+                && t.confirmed
+                && stamp.secs_since(t.last_update) > lone_after_s
+                && t.position().mean.distance_m(o.estimate.mean) > lone_offset_m
+        };
         let mut implausible = 0;
         let cost: Vec<Vec<Option<f64>>> = self
             .tracks
@@ -582,6 +614,9 @@ impl Tracker {
                                         && t.position().mean.distance_m(o.estimate.mean)
                                             > weak_max_offset_m)))
                         {
+                            return None;
+                        }
+                        if far_off_coasting(t, o) {
                             return None;
                         }
                         // Gate on the Mahalanobis distance; assign on the negative log
@@ -719,6 +754,7 @@ impl Tracker {
             let near_existing = self.tracks.iter().any(|t| {
                 t.filter.mahalanobis_sq(&o.estimate) < gate
                     && t.can_reach(&o.estimate, stamp, &bounds)
+                    && !far_off_coasting(t, o)
             });
             let sep = self.config.spawn_separation_m;
             let beside_confirmed = sep > 0.0
@@ -968,5 +1004,67 @@ mod tests {
         let r = tr.process(at(900), &[Observation::weak_laser(g(2.1))]);
         assert!(r.track_of[0].is_some(), "{r:?}");
         assert_eq!(tr.tracks()[0].weak_hits, 1);
+    }
+
+    #[test]
+    fn a_coasting_track_is_taken_far_off_only_by_a_whole_person() {
+        let g =
+            |x: f64| Gaussian2::new(Point2::new(x, 0.0), Cov2::isotropic(0.04).unwrap()).unwrap();
+        let mut tr = Tracker::new(TrackerConfig::default()).unwrap();
+        for ms in [0, 100, 200, 300] {
+            tr.process(at(ms), &[Observation::laser(g(2.0), true, false)]);
+        }
+        let id = tr.tracks()[0].id;
+        // Unseen for 0.5 s, then something 0.65 m from where the track stands, within
+        // its reach: a pair of legs or the laser and camera together take the track
+        // there...
+        let lone = Observation::laser(g(2.65), false, true);
+        let pair = Observation::laser(g(2.65), true, false);
+        let camera = Observation::vision(g(2.65), false, None);
+        let fused = Observation {
+            source: Source::Fused,
+            ..camera
+        };
+        for (o, taken) in [
+            (&pair, true),
+            (&fused, true),
+            (&lone, false),
+            (&camera, false),
+        ] {
+            let mut t = tr.clone();
+            let r = t.process(at(800), std::slice::from_ref(o));
+            assert_eq!(r.track_of[0] == Some(id), taken, "{o:?}: {r:?}");
+        }
+        // ...and a lone leg near the prediction updates it as before.
+        let mut t = tr.clone();
+        let r = t.process(at(800), &[Observation::laser(g(2.3), false, true)]);
+        assert_eq!(r.track_of[0], Some(id));
+        // Off by the rule: the far lone leg is taken as before.
+        let mut t = Tracker::new(TrackerConfig {
+            coast_lone_leg_offset_m: 0.0,
+            ..TrackerConfig::default()
+        })
+        .unwrap();
+        for ms in [0, 100, 200, 300] {
+            t.process(at(ms), &[Observation::laser(g(2.0), true, false)]);
+        }
+        let r = t.process(at(800), std::slice::from_ref(&lone));
+        assert_eq!(r.track_of[0], Some(t.tracks()[0].id));
+        // A far lone leg that does not take the track starts a tentative one instead
+        // of vanishing.
+        let mut t = tr.clone();
+        t.process(at(800), &[lone]);
+        assert!(
+            t.tracks().iter().any(|u| u.id != id && !u.confirmed),
+            "{:?}",
+            t.tracks()
+        );
+        // Camera-only tracking (the laser never on the track) keeps taking the camera.
+        let mut cam = Tracker::new(TrackerConfig::default()).unwrap();
+        for ms in [0, 100, 200, 300] {
+            cam.process(at(ms), &[Observation::vision(g(2.0), true, None)]);
+        }
+        let r = cam.process(at(800), &[Observation::vision(g(2.65), true, None)]);
+        assert_eq!(r.track_of[0], Some(cam.tracks()[0].id));
     }
 }

@@ -88,3 +88,18 @@ fn outdoor_follow_fused_keeps_the_person_when_another_track_comes_onto_them() {
     assert!(m.on_target_frac.unwrap() >= 0.99, "{m:?}");
     assert!(m.wrong_scans <= 5, "{m:?}");
 }
+
+#[test]
+fn occlusion_the_target_comes_back_after_the_pillar_and_never_on_the_bystander() {
+    // Behind the pillar the coasting track must not run off onto false positives, nor
+    // a false camera box bring it back where the person is not.
+    for laser_only in [false, true] {
+        let m = pooled("occlusion", laser_only, 0..6);
+        assert!(m.visible_scans > 500, "{m:?}");
+        assert!(m.on_target_frac.unwrap() >= 0.93, "{m:?}");
+        assert_eq!(m.wrong_scans, 0, "{m:?}");
+        assert!(m.reappearances >= 5, "{m:?}");
+        // Taken up within 1 s after coming out, but for at most one of the six.
+        assert!(m.reacquired_within_1s + 1 >= m.reappearances, "{m:?}");
+    }
+}
