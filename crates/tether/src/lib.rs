@@ -4,6 +4,7 @@
 pub mod closed_loop;
 pub mod ego;
 pub mod live;
+pub mod logs;
 pub mod markers;
 pub mod metrics;
 pub mod plot;

@@ -93,7 +93,7 @@ fn main() -> std::process::ExitCode {
     };
     let had_ros_args = raw.len() != rest.len();
     let cli = Cli::parse_from(rest);
-    init_logging(cli.verbose);
+    let logs = init_logging(cli.verbose);
     let result = match cli.command {
         #[cfg(feature = "ros2")]
         Command::Ros2(mut args) => {
@@ -120,6 +120,17 @@ fn main() -> std::process::ExitCode {
         Command::Calibrate(Calibrate::Camera(args)) => cmd::calibrate_camera::run(args),
         Command::Calibrate(Calibrate::Laser(args)) => cmd::calibrate_laser::run(args),
     };
+    // What the log queue still holds goes out before the last word (a stalled stderr
+    // gets a moment, not for ever).
+    if let Some(logs) = &logs {
+        logs.drain(std::time::Duration::from_secs(1));
+        if logs.dropped() > 0 {
+            eprintln!(
+                "warning: {} log lines were dropped because nothing read stderr fast enough",
+                logs.dropped()
+            );
+        }
+    }
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(err) => {
@@ -145,7 +156,9 @@ fn error_text(err: &anyhow::Error) -> String {
     text
 }
 
-fn init_logging(verbose: u8) {
+/// Logs to stderr through [`tether::logs::LogQueue`] (directly if its thread cannot
+/// start), which it returns.
+fn init_logging(verbose: u8) -> Option<tether::logs::LogQueue> {
     let default = match verbose {
         // RustDDS and ros2-client log through `log`: their warnings are mostly
         // per-packet chatter, so they are heard only when asked for.
@@ -155,12 +168,20 @@ fn init_logging(verbose: u8) {
     };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
-    tracing_subscriber::fmt()
+    let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
-        .with_writer(std::io::stderr)
         .with_target(false)
-        .without_time()
-        .init();
+        .without_time();
+    match tether::logs::LogQueue::start(std::io::stderr()) {
+        Ok(queue) => {
+            builder.with_writer(queue.clone()).init();
+            Some(queue)
+        }
+        Err(_) => {
+            builder.with_writer(std::io::stderr).init();
+            None
+        }
+    }
 }
 
 #[cfg(test)]

@@ -370,6 +370,65 @@ fn ctrl_c_ends_the_run_with_a_final_stop() {
 }
 
 #[test]
+fn a_stdout_nobody_reads_holds_up_neither_the_base_nor_ctrl_c() {
+    // stdout is piped and never read: once the pipe's buffer is full (about 7 s of
+    // lines), a blocking write would freeze the loop, the base's commands and Ctrl-C.
+    let dir = scratch("live-stalled-stdout");
+    let (_emu, pty) = emulator(&dir);
+    let config = config(&dir, &pty);
+    let mut run = Proc::spawn(
+        "run",
+        &dir,
+        &["run", "--config", config.to_str().unwrap()],
+        Stdio::null(),
+    );
+    let wheels = dir.join("wheels.txt");
+    let count = || {
+        std::fs::read_to_string(&wheels)
+            .map(|t| t.lines().count())
+            .unwrap_or(0)
+    };
+    let wait = |run: &mut Proc, s: u64| {
+        std::thread::sleep(Duration::from_secs(s));
+        if let Some(status) = run.child.try_wait().unwrap() {
+            panic!("tether run exited early ({status}):\n{}", run.stderr());
+        }
+    };
+    wait(&mut run, 10);
+    let at_10_s = count();
+    wait(&mut run, 5);
+    let at_15_s = count();
+    // 20 Hz timer ticks and 10 Hz scans: about 150 lines in 5 s.
+    assert!(
+        at_15_s >= at_10_s + 60,
+        "the base got {at_10_s} lines by 10 s and {at_15_s} by 15 s:\n{}",
+        run.stderr()
+    );
+    let interrupted = Instant::now();
+    run.signal("-INT");
+    let status = run.wait_for(Duration::from_secs(5)).unwrap_or_else(|| {
+        panic!(
+            "tether run ignored Ctrl-C for 5 s with stdout stalled; stderr:\n{}",
+            run.stderr()
+        )
+    });
+    let stderr = run.stderr();
+    eprintln!(
+        "base lines at 10 s {at_10_s}, at 15 s {at_15_s}; exit {:.2} s after Ctrl-C",
+        interrupted.elapsed().as_secs_f64()
+    );
+    // The stop reached the base; stdout could not take it, and says so.
+    let text = std::fs::read_to_string(&wheels).unwrap();
+    assert_eq!(text.lines().last(), Some("0.000 0.000"), "{stderr}");
+    assert!(!status.success(), "{stderr}");
+    assert!(stderr.contains("lines are dropped"), "{stderr}");
+    assert!(
+        stderr.contains("the final stop to stdout failed"),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn a_vanished_laser_stops_the_robot_and_fails_clearly() {
     let dir = scratch("live-unplugged");
     let (mut emu, pty) = emulator(&dir);

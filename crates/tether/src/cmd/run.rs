@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use tether::ego::EgoMotion;
-use tether::live::base::{CommandLine, CommandSink, CreateBase, JsonLines, WheelLines};
+use tether::live::base::{CommandLine, CommandSink, CreateBase, QueuedLines, WheelLines};
 use tether::live::camera::{FolderFrames, FrameSource};
 use tether::live::clock::MonotonicClock;
 use tether::live::config::{BaseKind, CameraSection, FrameInput, LaserLink, RobotConfig};
@@ -336,7 +336,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Outputs first: a base that cannot be opened stops the run before the laser spins.
     let mut sinks: Vec<Box<dyn CommandSink>> = Vec::new();
     if config.output.stdout {
-        sinks.push(Box::new(JsonLines::new("stdout", std::io::stdout())));
+        // On a thread of its own: a reader that stops reading must not hold up the
+        // base's commands and stops.
+        sinks.push(Box::new(
+            QueuedLines::new("stdout", std::io::stdout()).context("starting the stdout writer")?,
+        ));
     }
     if let Some(base) = open_base(&config)? {
         sinks.push(base);

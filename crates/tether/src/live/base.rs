@@ -167,6 +167,189 @@ impl<W: Write> CommandSink for JsonLines<W> {
     }
 }
 
+/// JSON lines written by a thread of their own, so that a reader who stops reading
+/// (an SSH session over a failing link, a slow `tee`, a pipe nobody drains) never holds
+/// up the loop: lines wait in a queue of [`QueuedLines::CAPACITY`]; when it is full, a
+/// line is dropped and counted (the first drop is warned about, the count is reported
+/// at the end). A write that fails (a closed pipe) is returned by the next `send`, as
+/// with [`JsonLines`]. The final stop waits at most [`QueuedLines::FINISH_WAIT`] for
+/// room and for the queue to drain.
+pub struct QueuedLines {
+    name: String,
+    queue: Option<std::sync::mpsc::SyncSender<Vec<u8>>>,
+    state: std::sync::Arc<QueueState>,
+    writer: Option<std::thread::JoinHandle<()>>,
+    dropped: u64,
+}
+
+/// What the writer thread tells the loop.
+#[derive(Default)]
+struct QueueState {
+    /// The write error that ended the writer, if one did.
+    failed: std::sync::Mutex<Option<(io::ErrorKind, String)>>,
+    /// Lines written.
+    written: std::sync::atomic::AtomicU64,
+}
+
+impl QueuedLines {
+    /// Lines waiting to be written at most (about 1.5 s of a 20 Hz loop with 10 Hz scans).
+    pub const CAPACITY: usize = 48;
+    /// Longest the final stop waits for the writer, in all.
+    pub const FINISH_WAIT: std::time::Duration = std::time::Duration::from_millis(500);
+
+    /// Lines into `out` on a thread of their own, called `name` in messages.
+    pub fn new<W: Write + Send + 'static>(name: impl Into<String>, mut out: W) -> io::Result<Self> {
+        let name = name.into();
+        let (queue, lines) = std::sync::mpsc::sync_channel::<Vec<u8>>(Self::CAPACITY);
+        let state = std::sync::Arc::new(QueueState::default());
+        let shared = std::sync::Arc::clone(&state);
+        let writer = std::thread::Builder::new()
+            .name(format!("{name}-writer"))
+            .spawn(move || {
+                for line in lines {
+                    if let Err(e) = out.write_all(&line).and_then(|()| out.flush()) {
+                        *shared.failed.lock().unwrap_or_else(|p| p.into_inner()) =
+                            Some((e.kind(), e.to_string()));
+                        return;
+                    }
+                    shared
+                        .written
+                        .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                }
+            })?;
+        Ok(QueuedLines {
+            name,
+            queue: Some(queue),
+            state,
+            writer: Some(writer),
+            dropped: 0,
+        })
+    }
+
+    /// Lines dropped because the queue was full.
+    pub fn dropped(&self) -> u64 {
+        self.dropped
+    }
+
+    /// Lines written so far.
+    pub fn written(&self) -> u64 {
+        self.state
+            .written
+            .load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    fn failure(&self) -> Option<io::Error> {
+        self.state
+            .failed
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .as_ref()
+            .map(|(kind, text)| io::Error::new(*kind, text.clone()))
+    }
+
+    fn line(command: &CommandLine) -> io::Result<Vec<u8>> {
+        let mut line = serde_json::to_vec(command)?;
+        line.push(b'\n');
+        Ok(line)
+    }
+}
+
+impl CommandSink for QueuedLines {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn send(&mut self, command: &CommandLine) -> io::Result<()> {
+        if let Some(e) = self.failure() {
+            return Err(e);
+        }
+        let line = Self::line(command)?;
+        let Some(queue) = &self.queue else {
+            return Err(io::Error::other("the output was already finished"));
+        };
+        match queue.try_send(line) {
+            Ok(()) => Ok(()),
+            Err(std::sync::mpsc::TrySendError::Full(_)) => {
+                self.dropped += 1;
+                if self.dropped == 1 {
+                    tracing::warn!(
+                        "{}: nothing is reading it fast enough; lines are dropped (and \
+                         counted) rather than holding up the robot",
+                        self.name
+                    );
+                }
+                Ok(())
+            }
+            Err(std::sync::mpsc::TrySendError::Disconnected(_)) => Err(self
+                .failure()
+                .unwrap_or_else(|| io::Error::other("the writer thread stopped"))),
+        }
+    }
+
+    fn finish(&mut self, command: &CommandLine) -> io::Result<()> {
+        let deadline = std::time::Instant::now() + Self::FINISH_WAIT;
+        let mut line = Some(Self::line(command)?);
+        // Queue the stop, waiting for room until the deadline...
+        let queued = loop {
+            if let Some(e) = self.failure() {
+                break Err(e);
+            }
+            let Some(queue) = &self.queue else {
+                break Err(io::Error::other("the output was already finished"));
+            };
+            match queue.try_send(line.take().unwrap_or_default()) {
+                Ok(()) => break Ok(()),
+                Err(std::sync::mpsc::TrySendError::Full(back)) => {
+                    if std::time::Instant::now() >= deadline {
+                        self.dropped += 1;
+                        break Err(io::Error::new(
+                            io::ErrorKind::TimedOut,
+                            "nothing read the output, so the final stop could not be queued",
+                        ));
+                    }
+                    line = Some(back);
+                    std::thread::sleep(std::time::Duration::from_millis(5));
+                }
+                Err(std::sync::mpsc::TrySendError::Disconnected(_)) => {
+                    break Err(self
+                        .failure()
+                        .unwrap_or_else(|| io::Error::other("the writer thread stopped")));
+                }
+            }
+        };
+        // ...then for the writer to write everything queued, the stop last, and end.
+        // A writer stuck in a write nobody reads is left behind (it ends with the
+        // process).
+        self.queue = None;
+        let mut result = queued;
+        if let Some(writer) = self.writer.take() {
+            while !writer.is_finished() && std::time::Instant::now() < deadline {
+                std::thread::sleep(std::time::Duration::from_millis(5));
+            }
+            if writer.is_finished() {
+                let _ = writer.join();
+                if let (Ok(()), Some(e)) = (&result, self.failure()) {
+                    result = Err(e);
+                }
+            } else if result.is_ok() {
+                result = Err(io::Error::new(
+                    io::ErrorKind::TimedOut,
+                    "nothing read the output, so the final stop was not written",
+                ));
+            }
+        }
+        if self.dropped > 0 {
+            tracing::warn!(
+                "{}: {} lines dropped because nothing read them fast enough ({} written)",
+                self.name,
+                self.dropped,
+                self.written()
+            );
+        }
+        result
+    }
+}
+
 /// Open Interface opcode `Start` (to Passive mode).
 pub const OI_START: u8 = 128;
 /// Open Interface opcode `Safe`.
@@ -304,6 +487,121 @@ mod tests {
     #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
 
     use super::*;
+
+    /// A writer that takes `accept` writes, then blocks until the test ends.
+    struct Stalls {
+        accept: usize,
+        got: std::sync::Arc<std::sync::Mutex<Vec<u8>>>,
+        hold: std::sync::mpsc::Receiver<()>,
+    }
+
+    impl Write for Stalls {
+        fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+            if self.accept == 0 {
+                let _ = self.hold.recv();
+                return Err(io::Error::new(io::ErrorKind::BrokenPipe, "closed"));
+            }
+            self.accept -= 1;
+            self.got.lock().unwrap().extend_from_slice(buf);
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn queued_lines_never_block_and_count_what_they_drop() {
+        let got = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let (release, hold) = std::sync::mpsc::channel();
+        let out = Stalls {
+            accept: 3,
+            got: std::sync::Arc::clone(&got),
+            hold,
+        };
+        let mut lines = QueuedLines::new("stdout", out).unwrap();
+        let started = std::time::Instant::now();
+        for k in 0..200 {
+            lines
+                .send(&CommandLine::new(k, "timer", 0.1, 0.0, 0.3))
+                .unwrap();
+        }
+        // 200 sends against a stalled reader: none waited, and what did not fit in
+        // the queue was dropped and counted.
+        assert!(started.elapsed() < std::time::Duration::from_millis(500));
+        assert!(lines.dropped() >= 200 - 3 - QueuedLines::CAPACITY as u64 - 1);
+        let e = lines
+            .finish(&CommandLine::final_stop(200, "interrupted"))
+            .unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::TimedOut);
+        assert!(started.elapsed() < std::time::Duration::from_secs(2));
+        let text = String::from_utf8(got.lock().unwrap().clone()).unwrap();
+        assert_eq!(text.lines().count(), 3);
+        assert!(text.starts_with("{\"stamp_ns\":0,"), "{text}");
+        drop(release);
+    }
+
+    #[test]
+    fn queued_lines_write_everything_in_order_and_report_a_closed_pipe() {
+        let got = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let (release, hold) = std::sync::mpsc::channel();
+        let mut lines = QueuedLines::new(
+            "stdout",
+            Stalls {
+                accept: usize::MAX,
+                got: std::sync::Arc::clone(&got),
+                hold,
+            },
+        )
+        .unwrap();
+        for k in 0..20 {
+            lines
+                .send(&CommandLine::new(k, "scan", 0.0, 0.0, 0.3))
+                .unwrap();
+        }
+        lines
+            .finish(&CommandLine::final_stop(20, "duration"))
+            .unwrap();
+        let text = String::from_utf8(got.lock().unwrap().clone()).unwrap();
+        let stamps: Vec<i64> = text
+            .lines()
+            .map(|l| {
+                serde_json::from_str::<serde_json::Value>(l).unwrap()["stamp_ns"]
+                    .as_i64()
+                    .unwrap()
+            })
+            .collect();
+        assert_eq!(stamps, (0..=20).collect::<Vec<_>>());
+        assert_eq!(lines.dropped(), 0);
+        drop(release);
+
+        // A reader that goes away: the next send says so, as a blocking write would.
+        let (release, hold) = std::sync::mpsc::channel();
+        drop(release);
+        let mut lines = QueuedLines::new(
+            "stdout",
+            Stalls {
+                accept: 0,
+                got: std::sync::Arc::new(std::sync::Mutex::new(Vec::new())),
+                hold,
+            },
+        )
+        .unwrap();
+        lines
+            .send(&CommandLine::new(0, "scan", 0.0, 0.0, 0.3))
+            .unwrap();
+        let started = std::time::Instant::now();
+        let e = loop {
+            match lines.send(&CommandLine::new(1, "scan", 0.0, 0.0, 0.3)) {
+                Err(e) => break e,
+                Ok(()) => {
+                    assert!(started.elapsed() < std::time::Duration::from_secs(2));
+                    std::thread::sleep(std::time::Duration::from_millis(5));
+                }
+            }
+        };
+        assert_eq!(e.kind(), io::ErrorKind::BrokenPipe);
+    }
 
     #[test]
     fn drive_direct_bytes() {
