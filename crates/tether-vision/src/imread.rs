@@ -73,6 +73,122 @@ pub enum ImreadError {
     /// The decoded pixels do not form an image.
     #[error("decoded image is unusable: {0}")]
     Image(#[from] ImageError),
+    /// The header claims more pixels than tether decodes ([`MAX_DECODE_PIXELS`]):
+    /// refused before anything is allocated.
+    #[error(
+        "the image claims {width}x{height} pixels, more than tether decodes ({} megapixels); \
+         scale it down first",
+        MAX_DECODE_PIXELS >> 20
+    )]
+    TooLarge {
+        /// Width the header claims, px.
+        width: u32,
+        /// Height the header claims, px.
+        height: u32,
+    },
+    /// The image is not the size the caller needs (a camera's frames must match its
+    /// intrinsics): refused before it is decoded.
+    #[error(
+        "the image is {width}x{height} pixels, not the expected {expected_width}x{expected_height}"
+    )]
+    WrongSize {
+        /// Width the header claims, px.
+        width: u32,
+        /// Height the header claims, px.
+        height: u32,
+        /// Width expected, px.
+        expected_width: u32,
+        /// Height expected, px.
+        expected_height: u32,
+    },
+}
+
+/// The most pixels tether decodes from one file (64 megapixels, 8192 x 8192): a header
+/// that claims more is refused before any allocation. OpenCV's `imread` takes up to
+/// 2^30, which for a 333-byte file claiming 32768 x 32768 means gigabytes allocated and
+/// filled for a picture that is not there; no camera a follower carries comes close.
+pub const MAX_DECODE_PIXELS: u64 = 1 << 26;
+
+/// The width and height a PNG or JPEG header claims, read without decoding (PNG: the
+/// `IHDR` chunk; JPEG: the first start-of-frame marker), or `None` when the header does
+/// not say (damaged, or another format).
+pub fn dimensions(bytes: &[u8]) -> Option<(u32, u32)> {
+    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        if bytes.get(12..16)? != b"IHDR" {
+            return None;
+        }
+        let be = |i: usize| -> Option<u32> {
+            Some(u32::from_be_bytes(bytes.get(i..i + 4)?.try_into().ok()?))
+        };
+        return Some((be(16)?, be(20)?));
+    }
+    if !bytes.starts_with(&[0xff, 0xd8]) {
+        return None;
+    }
+    let mut at = 2;
+    loop {
+        // Markers may be preceded by any number of 0xff fill bytes.
+        while *bytes.get(at)? != 0xff {
+            at += 1;
+        }
+        while *bytes.get(at)? == 0xff {
+            at += 1;
+        }
+        let marker = *bytes.get(at)?;
+        at += 1;
+        match marker {
+            // Start of frame: every SOFn but DHT (c4), JPG (c8) and DAC (cc).
+            0xc0..=0xcf if !matches!(marker, 0xc4 | 0xc8 | 0xcc) => {
+                let b = bytes.get(at + 3..at + 7)?;
+                let height = u32::from(u16::from_be_bytes([b[0], b[1]]));
+                let width = u32::from(u16::from_be_bytes([b[2], b[3]]));
+                return Some((width, height));
+            }
+            // Start of scan or end of image before any frame: no size.
+            0xda | 0xd9 => return None,
+            // Markers without a length.
+            0x01 | 0xd0..=0xd8 => {}
+            _ => {
+                let len = usize::from(u16::from_be_bytes([*bytes.get(at)?, *bytes.get(at + 1)?]));
+                at += len;
+            }
+        }
+    }
+}
+
+fn refuse_too_large(bytes: &[u8]) -> Result<(), ImreadError> {
+    match dimensions(bytes) {
+        Some((width, height)) if u64::from(width) * u64::from(height) > MAX_DECODE_PIXELS => {
+            Err(ImreadError::TooLarge { width, height })
+        }
+        _ => Ok(()),
+    }
+}
+
+/// [`imread_gray`] for a file that must be `width` x `height` (a camera's frame): a
+/// file of another size is refused from its header, before it is decoded.
+pub fn imread_gray_sized(
+    path: impl AsRef<Path>,
+    (expected_width, expected_height): (u32, u32),
+) -> Result<GrayImage, ImreadError> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| ImreadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    // The header's size is before any EXIF rotation, which may swap the two.
+    if let Some((width, height)) = dimensions(&bytes)
+        && (width, height) != (expected_width, expected_height)
+        && (height, width) != (expected_width, expected_height)
+    {
+        return Err(ImreadError::WrongSize {
+            width,
+            height,
+            expected_width,
+            expected_height,
+        });
+    }
+    decode_gray(&bytes)
 }
 
 /// Reads a PNG or JPEG file as 8-bit grey, like `cv2.imread(path, cv2.IMREAD_GRAYSCALE)`.
@@ -87,6 +203,7 @@ pub fn imread_gray(path: impl AsRef<Path>) -> Result<GrayImage, ImreadError> {
 
 /// Decodes PNG or JPEG bytes (recognised by their signature) as 8-bit grey.
 pub fn decode_gray(bytes: &[u8]) -> Result<GrayImage, ImreadError> {
+    refuse_too_large(bytes)?;
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
         decode_png(bytes)
     } else if bytes.starts_with(&[0xff, 0xd8]) {
@@ -329,6 +446,55 @@ pub fn apply_orientation(image: &GrayImage, orientation: u16) -> GrayImage {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A PNG signature and an `IHDR` claiming `w` x `h` (8-bit grey); no pixels.
+    fn png_header(w: u32, h: u32) -> Vec<u8> {
+        let mut b = b"\x89PNG\r\n\x1a\n".to_vec();
+        b.extend_from_slice(&13u32.to_be_bytes());
+        b.extend_from_slice(b"IHDR");
+        b.extend_from_slice(&w.to_be_bytes());
+        b.extend_from_slice(&h.to_be_bytes());
+        b.extend_from_slice(&[8, 0, 0, 0, 0, 0, 0, 0, 0]);
+        b
+    }
+
+    #[test]
+    fn headers_give_the_size_without_decoding() {
+        assert_eq!(dimensions(&png_header(640, 480)), Some((640, 480)));
+        // JPEG: an APP0 segment, fill bytes, then a progressive SOF2.
+        let jpeg = [
+            0xff, 0xd8, 0xff, 0xe0, 0x00, 0x04, 0x4a, 0x46, 0xff, 0xff, 0xc2, 0x00, 0x0b, 0x08,
+            0x01, 0xe0, 0x02, 0x80, 0x01, 0x01, 0x11, 0x00,
+        ];
+        assert_eq!(dimensions(&jpeg), Some((640, 480)));
+        // A DHT (c4) is not a frame; a scan before any frame says nothing.
+        let no_frame = [0xff, 0xd8, 0xff, 0xc4, 0x00, 0x02, 0xff, 0xda, 0x00, 0x02];
+        assert_eq!(dimensions(&no_frame), None);
+        for cut in 0..jpeg.len() - 4 {
+            assert_eq!(dimensions(&jpeg[..cut]), None, "{cut}");
+        }
+        assert_eq!(dimensions(b"GIF89a"), None);
+    }
+
+    #[test]
+    fn a_header_claiming_too_many_pixels_is_refused_before_decoding() {
+        // 390 KB of this claimed 20000 x 20000 once took 10 GB in `tether detect`.
+        let e = decode_gray(&png_header(20_000, 20_000)).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                ImreadError::TooLarge {
+                    width: 20_000,
+                    height: 20_000
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.to_string().contains("64 megapixels"), "{e}");
+        // At the limit the decoder gets it (and refuses the missing pixels).
+        let e = decode_gray(&png_header(8192, 8192)).unwrap_err();
+        assert!(matches!(e, ImreadError::Png(_)), "{e}");
+    }
 
     fn encode_png(
         w: u32,

@@ -147,9 +147,10 @@ fn frame_source(
     intrinsics: &CameraIntrinsics,
 ) -> anyhow::Result<Box<dyn FrameSource>> {
     match input {
-        FrameInput::Folder { path, fps, repeat } => {
-            Ok(Box::new(FolderFrames::open(path, *fps, *repeat)?))
-        }
+        FrameInput::Folder { path, fps, repeat } => Ok(Box::new(
+            FolderFrames::open(path, *fps, *repeat)?
+                .sized(intrinsics.width_px, intrinsics.height_px),
+        )),
         #[cfg(feature = "v4l2")]
         FrameInput::V4l2 { device } => Ok(Box::new(tether::live::camera::V4l2Frames::open(
             device,

@@ -53,6 +53,7 @@ pub struct FolderFrames {
     period: Duration,
     due: Option<Instant>,
     repeat: bool,
+    size: Option<(u32, u32)>,
 }
 
 impl FolderFrames {
@@ -89,7 +90,19 @@ impl FolderFrames {
             period: Duration::from_secs_f64(1.0 / fps),
             due: None,
             repeat,
+            size: None,
         })
+    }
+
+    /// Frames must be `width` x `height` (the camera's intrinsics): a file of another
+    /// size is refused from its header, before it is decoded (a damaged or hostile
+    /// file claiming 32768 x 32768 pixels allocates nothing).
+    #[must_use]
+    pub fn sized(self, width: u32, height: u32) -> Self {
+        FolderFrames {
+            size: Some((width, height)),
+            ..self
+        }
     }
 
     /// The images, in the order they are served.
@@ -115,12 +128,15 @@ impl FrameSource for FolderFrames {
         self.due = Some((due + self.period).max(Instant::now()));
         let path = &self.files[self.next];
         self.next += 1;
-        tether_vision::imread_gray(path)
-            .map(Some)
-            .map_err(|e| CameraError::Frame {
-                path: path.clone(),
-                message: e.to_string(),
-            })
+        match self.size {
+            Some(size) => tether_vision::imread::imread_gray_sized(path, size),
+            None => tether_vision::imread_gray(path),
+        }
+        .map(Some)
+        .map_err(|e| CameraError::Frame {
+            path: path.clone(),
+            message: e.to_string(),
+        })
     }
 
     fn describe(&self) -> String {
@@ -335,6 +351,46 @@ mod tests {
             .unwrap()
             .to_string();
         assert!(e.contains("no .png"), "{e}");
+        // Sized to the camera: the 3x2 frames pass, a frame of another size does not.
+        let mut sized = FolderFrames::open(&dir, 100.0, false).unwrap().sized(3, 2);
+        assert!(sized.next_frame().unwrap().is_some());
+        let mut other = FolderFrames::open(&dir, 100.0, false)
+            .unwrap()
+            .sized(640, 480);
+        let e = other.next_frame().unwrap_err().to_string();
+        assert!(e.contains("3x2 pixels, not the expected 640x480"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_tiny_file_claiming_a_huge_frame_is_refused_before_decoding() {
+        let dir = std::env::temp_dir().join(format!("tether-huge-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        // SOI, a baseline SOF0 claiming 32768 x 32768 grey, then nothing worth reading.
+        let mut jpeg = vec![
+            0xff, 0xd8, 0xff, 0xc0, 0x00, 0x0b, 0x08, 0x80, 0x00, 0x80, 0x00,
+        ];
+        jpeg.extend_from_slice(&[0x01, 0x01, 0x11, 0x00]);
+        jpeg.resize(333, 0);
+        std::fs::write(dir.join("huge.jpg"), &jpeg).unwrap();
+        let mut frames = FolderFrames::open(&dir, 100.0, false)
+            .unwrap()
+            .sized(640, 480);
+        let e = frames.next_frame().unwrap_err().to_string();
+        assert!(e.contains("32768x32768"), "{e}");
+        // Unsized (as `tether detect` reads files), the pixel cap refuses it.
+        let e = tether_vision::imread_gray(dir.join("huge.jpg")).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                tether_vision::ImreadError::TooLarge {
+                    width: 32768,
+                    height: 32768
+                }
+            ),
+            "{e}"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
