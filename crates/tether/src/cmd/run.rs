@@ -435,6 +435,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
         Ending::InputsClosed => problems.insert(0, "every sensor thread ended".into()),
+        Ending::Panicked(why) => {
+            problems.insert(0, format!("the control loop panicked (a bug): {why}"))
+        }
     }
     if problems.is_empty() {
         Ok(())

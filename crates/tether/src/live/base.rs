@@ -17,7 +17,7 @@
 //!
 //! `input` is `scan`, `camera`, `timer` or, on the last line, `final` (a stop sent
 //! because the run ends; `stop` then says why: `duration`, `interrupted`, `laser_failed`,
-//! `output_failed`, `inputs_closed`, or `startup_failed` when a sensor could not be
+//! `output_failed`, `inputs_closed`, `panicked` (a bug in the loop; the stop still goes out), or `startup_failed` when a sensor could not be
 //! started after the outputs were opened). `stop` names why the robot is held (`no_target`, `target_lost`,
 //! `stale_laser`, `stale_target`, `obstacle`) or is `null`. `target` is the locked
 //! target, in the dead-reckoned odometry frame (`x_m`, `y_m`) and from the robot

@@ -116,6 +116,8 @@ pub enum Ending {
         /// What went wrong.
         error: String,
     },
+    /// The loop panicked (a bug): the final stop still goes out.
+    Panicked(String),
 }
 
 impl Ending {
@@ -127,6 +129,7 @@ impl Ending {
             Ending::LaserFailed(_) => "laser_failed",
             Ending::InputsClosed => "inputs_closed",
             Ending::OutputFailed { .. } => "output_failed",
+            Ending::Panicked(_) => "panicked",
         }
     }
 
@@ -515,15 +518,23 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
         }
     }
 
-    /// The final stop to every output and the recording.
+    /// The final stop to every output and the recording (an output that panics on
+    /// it does not keep the others from theirs).
     fn finish(&mut self, ending: &Ending) {
         let stamp = self.now().max(self.last_stamp);
         let line = CommandLine::final_stop(stamp.ns(), ending.name());
         for sink in self.sinks.iter_mut() {
-            if let Err(e) = sink.finish(&line) {
+            let sent =
+                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sink.finish(&line)));
+            let failure = match sent {
+                Ok(Ok(())) => None,
+                Ok(Err(e)) => Some(e.to_string()),
+                Err(payload) => Some(format!("it panicked: {}", panic_text(payload.as_ref()))),
+            };
+            if let Some(failure) = failure {
                 self.summary
                     .final_stop_failures
-                    .push((sink.name().to_owned(), e.to_string()));
+                    .push((sink.name().to_owned(), failure));
             }
         }
         if let Some(r) = self.recorder.as_deref_mut()
@@ -537,6 +548,15 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
         self.summary.distance_m += self.travelled_to.distance_m(here);
         self.odometry.set_command(stamp, Twist::STOP);
     }
+}
+
+/// The message a panic carried.
+fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| (*s).to_owned())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "no message".into())
 }
 
 fn recording_failed(e: McapError) -> Ending {
@@ -598,7 +618,10 @@ pub fn run<W: std::io::Write + std::io::Seek>(
         travelled_to: tether_core::Point2::ORIGIN,
         odometry_pose: None,
     };
-    let ending = live.run(inputs, stop);
+    // A panic in the loop (a bug) must not skip the final stop: it ends the run like a
+    // failure, and the stop goes out.
+    let ending = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| live.run(inputs, stop)))
+        .unwrap_or_else(|payload| Ending::Panicked(panic_text(payload.as_ref())));
     live.finish(&ending);
     let mut summary = live.summary;
     summary.ending = ending;
@@ -767,6 +790,46 @@ mod tests {
         let good_lines = good_lines.lock().unwrap();
         assert_eq!(good_lines.len(), 5, "4 commands, then the final stop");
         assert_eq!(good_lines.last().unwrap().stop, Some("output_failed"));
+    }
+
+    /// Panics on its `at`-th command, and on the final stop too.
+    struct Panics {
+        at: usize,
+        sent: usize,
+    }
+
+    impl CommandSink for Panics {
+        fn name(&self) -> &str {
+            "panics"
+        }
+
+        fn send(&mut self, _command: &CommandLine) -> std::io::Result<()> {
+            self.sent += 1;
+            assert!(self.sent < self.at, "a bug in an output");
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_panic_in_the_loop_still_ends_with_a_stop_to_the_base() {
+        let (_tx, rx) = mpsc::sync_channel::<Input>(4);
+        let (base, base_lines) = keep(None);
+        let mut sinks: Vec<Box<dyn CommandSink>> = vec![base, Box::new(Panics { at: 3, sent: 0 })];
+        let (summary, _) = go(&rx, &mut sinks, None, &config(Some(5_000)));
+        assert_eq!(
+            summary.ending,
+            Ending::Panicked("a bug in an output".into())
+        );
+        let lines = base_lines.lock().unwrap();
+        assert_eq!(lines.last().unwrap().input, "final");
+        assert_eq!(lines.last().unwrap().stop, Some("panicked"));
+        assert_eq!(
+            (lines.last().unwrap().v_mps, lines.last().unwrap().w_radps),
+            (0.0, 0.0)
+        );
+        // The output that panicked again on its final stop is reported, not fatal.
+        assert_eq!(summary.final_stop_failures.len(), 1, "{summary:?}");
+        assert!(summary.final_stop_failures[0].1.contains("panicked"));
     }
 
     #[test]
