@@ -7,6 +7,7 @@ pub mod live;
 pub mod logs;
 pub mod markers;
 pub mod metrics;
+pub mod output;
 pub mod plot;
 pub mod recording;
 pub mod report;

@@ -257,3 +257,60 @@ fn train_and_eval_cascade_explain_bad_input() {
     assert!(text(&upper.stderr).contains("--upper must be in (0, 1]"));
     assert!(!Path::new(out_xml).exists());
 }
+
+#[test]
+fn a_failed_track_or_replay_leaves_the_earlier_result_as_it_was() {
+    let dir = scratch("cli-atomic");
+    let bag = common::corridor_bag(&dir, 3);
+    // Results of an earlier, good run.
+    let track_out = dir.join("t.jsonl");
+    let replay_out = dir.join("r.mcap");
+    let out = tether(&[
+        "track",
+        bag.to_str().unwrap(),
+        "--scan-topic",
+        "/scan",
+        "--out",
+        track_out.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = tether(&[
+        "replay",
+        bag.to_str().unwrap(),
+        "--scan-topic",
+        "/scan",
+        "--out",
+        replay_out.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let tracked = std::fs::read(&track_out).unwrap();
+    let replayed = std::fs::read(&replay_out).unwrap();
+    assert!(!tracked.is_empty() && !replayed.is_empty());
+    // A wrong topic, a missing recording: the commands fail, and the results stay.
+    let out = tether(&[
+        "track",
+        bag.to_str().unwrap(),
+        "--scan-topic",
+        "/nope",
+        "--out",
+        track_out.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let out = tether(&[
+        "replay",
+        dir.join("missing.bag").to_str().unwrap(),
+        "--scan-topic",
+        "/scan",
+        "--out",
+        replay_out.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert_eq!(std::fs::read(&track_out).unwrap(), tracked);
+    assert_eq!(std::fs::read(&replay_out).unwrap(), replayed);
+    let partial: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("partial"))
+        .collect();
+    assert!(partial.is_empty(), "{partial:?}");
+}

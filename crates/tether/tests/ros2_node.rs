@@ -15,7 +15,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{scratch, tether, text};
+use common::{scratch, text};
 
 /// Skips (printing why) unless `TETHER_REQUIRE_SHARED=1` demands the test.
 fn skip_unless(ok: bool, reason: &str) -> bool {
@@ -62,25 +62,8 @@ fn in_private_network(script: &str) -> std::process::Output {
         .expect("unshare runs")
 }
 
-/// A simulated laser-only `corridor` run as a ROS 1 bag (`/scan`).
 fn corridor_bag(dir: &Path) -> PathBuf {
-    let bag = dir.join("corridor.bag");
-    let out = tether(&[
-        "sim",
-        "--scenario",
-        "corridor",
-        "--laser-only",
-        "--seed",
-        "1",
-        "--duration",
-        "25",
-        "--out",
-        dir.join("sim").to_str().unwrap(),
-        "--record-bag",
-        bag.to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "sim: {}", text(&out.stderr));
-    bag
+    common::corridor_bag(dir, 25)
 }
 
 /// What the peer saw.

@@ -278,7 +278,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let frame = source.frame();
     let mut output = match &args.out {
         Some(path) => Some(
-            ResultWriter::create(path, frame)
+            // Replaces an earlier result only if this replay succeeds.
+            tether::output::AtomicFile::create(path)
+                .map_err(anyhow::Error::from)
+                .and_then(|f| Ok(ResultWriter::new(std::io::BufWriter::new(f), frame)?))
                 .with_context(|| format!("cannot create {}", path.display()))?,
         ),
         None => None,
@@ -356,6 +359,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     if let (Some(out), Some(path)) = (output, &args.out) {
         out.finish()
+            .map_err(anyhow::Error::from)
+            .and_then(|w| {
+                w.into_inner()
+                    .map_err(std::io::IntoInnerError::into_error)?
+                    .commit()?;
+                Ok(())
+            })
             .with_context(|| format!("writing {}", path.display()))?;
         let report = path.with_extension("html");
         std::fs::write(&report, summary.html(&args.recording, frame, target_counts))

@@ -207,7 +207,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         image: args.image_topic.clone(),
         odom: args.odom_topic.clone(),
     };
-    let file = std::fs::File::create(&args.out)
+    // Replaces an earlier result only if this run succeeds.
+    let file = tether::output::AtomicFile::create(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut out = std::io::BufWriter::new(file);
     let (mut scans, mut with_target) = (0usize, 0usize);
@@ -278,7 +279,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(odometry) = &scan_odometry {
         tracing::info!("{}", odometry.summary());
     }
-    out.flush()
+    out.into_inner()
+        .map_err(std::io::IntoInnerError::into_error)
+        .and_then(tether::output::AtomicFile::commit)
         .with_context(|| format!("writing {}", args.out.display()))?;
     let stats = pipeline.stats();
     if skipped > 0 {

@@ -2,7 +2,7 @@
 
 #![allow(dead_code, reason = "each test file uses a part")]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// Runs the `tether` binary with `args`.
@@ -24,4 +24,26 @@ pub fn scratch(name: &str) -> PathBuf {
 /// Output bytes as text.
 pub fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// A simulated laser-only `corridor` run of `seconds` (seed 1) as a ROS 1 bag
+/// (`/scan` and the ground truth), `DIR/corridor.bag`.
+pub fn corridor_bag(dir: &Path, seconds: u32) -> PathBuf {
+    let bag = dir.join("corridor.bag");
+    let out = tether(&[
+        "sim",
+        "--scenario",
+        "corridor",
+        "--laser-only",
+        "--seed",
+        "1",
+        "--duration",
+        &seconds.to_string(),
+        "--out",
+        dir.join("sim").to_str().expect("a UTF-8 path"),
+        "--record-bag",
+        bag.to_str().expect("a UTF-8 path"),
+    ]);
+    assert!(out.status.success(), "sim: {}", text(&out.stderr));
+    bag
 }

@@ -1,0 +1,132 @@
+//! Output files that appear only when the command that writes them succeeds: the data
+//! go to a temporary file beside the target (same folder, so the rename cannot cross
+//! file systems), which replaces the target on [`AtomicFile::commit`]. A command that
+//! fails (a missing topic, a damaged recording, Ctrl-C) leaves an earlier result as it
+//! was and no partial file behind.
+
+use std::fs::File;
+use std::io::{self, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+/// A file written in full, then renamed onto its path.
+#[derive(Debug)]
+pub struct AtomicFile {
+    path: PathBuf,
+    partial: PathBuf,
+    file: Option<File>,
+}
+
+impl AtomicFile {
+    /// Starts `path`: creates its temporary file (`.NAME.partial-PID` in the same
+    /// folder). The target itself is not touched until [`AtomicFile::commit`].
+    pub fn create(path: impl AsRef<Path>) -> io::Result<AtomicFile> {
+        let path = path.as_ref().to_path_buf();
+        let name = path
+            .file_name()
+            .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "not a file name"))?
+            .to_string_lossy()
+            .into_owned();
+        let partial = path.with_file_name(format!(".{name}.partial-{}", std::process::id()));
+        let file = File::create(&partial)?;
+        Ok(AtomicFile {
+            path,
+            partial,
+            file: Some(file),
+        })
+    }
+
+    /// The path the file will have.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Writes everything out and puts the file in its place.
+    pub fn commit(mut self) -> io::Result<()> {
+        if let Some(mut file) = self.file.take() {
+            file.flush()?;
+            file.sync_all()?;
+            drop(file);
+            std::fs::rename(&self.partial, &self.path)?;
+        }
+        Ok(())
+    }
+
+    fn file(&mut self) -> io::Result<&mut File> {
+        self.file
+            .as_mut()
+            .ok_or_else(|| io::Error::other("the file was already committed"))
+    }
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.file()?.write(buf)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.file()?.flush()
+    }
+}
+
+impl Seek for AtomicFile {
+    fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
+        self.file()?.seek(pos)
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        // Not committed: the command failed, and its partial output goes.
+        if self.file.take().is_some() {
+            let _ = std::fs::remove_file(&self.partial);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
+
+    use super::*;
+
+    fn dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("tether-atomic-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn a_result_replaces_the_old_one_only_when_committed() {
+        let d = dir("commit");
+        let path = d.join("t.jsonl");
+        std::fs::write(&path, "earlier result\n").unwrap();
+        {
+            let mut f = AtomicFile::create(&path).unwrap();
+            f.write_all(b"half a resu").unwrap();
+            // Dropped: the command failed.
+        }
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "earlier result\n");
+        assert_eq!(
+            std::fs::read_dir(&d).unwrap().count(),
+            1,
+            "no partial file left"
+        );
+        let mut f = AtomicFile::create(&path).unwrap();
+        f.write_all(b"new result\n").unwrap();
+        f.seek(SeekFrom::Start(0)).unwrap();
+        f.write_all(b"N").unwrap();
+        f.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "New result\n");
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn a_folder_that_does_not_exist_fails_at_once() {
+        let d = dir("missing");
+        assert!(AtomicFile::create(d.join("nope/t.jsonl")).is_err());
+        assert!(AtomicFile::create("/").is_err());
+        let _ = std::fs::remove_dir_all(&d);
+    }
+}
