@@ -7,7 +7,7 @@
 //! runs the pipeline on every scan and frame and on a 20 Hz timer. Ctrl-C (or SIGTERM)
 //! ends the loop; every output then gets a final stop.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, SyncSender};
@@ -220,6 +220,32 @@ fn open_base(config: &RobotConfig) -> anyhow::Result<Option<Box<dyn CommandSink>
     }
 }
 
+/// Where this run records: `path`, or when an earlier run's recording is there, the
+/// first free `NAME-2.mcap`, `NAME-3.mcap`... beside it (said in the log): a new run
+/// never overwrites an old one.
+fn fresh_recording_path(path: &Path) -> PathBuf {
+    if !path.exists() {
+        return path.to_path_buf();
+    }
+    let stem = path
+        .file_stem()
+        .map_or_else(|| "run".into(), |s| s.to_string_lossy().into_owned());
+    let ext = path
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    let fresh = (2u32..)
+        .map(|n| path.with_file_name(format!("{stem}-{n}{ext}")))
+        .find(|p| !p.exists())
+        .unwrap_or_else(|| path.to_path_buf());
+    tracing::warn!(
+        "{} holds an earlier run's recording; this run records to {}",
+        path.display(),
+        fresh.display()
+    );
+    fresh
+}
+
 /// Waits up to `limit` for a thread to end.
 fn join_within(thread: JoinHandle<()>, limit: Duration, name: &str) {
     let started = Instant::now();
@@ -347,10 +373,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         sinks.push(base);
     }
     let mut recorder = match &config.output.record {
-        Some(path) => Some(
-            Recorder::create(path)
-                .with_context(|| format!("cannot create the recording {}", path.display()))?,
-        ),
+        Some(path) => Some({
+            let path = fresh_recording_path(path);
+            Recorder::create(&path)
+                .with_context(|| format!("cannot create the recording {}", path.display()))?
+        }),
         None => None,
     };
 
@@ -446,5 +473,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "{}; a final stop was sent to every output that still worked",
             problems.join("; ")
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
+
+    use super::*;
+
+    #[test]
+    fn a_new_run_never_records_over_an_old_one() {
+        let dir = std::env::temp_dir().join(format!("tether-record-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("run.mcap");
+        assert_eq!(fresh_recording_path(&path), path);
+        std::fs::write(&path, b"earlier").unwrap();
+        assert_eq!(fresh_recording_path(&path), dir.join("run-2.mcap"));
+        std::fs::write(dir.join("run-2.mcap"), b"earlier too").unwrap();
+        assert_eq!(fresh_recording_path(&path), dir.join("run-3.mcap"));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

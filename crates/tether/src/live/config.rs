@@ -543,10 +543,9 @@ impl RobotConfig {
                     ("format", b.format.is_some()),
                 ] {
                     if set {
-                        return Err((
-                            format!("base.{key}"),
-                            "is set but `kind = \"none\"` drives no base".into(),
-                        ));
+                        tracing::warn!(
+                            "base.{key} is set but `kind = \"none\"` drives no base: ignored"
+                        );
                     }
                 }
             }
@@ -809,11 +808,6 @@ stdout = true
                 "base.baud",
             ),
             (
-                "kind = \"none\"",
-                "kind = \"none\"\nbaud = 57600",
-                "base.baud",
-            ),
-            (
                 "attach_ahead_m = 0.3",
                 "attach_ahead_m = 0.0",
                 "follow.attach_ahead_m",
@@ -824,6 +818,18 @@ stdout = true
             assert_eq!(e.field(), Some(field), "{to}: {e}");
             assert!(e.to_string().contains(field), "{e}");
         }
+    }
+
+    #[test]
+    fn a_base_of_kind_none_ignores_a_device_left_in_place() {
+        // Switching a robot's config to "no base" is one line: the device and baud
+        // may stay (a warning says they are ignored).
+        let c = parse(&MINIMAL.replace(
+            "kind = \"none\"",
+            "kind = \"none\"\ndevice = \"/dev/ttyUSB0\"\nbaud = 57600",
+        ))
+        .unwrap();
+        assert_eq!(c.base.kind, BaseKind::None);
     }
 
     #[test]
