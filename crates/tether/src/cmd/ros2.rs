@@ -435,13 +435,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(path) => Some(RobotConfig::load_for_ros2(path)?),
         None => None,
     };
-    let mut pipeline_config = match (&robot, &args.config, &args.scenario) {
+    let scenario = match &args.scenario {
+        Some(name) => Some(tether_sim::Scenario::resolve(name)?.0),
+        None => None,
+    };
+    let mut pipeline_config = match (&robot, &args.config, &scenario) {
         (Some(robot), Some(path), _) => robot
             .pipeline_config()
             .map_err(|e| anyhow::anyhow!("config {}: {e}", path.display()))?,
-        (_, _, Some(name)) => {
-            let (scenario, _) = tether_sim::Scenario::resolve(name)?;
-            tether::closed_loop::config_for(&scenario, &PipelineConfig::default())
+        (_, _, Some(scenario)) => {
+            tether::closed_loop::config_for(scenario, &PipelineConfig::default())
         }
         _ => turtlebot_pipeline(),
     };
@@ -458,15 +461,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // images, cascade; its `folder` or `v4l2` is not used) or the scenario's robot has
     // one, unless --laser-only; else the laser alone. The simulator publishes boxes,
     // not images.
-    let scenario_camera = match &args.scenario {
-        Some(name) => tether_sim::Scenario::resolve(name)?.0.camera_sim.enabled,
-        None => false,
-    };
-    let mut camera_section = robot.as_ref().and_then(|r| r.camera.clone());
+    let config_camera = robot.as_ref().and_then(|r| r.camera.clone());
+    let scenario_camera = scenario.as_ref().is_some_and(|s| s.camera_sim.enabled);
     let camera = if args.laser_only {
-        camera_section = None;
         None
-    } else if camera_section.is_some() {
+    } else if config_camera.is_some() {
         Some(camera_input.unwrap_or(CameraInput::Images))
     } else if scenario_camera {
         anyhow::ensure!(
@@ -478,9 +477,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         None
     };
-    if camera == Some(CameraInput::Detections) {
-        camera_section = None;
-    }
+    // The cascade's settings, for images only.
+    let camera_section = config_camera.filter(|_| camera == Some(CameraInput::Images));
     pipeline_config.fusion.use_vision = camera.is_some();
     let mount_given = args.config.is_some() || args.scenario.is_some();
     let domain_id = tether_ros2::domain_id(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;

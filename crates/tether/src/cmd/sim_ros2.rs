@@ -335,11 +335,14 @@ pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow:
                         })
                         .collect(),
                 };
-                for (publisher, message) in [(&detections, boxes), (&detections_truth, truth)] {
+                for (topic, publisher, message) in [
+                    ("/detections", &detections, boxes),
+                    ("/sim/detections_truth", &detections_truth, truth),
+                ] {
                     if let Some(publisher) = publisher {
                         publisher
                             .publish(Wire(message))
-                            .map_err(|e| anyhow::anyhow!("/detections: {e:?}"))?;
+                            .map_err(|e| anyhow::anyhow!("{topic}: {e:?}"))?;
                     }
                 }
                 summary.camera_frames_published += 1;
