@@ -14,6 +14,9 @@
 //!   stamps, and an emulator that speaks the protocol byte for byte, with fault
 //!   injection, over a pseudo-terminal or TCP.
 //!
+//! - [`limits`]: the caps on what a file can make a reader allocate (a chunk's
+//!   uncompressed size and its ratio to the stored size), checked before allocating.
+//!
 //! Everything here reads data from outside, so nothing here panics on it: a damaged
 //! file gives an error that names the byte offset and the record, a message that
 //! cannot be decoded is skipped and counted while the good ones keep coming, and a
@@ -21,7 +24,10 @@
 //!
 //! Dependencies point one way (STYLE.md): this crate depends on `tether-core` only.
 
+pub mod limits;
 pub mod mcap;
 pub mod rosbag;
 pub mod scip;
 mod skips;
+
+pub use skips::{CutShort, Location};

@@ -33,6 +33,41 @@ impl fmt::Display for Location {
     }
 }
 
+/// Where the walk over a recording cut short (a killed recorder, an interrupted copy)
+/// stopped: the file ends inside this record, and everything complete before it was
+/// read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CutShort {
+    /// Kind of record the file ends in ("chunk record"; "record" before its kind is
+    /// known).
+    pub record: &'static str,
+    /// Where that record starts.
+    pub at: Location,
+    /// Bytes the record needs from its start (`u64::MAX`: its length was never
+    /// written, as in a chunk the writer had not closed).
+    pub needed: u64,
+    /// Bytes there are from its start to the end of the file.
+    pub available: u64,
+}
+
+impl fmt::Display for CutShort {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "the file ends inside the {} at {}: {} bytes of it are there",
+            self.record, self.at, self.available
+        )?;
+        if self.needed >= u64::MAX - 16 {
+            write!(
+                f,
+                ", and its length was never written (the writer was stopped in it)"
+            )
+        } else {
+            write!(f, " of the {} it needs", self.needed)
+        }
+    }
+}
+
 /// How many skipped things are kept with their reasons; all of them are counted.
 pub(crate) const KEPT_REASONS: usize = 100;
 
@@ -99,5 +134,25 @@ mod tests {
             "byte 12 of the uncompressed data of the chunk at byte 4117"
         );
         assert_eq!(Location::File(9).to_string(), "byte 9");
+    }
+
+    #[test]
+    fn a_cut_names_the_record_and_what_is_there() {
+        let cut = CutShort {
+            record: "chunk record",
+            at: Location::File(4109),
+            needed: 5000,
+            available: 1200,
+        };
+        assert_eq!(
+            cut.to_string(),
+            "the file ends inside the chunk record at byte 4109: 1200 bytes of it are there \
+             of the 5000 it needs"
+        );
+        let open = CutShort {
+            needed: u64::MAX,
+            ..cut
+        };
+        assert!(open.to_string().contains("never written"), "{open}");
     }
 }

@@ -2,10 +2,21 @@
 //! log order: laser scans, camera frames (grey) and odometry. `tether track` and
 //! `tether replay` are built on it.
 //!
+//! Before any sample is delivered, every topic asked for must be in the recording and of
+//! a type its stream reads (a scan topic holds `sensor_msgs/LaserScan`, ...): otherwise
+//! the reading fails at once, naming the topic's type and the topics that would do.
+//!
 //! A message that does not decode (damaged payload, an image encoding tether does not
 //! read, a scan whose header contradicts its ranges) is skipped and counted, with the
-//! first few reasons logged; damage to the file's structure ends the reading with an
+//! first few reasons logged; when not one scan of the scan topic decodes, the reading
+//! fails with the first reason. Damage to the file's structure ends the reading with an
 //! error naming the place, after the samples before it have been delivered.
+//!
+//! A recording cut short (a killed recorder, an interrupted copy) is read up to the
+//! cut: a ROS 1 bag whose index is missing or cut off chunk by chunk, an MCAP file
+//! without footer or summary by a linear scan; one warning says where the reading
+//! stopped and how many messages it read. Only a recording with nothing readable before
+//! the cut is an error.
 
 use std::path::Path;
 
@@ -88,13 +99,42 @@ impl LabelMessage {
     }
 }
 
-/// What a reading skipped.
+/// What a reading read and skipped.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ReadStats {
     /// Messages that did not decode or convert and were skipped.
     pub bad_messages: usize,
     /// Message records that could not be attributed to a topic.
     pub unattributed: usize,
+    /// Messages of the topics asked for that were found (decoded or not).
+    pub messages: usize,
+    /// The recording had no usable index or summary (cut short, or not closed) and was
+    /// read by walking its records, up to its end or the cut.
+    pub salvaged: bool,
+}
+
+/// Message types each stream reads, in both spellings (ROS 1 and ROS 2).
+const SCAN_TYPES: &[&str] = &["sensor_msgs/LaserScan", "sensor_msgs/msg/LaserScan"];
+const ODOM_TYPES: &[&str] = &["nav_msgs/Odometry", "nav_msgs/msg/Odometry"];
+const IMAGE_TYPES: &[&str] = &[
+    "sensor_msgs/Image",
+    "sensor_msgs/msg/Image",
+    "sensor_msgs/CompressedImage",
+    "sensor_msgs/msg/CompressedImage",
+];
+const LABEL_TYPES: &[&str] = &[
+    "leg_tracker/PersonArray",
+    "leg_tracker/msg/PersonArray",
+    "geometry_msgs/PoseArray",
+    "geometry_msgs/msg/PoseArray",
+];
+
+/// The first scan that did not decode, and how many scans did.
+#[derive(Default)]
+struct ScanTally {
+    good: usize,
+    bad: usize,
+    first_bad: Option<String>,
 }
 
 /// Logs the first few skipped messages, counts all.
@@ -144,16 +184,113 @@ fn is_mcap(path: &Path) -> anyhow::Result<bool> {
     Ok(n == 8 && &magic == mcap::MAGIC)
 }
 
-/// Checks that every topic asked for is in the recording.
-fn check_topics(path: &Path, wanted: &[&str], present: &[&str]) -> anyhow::Result<()> {
-    for topic in wanted {
-        if !present.contains(topic) {
+/// Checks that every topic asked for is in the recording and of a type its stream
+/// reads. `present` holds every (topic, message type) of the recording; `cut` says why
+/// only part of the recording was looked at, if so.
+fn check_topics(
+    path: &Path,
+    topics: &Topics,
+    labels: Option<&str>,
+    present: &[(String, String)],
+    cut: Option<&str>,
+) -> anyhow::Result<()> {
+    if let (true, Some(cut)) = (present.is_empty(), cut) {
+        anyhow::bail!(
+            "{} holds nothing readable: {cut}; no complete chunk comes before that",
+            path.display()
+        );
+    }
+    let mut wanted: Vec<(&str, &str, &[&str])> = vec![(&topics.scan, "laser scans", SCAN_TYPES)];
+    wanted.extend(topics.odom.as_deref().map(|t| (t, "odometry", ODOM_TYPES)));
+    wanted.extend(
+        topics
+            .image
+            .as_deref()
+            .map(|t| (t, "camera frames", IMAGE_TYPES)),
+    );
+    wanted.extend(labels.map(|t| (t, "labels", LABEL_TYPES)));
+    let mut names: Vec<&str> = present.iter().map(|(t, _)| t.as_str()).collect();
+    names.sort_unstable();
+    names.dedup();
+    for (topic, what, accepted) in wanted {
+        let types: Vec<&str> = present
+            .iter()
+            .filter(|(t, _)| t == topic)
+            .map(|(_, ty)| ty.as_str())
+            .collect();
+        if types.is_empty() {
             anyhow::bail!(
-                "{} has no topic {topic:?}; its topics are: {}",
+                "{} has no topic {topic:?}; its topics are: {}{}",
                 path.display(),
-                present.join(", ")
+                names.join(", "),
+                cut.map(|c| format!(" (as far as it could be read: {c})"))
+                    .unwrap_or_default()
             );
         }
+        if !types.iter().any(|ty| accepted.contains(ty)) {
+            let mut holding: Vec<&str> = present
+                .iter()
+                .filter(|(_, ty)| accepted.contains(&ty.as_str()))
+                .map(|(t, _)| t.as_str())
+                .collect();
+            holding.sort_unstable();
+            holding.dedup();
+            anyhow::bail!(
+                "topic {topic:?} of {} holds {}, not {what} ({}); the topics with {what} are: {}",
+                path.display(),
+                types.join(" and "),
+                accepted.join(", "),
+                if holding.is_empty() {
+                    "none".to_string()
+                } else {
+                    holding.join(", ")
+                }
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The one warning about a recording read past damage or without its index, or the
+/// error when nothing of it could be read.
+fn report_salvage(
+    path: &Path,
+    salvaged: Option<&str>,
+    cut: Option<&tether_io::CutShort>,
+    wanted: &[&str],
+    messages: usize,
+) -> anyhow::Result<()> {
+    let Some(why) = salvaged else {
+        return Ok(());
+    };
+    let topics = wanted.join(", ");
+    match cut {
+        Some(cut) if messages == 0 => anyhow::bail!(
+            "{} is cut short and holds no message of {topics} before the cut: {cut}",
+            path.display()
+        ),
+        Some(cut) => tracing::warn!(
+            "{} is cut short: {cut}; reading stopped there, after {messages} messages of \
+             {topics} (everything complete before the cut)",
+            path.display()
+        ),
+        None => tracing::warn!(
+            "{}: {why}; read by walking its records to the end: {messages} messages of {topics}",
+            path.display()
+        ),
+    }
+    Ok(())
+}
+
+/// Fails when the scan topic had messages but not one of them decoded.
+fn check_scans(path: &Path, topic: &str, tally: &ScanTally) -> anyhow::Result<()> {
+    if tally.good == 0 && tally.bad > 0 {
+        anyhow::bail!(
+            "none of the {} messages on {topic:?} in {} is a readable laser scan; the first: {}",
+            tally.bad,
+            path.display(),
+            tally.first_bad.as_deref().unwrap_or("?")
+        );
     }
     Ok(())
 }
@@ -335,11 +472,24 @@ fn deliver(
     at: &dyn std::fmt::Display,
     topics: &Topics,
     stats: &mut ReadStats,
+    scans: &mut ScanTally,
     on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
+    let is_scan = raw.topic() == topics.scan;
     match raw.sample(topics) {
-        Ok(s) => on_sample(s),
+        Ok(s) => {
+            if is_scan {
+                scans.good += 1;
+            }
+            on_sample(s)
+        }
         Err(e) => {
+            if is_scan {
+                scans.bad += 1;
+                scans
+                    .first_bad
+                    .get_or_insert_with(|| format!("at {at}: {e:#}"));
+            }
             skip(stats, raw.topic(), at, &format_args!("{e:#}"));
             Ok(())
         }
@@ -355,18 +505,45 @@ fn read_mcap(
     let file = McapFile::open(path)?;
     let mut wanted = topics.all();
     wanted.extend(labels.as_ref().map(|l| l.topic));
-    check_topics(path, &wanted, &file.topics())?;
-    let mut stats = ReadStats::default();
+    let present: Vec<(String, String)> = file
+        .channels()
+        .map(|c| (c.topic.clone(), c.type_name().to_owned()))
+        .collect();
+    let why = file
+        .salvaged()
+        .map(|w| format!("{w}; it was read by a linear scan"));
+    check_topics(
+        path,
+        topics,
+        labels.as_ref().map(|l| l.topic),
+        &present,
+        why.as_deref(),
+    )?;
+    let mut stats = ReadStats {
+        salvaged: why.is_some(),
+        ..ReadStats::default()
+    };
+    let mut scans = ScanTally::default();
     let mut messages = file.messages();
     for raw in &mut messages {
         let raw = raw?;
         if let Some(sink) = labels.as_mut().filter(|l| l.topic == raw.topic()) {
+            stats.messages += 1;
             deliver_labels(&raw, &raw.at, sink, &mut stats)?;
         } else if wanted.contains(&raw.topic()) {
-            deliver(&raw, &raw.at, topics, &mut stats, on_sample)?;
+            stats.messages += 1;
+            deliver(&raw, &raw.at, topics, &mut stats, &mut scans, on_sample)?;
         }
     }
     stats.unattributed = messages.skipped_count();
+    report_salvage(
+        path,
+        why.as_deref(),
+        messages.cut(),
+        &wanted,
+        stats.messages,
+    )?;
+    check_scans(path, &topics.scan, &scans)?;
     Ok(stats)
 }
 
@@ -376,20 +553,53 @@ fn read_bag(
     on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
     mut labels: Option<LabelSink<'_>>,
 ) -> anyhow::Result<ReadStats> {
-    let mut bag = Bag::open(path)?;
+    // A bag cut short (or never indexed) is read by walking its records: its
+    // connections are only known once the chunks holding them have been read, so a
+    // first pass collects them (it stops at damage, which the reading pass reports).
+    let mut bag = Bag::open_salvaging(path)?;
+    let why = bag.salvaged().map(str::to_owned);
+    let mut first_cut = None;
+    if why.is_some() {
+        let mut pass = bag.messages().only_topics(&[]);
+        for m in &mut pass {
+            if m.is_err() {
+                break;
+            }
+        }
+        first_cut = pass.cut().map(|c| c.to_string());
+    }
     let mut wanted = topics.all();
     wanted.extend(labels.as_ref().map(|l| l.topic));
-    check_topics(path, &wanted, &bag.topics())?;
-    let mut stats = ReadStats::default();
+    let present: Vec<(String, String)> = bag
+        .connections()
+        .map(|c| (c.topic.clone(), c.msg_type.clone()))
+        .collect();
+    let cut_note = first_cut.as_deref().or(why.as_deref());
+    check_topics(
+        path,
+        topics,
+        labels.as_ref().map(|l| l.topic),
+        &present,
+        cut_note,
+    )?;
+    let mut stats = ReadStats {
+        salvaged: why.is_some(),
+        ..ReadStats::default()
+    };
+    let mut scans = ScanTally::default();
     let mut messages = bag.messages().only_topics(&wanted);
     for raw in &mut messages {
         let raw = raw?;
+        stats.messages += 1;
         if let Some(sink) = labels.as_mut().filter(|l| l.topic == raw.topic()) {
             deliver_labels(&raw, &raw.at, sink, &mut stats)?;
         } else {
-            deliver(&raw, &raw.at, topics, &mut stats, on_sample)?;
+            deliver(&raw, &raw.at, topics, &mut stats, &mut scans, on_sample)?;
         }
     }
     stats.unattributed = messages.skipped_count();
+    let cut = messages.cut().copied();
+    report_salvage(path, why.as_deref(), cut.as_ref(), &wanted, stats.messages)?;
+    check_scans(path, &topics.scan, &scans)?;
     Ok(stats)
 }

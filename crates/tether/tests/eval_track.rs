@@ -229,9 +229,10 @@ fn refuses_a_labels_topic_that_is_not_labels() {
     ]);
     assert!(!out.status.success());
     let err = text(&out.stderr);
-    assert!(err.contains("no scan of /scan got a label"), "{err}");
+    // Refused before any scan is read, naming the type and the topics with labels.
     assert!(
-        err.contains("nav_msgs/Odometry") || err.contains("skipped"),
+        err.contains("holds nav_msgs/Odometry, not labels")
+            && err.contains("the topics with labels are: /people_truth"),
         "{err}"
     );
     let out = tether(&[

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use tether_core::Stamp;
 use thiserror::Error;
 
-pub use crate::skips::Location;
+pub use crate::skips::{CutShort, Location};
 
 /// Why an MCAP file cannot be read (any further) or written. Reading errors name the
 /// place in the file.

@@ -5,7 +5,10 @@
 //!   file order ([`McapFile::messages`]) or decoded ([`McapFile::decoded`]). Chunks may
 //!   be uncompressed, zstd (decoded by the pure-Rust `ruzstd`) or lz4 (frame format,
 //!   `lz4_flex`), and their CRCs are checked.
-//! - [`McapWriter`] records a run: messages by topic, log time = the message's stamp.
+//!   A file without summary or footer (a recorder killed mid-run) is read by a linear
+//!   scan up to its last complete chunk ([`McapFile::salvaged`], [`Messages::cut`]).
+//! - [`McapWriter`] records a run: messages by topic, log time = the message's stamp;
+//!   a chunk closes (and the file is flushed) at least every second of log time.
 //! - [`msgs`]: the message types, their CDR layout ([`cdr`]) and full definitions, with
 //!   conversions to tether's types: `sensor_msgs/msg/LaserScan` ([`LaserScanMsg`],
 //!   a [`tether_core::LaserScan`]), `sensor_msgs/msg/Image` ([`ImageMsg`], mono8, rgb8,
@@ -28,7 +31,7 @@ pub mod msgs;
 mod reader;
 mod writer;
 
-pub use error::{DecodeError, EncodeError, Location, McapError};
+pub use error::{CutShort, DecodeError, EncodeError, Location, McapError};
 pub use msgs::{
     ClockMsg, ColorRgba, CompressedFormat, CompressedImageMsg, Detection2DArrayMsg, Detection2DMsg,
     Header, ImageMsg, ImageMsgError, LaserScanMsg, MarkerArrayMsg, MarkerMsg, MeshFile,
@@ -40,4 +43,4 @@ pub use reader::{
     BadMessage, Channel, Decoded, MAGIC, McapFile, Message, Messages, RawMessage, Schema,
     SkippedRecord,
 };
-pub use writer::McapWriter;
+pub use writer::{MAX_CHUNK_SPAN_NS, McapWriter};

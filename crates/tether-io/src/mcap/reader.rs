@@ -17,16 +17,12 @@ use std::sync::Arc;
 
 use tether_core::Stamp;
 
-use super::error::{DecodeError, Location, McapError};
+use super::error::{CutShort, DecodeError, Location, McapError};
 use super::msgs::{Ros2Message, from_cdr, type_matches};
 use crate::skips::Skips;
 
 /// The magic at both ends of an MCAP file.
 pub const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
-
-/// Largest decompressed chunk accepted: a chunk claiming more is taken as corrupt
-/// rather than allocated (writers use chunks of about 1 MiB).
-const MAX_CHUNK_BYTES: u64 = 512 << 20;
 
 mod op {
     pub const HEADER: u8 = 0x01;
@@ -179,9 +175,14 @@ pub struct BadMessage {
 /// An open MCAP file, held in memory.
 ///
 /// Opening checks the magic and the header, and reads the schemas, channels and message
-/// counts from the summary section (or, for a file without one, from a first pass over
-/// the data section). [`McapFile::messages`] then walks the data section in file order;
-/// chunks are decompressed one at a time.
+/// counts from the summary section. A file without a usable summary (cut short by a
+/// killed recorder, or written without one) is read by a linear scan instead: a first
+/// pass over the data section collects the schemas and channels (inside chunks too) and
+/// counts the messages, and the walk that delivers the messages ends quietly where the
+/// file ends inside a record, with the place in [`Messages::cut`];
+/// [`McapFile::salvaged`] says why the summary was not used. [`McapFile::messages`]
+/// walks the data section in file order; chunks are decompressed one at a time, their
+/// claimed sizes checked against [`crate::limits`] first.
 ///
 /// ```no_run
 /// use tether_io::mcap::{McapFile, LaserScanMsg};
@@ -206,6 +207,8 @@ pub struct McapFile {
     schemas: BTreeMap<u16, Arc<Schema>>,
     channels: BTreeMap<u16, Arc<Channel>>,
     message_counts: BTreeMap<u16, u64>,
+    /// Why the summary was not used (the file is read by a linear scan).
+    salvaged: Option<String>,
 }
 
 /// A bounded reader over one record's body, naming the record in its errors.
@@ -411,45 +414,59 @@ impl McapFile {
             schemas: BTreeMap::new(),
             channels: BTreeMap::new(),
             message_counts: BTreeMap::new(),
+            salvaged: None,
         };
-        if !file.read_summary() {
+        if let Err(why) = file.read_summary() {
+            file.salvaged = Some(why);
             file.scan_data_section();
         }
         Ok(file)
     }
 
-    /// Reads the footer and the summary section; false when the file has none (or a
+    /// Why the summary was not used and the file is read by a linear scan (no footer:
+    /// the recorder did not finish it; no summary; a damaged one); `None` when the
+    /// summary was used.
+    pub fn salvaged(&self) -> Option<&str> {
+        self.salvaged.as_deref()
+    }
+
+    /// Reads the footer and the summary section; `Err(why)` when the file has none (or a
     /// damaged one), in which case nothing is kept from it.
-    fn read_summary(&mut self) -> bool {
+    fn read_summary(&mut self) -> Result<(), String> {
         // Footer record: opcode, length 20, summary_start u64, summary_offset_start u64,
         // summary_crc u32; then the magic.
         const FOOTER_LEN: usize = 1 + 8 + 20;
         let n = self.data.len();
         if n < MAGIC.len() * 2 + FOOTER_LEN || &self.data[n - MAGIC.len()..] != MAGIC {
-            return false;
+            return Err(
+                "it does not end with a footer and the magic (the recorder did not finish it)"
+                    .into(),
+            );
         }
         let footer_at = n - MAGIC.len() - FOOTER_LEN;
-        let Ok(footer) = record_at(&self.data, footer_at, |p| Location::File(p as u64)) else {
-            return false;
-        };
+        let footer = record_at(&self.data, footer_at, |p| Location::File(p as u64))
+            .map_err(|e| format!("its footer is unreadable: {e}"))?;
         if footer.op != op::FOOTER || footer.body.len() != 20 {
-            return false;
+            return Err(format!("no footer record at byte {footer_at}"));
         }
         let mut start = [0u8; 8];
         start.copy_from_slice(&self.data[footer.body.start..footer.body.start + 8]);
         let summary_start = u64::from_le_bytes(start) as usize;
-        if summary_start == 0 || summary_start < self.data_start || summary_start > footer_at {
-            return false;
+        if summary_start == 0 {
+            return Err("its footer says it has no summary section".into());
+        }
+        if summary_start < self.data_start || summary_start > footer_at {
+            return Err(format!(
+                "its footer puts the summary at byte {summary_start}, outside the file's body"
+            ));
         }
         let mut schemas = BTreeMap::new();
         let mut channels = BTreeMap::new();
         let mut counts = BTreeMap::new();
         let mut pos = summary_start;
         while pos < footer_at {
-            let Ok(rec) = record_at(&self.data[..footer_at], pos, |p| Location::File(p as u64))
-            else {
-                return false;
-            };
+            let rec = record_at(&self.data[..footer_at], pos, |p| Location::File(p as u64))
+                .map_err(|e| format!("its summary is damaged: {e}"))?;
             let mut body = Body {
                 data: &self.data[rec.body.clone()],
                 pos: 0,
@@ -468,8 +485,8 @@ impl McapFile {
                 op::STATISTICS => parse_statistics(&mut body).map(|c| counts = c),
                 _ => Ok(()),
             };
-            if ok.is_err() {
-                return false;
+            if let Err(e) = ok {
+                return Err(format!("its summary is damaged: {e}"));
             }
             pos = rec.body.end;
         }
@@ -477,12 +494,12 @@ impl McapFile {
         self.schemas = schemas;
         self.channels = channels;
         self.message_counts = counts;
-        true
+        Ok(())
     }
 
     /// For a file without a summary: one pass over the data section collecting
-    /// channels and counting messages. A damaged place stops the pass silently; reading
-    /// the messages reports it.
+    /// schemas and channels (inside chunks too) and counting messages. A damaged place
+    /// or the cut stops the pass silently; reading the messages reports it.
     fn scan_data_section(&mut self) {
         let mut cursor = Cursor::new(self);
         let mut counts: BTreeMap<u16, u64> = BTreeMap::new();
@@ -539,7 +556,9 @@ impl McapFile {
 
     /// All messages in file order. A structural problem ends the iteration with one
     /// error naming its place; a message record on an unknown channel is skipped and
-    /// counted ([`Messages::skipped`]).
+    /// counted ([`Messages::skipped`]). In a file read by a linear scan
+    /// ([`McapFile::salvaged`]), a record cut by the end of the file ends the iteration
+    /// without an error, the place in [`Messages::cut`].
     pub fn messages(&self) -> Messages<'_> {
         Messages {
             file: self,
@@ -606,6 +625,11 @@ struct Cursor {
     schemas: BTreeMap<u16, Arc<Schema>>,
     channels: BTreeMap<u16, Arc<Channel>>,
     skipped: Skips<SkippedRecord>,
+    /// The file is read without its summary: a record cut by the end of the file is
+    /// where the recording stopped, not damage.
+    linear: bool,
+    /// Where the walk stopped at such a cut.
+    cut: Option<CutShort>,
 }
 
 impl Cursor {
@@ -620,6 +644,8 @@ impl Cursor {
             schemas: file.schemas.clone(),
             channels: file.channels.clone(),
             skipped: Skips::default(),
+            linear: file.salvaged.is_some(),
+            cut: None,
         }
     }
 
@@ -670,6 +696,21 @@ impl Cursor {
             let pos = self.pos;
             let rec = match record_at(&file.data[..self.end], pos, |p| Location::File(p as u64)) {
                 Ok(r) => r,
+                Err(McapError::Truncated {
+                    record,
+                    at,
+                    needed,
+                    available,
+                }) if self.linear => {
+                    self.cut = Some(CutShort {
+                        record,
+                        at,
+                        needed,
+                        available,
+                    });
+                    self.pos = self.end;
+                    return None;
+                }
                 Err(e) => return Some(Err(e)),
             };
             self.pos = rec.body.end;
@@ -812,13 +853,16 @@ impl Cursor {
         let compression = b.string("compression")?;
         let records_len = b.u64("records")?;
         let records = b.take("records", records_len)?;
-        if uncompressed_size > MAX_CHUNK_BYTES {
-            return Err(b.corrupt(format!(
-                "it claims {uncompressed_size} bytes of records, more than the {MAX_CHUNK_BYTES} \
-                 this reader accepts"
-            )));
+        if !compression.is_empty() {
+            // Checked before anything is allocated or decompressed.
+            crate::limits::check_chunk_size(uncompressed_size, records_len)
+                .map_err(|e| b.corrupt(e))?;
         }
-        let size = uncompressed_size as usize;
+        let Ok(size) = usize::try_from(uncompressed_size) else {
+            return Err(b.corrupt(format!(
+                "it claims {uncompressed_size} bytes of records, more than this machine addresses"
+            )));
+        };
         self.chunk.clear();
         match compression.as_str() {
             "" => {
@@ -900,6 +944,12 @@ impl Messages<'_> {
     pub fn skipped_count(&self) -> usize {
         self.cursor.skipped.count()
     }
+
+    /// Where the walk stopped because the file ends inside a record (files read by a
+    /// linear scan only, see [`McapFile::salvaged`]); `None` while no cut was met.
+    pub fn cut(&self) -> Option<&CutShort> {
+        self.cursor.cut.as_ref()
+    }
 }
 
 impl Iterator for Messages<'_> {
@@ -945,6 +995,11 @@ impl<M> Decoded<'_, M> {
     /// Message records skipped so far because no channel defines them.
     pub fn skipped(&self) -> &[SkippedRecord] {
         self.cursor.skipped.kept()
+    }
+
+    /// Where the walk stopped at a cut in the file; see [`Messages::cut`].
+    pub fn cut(&self) -> Option<&CutShort> {
+        self.cursor.cut.as_ref()
     }
 }
 
@@ -1036,48 +1091,225 @@ mod tests {
         assert_eq!(twists, (0..40).map(f64::from).collect::<Vec<_>>());
     }
 
-    #[test]
-    fn truncated_files_give_their_messages_then_an_error_naming_the_place() {
-        let bytes = recording();
-        let full = McapFile::from_bytes(bytes.clone())
-            .unwrap()
+    /// The chunk records of a file (start, end) and, for each, how many messages the
+    /// full file has in it.
+    fn chunks_of(bytes: &[u8]) -> Vec<(u64, u64, usize)> {
+        let file = McapFile::from_bytes(bytes.to_vec()).unwrap();
+        let in_chunks: Vec<u64> = file
             .messages()
-            .count();
-        for cut in (0..bytes.len()).step_by(331) {
-            let Ok(file) = McapFile::from_bytes(bytes[..cut].to_vec()) else {
+            .map(|m| match m.unwrap().at {
+                Location::InChunk { chunk, .. } => chunk,
+                Location::File(at) => panic!("message outside a chunk at {at}"),
+            })
+            .collect();
+        let mut out = Vec::new();
+        let mut pos = MAGIC.len();
+        while pos + 9 <= bytes.len() {
+            let len = u64::from_le_bytes(bytes[pos + 1..pos + 9].try_into().unwrap());
+            let end = pos as u64 + 9 + len;
+            if bytes[pos] == op::CHUNK {
+                let n = in_chunks.iter().filter(|&&c| c == pos as u64).count();
+                out.push((pos as u64, end, n));
+            }
+            if bytes[pos] == op::DATA_END {
+                break;
+            }
+            pos = end as usize;
+        }
+        out
+    }
+
+    /// Reads a prefix of a file: the messages it gives (never an error) and the cut.
+    fn read_prefix(bytes: &[u8], cut: usize) -> Option<(usize, Option<CutShort>)> {
+        let file = McapFile::from_bytes(bytes[..cut].to_vec()).ok()?;
+        let mut messages = file.messages();
+        let mut n = 0;
+        for m in &mut messages {
+            match m {
+                Ok(_) => n += 1,
+                Err(e) => panic!("a prefix of {cut} bytes gives an error: {e}"),
+            }
+        }
+        Some((n, messages.cut().copied()))
+    }
+
+    /// Messages in the chunks that end by `cut`.
+    fn complete_before(chunks: &[(u64, u64, usize)], cut: usize) -> usize {
+        chunks
+            .iter()
+            .filter(|c| c.1 <= cut as u64)
+            .map(|c| c.2)
+            .sum()
+    }
+
+    #[test]
+    fn every_prefix_gives_the_messages_of_the_chunks_complete_before_it() {
+        let bytes = recording();
+        let chunks = chunks_of(&bytes);
+        assert!(chunks.len() >= 4, "{} chunks", chunks.len());
+        let full: usize = chunks.iter().map(|c| c.2).sum();
+        assert_eq!(full, 80);
+        let header_end = {
+            let len = u64::from_le_bytes(bytes[9..17].try_into().unwrap());
+            17 + len as usize
+        };
+        for cut in (0..=bytes.len())
+            .step_by(97)
+            .chain([bytes.len() - 1, bytes.len()])
+        {
+            let Some((n, cut_at)) = read_prefix(&bytes, cut) else {
                 assert!(
-                    cut < 40,
-                    "only a cut in the magic or header may refuse to open"
+                    cut < header_end,
+                    "only a cut in the magic or header may refuse"
                 );
                 continue;
             };
-            let mut good = 0;
-            let mut error = None;
-            for m in file.messages() {
-                match m {
-                    Ok(_) => good += 1,
-                    Err(e) => error = Some(e),
-                }
+            assert_eq!(n, complete_before(&chunks, cut), "cut at {cut}");
+            if let Some(c) = cut_at {
+                assert!(
+                    matches!(c.at, Location::File(at) if (at as usize) < cut),
+                    "{c}"
+                );
             }
-            if good == full {
-                // Cut in the summary: the data section is whole.
-                assert!(error.is_none(), "cut at {cut}");
-                continue;
-            }
-            let e = error.expect("a cut file ends with an error");
-            assert!(
-                matches!(e, McapError::Truncated { .. } | McapError::Corrupt { .. }),
-                "cut at {cut}: {e}"
-            );
-            assert!(e.to_string().contains("byte"), "{e}");
         }
+        // Cut inside the second chunk: the walk says where it stopped.
+        let cut = ((chunks[1].0 + chunks[1].1) / 2) as usize;
+        let file = McapFile::from_bytes(bytes[..cut].to_vec()).unwrap();
+        assert!(file.salvaged().unwrap().contains("footer"));
+        assert_eq!(
+            file.topics(),
+            ["/cmd_vel", "/scan"],
+            "channels found in chunks"
+        );
+        let mut messages = file.messages();
+        assert_eq!((&mut messages).count(), chunks[0].2);
+        let c = messages.cut().unwrap();
+        assert_eq!(
+            (c.record, c.at),
+            ("chunk record", Location::File(chunks[1].0))
+        );
+        assert!(McapFile::from_bytes(bytes).unwrap().salvaged().is_none());
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        #[test]
+        fn any_prefix_reads_without_error(fraction in 0.0..1.0f64) {
+            let bytes = recording();
+            let chunks = chunks_of(&bytes);
+            let cut = (bytes.len() as f64 * fraction) as usize;
+            if let Some((n, _)) = read_prefix(&bytes, cut) {
+                proptest::prop_assert_eq!(n, complete_before(&chunks, cut));
+            }
+        }
+    }
+
+    /// A writer target that can be looked at while the writer still holds it.
+    #[derive(Clone, Default)]
+    struct Shared(std::rc::Rc<std::cell::RefCell<std::io::Cursor<Vec<u8>>>>);
+
+    impl std::io::Write for Shared {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            self.0.borrow_mut().write(buf)
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    impl std::io::Seek for Shared {
+        fn seek(&mut self, pos: std::io::SeekFrom) -> std::io::Result<u64> {
+            self.0.borrow_mut().seek(pos)
+        }
+    }
+
+    #[test]
+    fn an_unfinished_recording_holds_every_second_closed_before() {
+        let target = Shared::default();
+        let mut w = McapWriter::new(target.clone()).unwrap();
+        // 3.5 s of 10 Hz scans of 100 beams: far less than a 1 MiB chunk.
+        for k in 0..35i64 {
+            let t = Stamp::from_ns(1_000_000_000 + k * 100_000_000);
+            let scan = LaserScan::new(t, "laser", -1.0, 0.02, 0.02, 5.6, vec![1.5; 100]).unwrap();
+            w.write_stamped("/scan", &crate::mcap::LaserScanMsg::new(scan, 0.0, 0.1))
+                .unwrap();
+        }
+        // The process dies here: what is in the file is all there is.
+        let bytes = target.0.borrow().get_ref().clone();
+        let file = McapFile::from_bytes(bytes).unwrap();
+        assert_eq!(file.topics(), ["/scan"]);
+        let mut scans = file.decoded::<crate::mcap::LaserScanMsg>(&["/scan"]);
+        let stamps: Vec<i64> = (&mut scans)
+            .map(|m| m.unwrap().message.scan.stamp.ns())
+            .collect();
+        // Chunks closed at 2 s, 3 s and 4 s of log time: 1.0 to 3.9 s are in the file.
+        assert_eq!(stamps.len(), 30);
+        assert_eq!(stamps[29], 3_900_000_000);
+        assert!(scans.cut().unwrap().to_string().contains("never written"));
+        w.finish().unwrap();
+        // Finished, every scan is there.
+        let bytes = target.0.borrow().get_ref().clone();
+        assert_eq!(
+            McapFile::from_bytes(bytes).unwrap().message_count("/scan"),
+            35
+        );
+    }
+
+    /// An MCAP file of a header and one chunk record with these fields.
+    fn one_chunk(compression: &str, uncompressed_size: u64, records: &[u8]) -> Vec<u8> {
+        fn string(out: &mut Vec<u8>, s: &str) {
+            out.extend((s.len() as u32).to_le_bytes());
+            out.extend(s.as_bytes());
+        }
+        let mut out = MAGIC.to_vec();
+        let mut header = Vec::new();
+        string(&mut header, "ros2");
+        string(&mut header, "test");
+        out.push(op::HEADER);
+        out.extend((header.len() as u64).to_le_bytes());
+        out.extend(header);
+        let mut chunk = Vec::new();
+        chunk.extend(0u64.to_le_bytes());
+        chunk.extend(0u64.to_le_bytes());
+        chunk.extend(uncompressed_size.to_le_bytes());
+        chunk.extend(0u32.to_le_bytes());
+        string(&mut chunk, compression);
+        chunk.extend((records.len() as u64).to_le_bytes());
+        chunk.extend(records);
+        out.push(op::CHUNK);
+        out.extend((chunk.len() as u64).to_le_bytes());
+        out.extend(chunk);
+        out
+    }
+
+    #[test]
+    fn a_decompression_bomb_is_refused_before_anything_is_allocated() {
+        for compression in ["lz4", "zstd"] {
+            // 200 MiB claimed from 100 bytes: refused by the ratio; 1 TiB by the size cap.
+            for (claim, cap) in [(200u64 << 20, "decompression bomb"), (1 << 40, "256 MiB")] {
+                let file = McapFile::from_bytes(one_chunk(compression, claim, &[7; 100])).unwrap();
+                let err = file.messages().next().unwrap().unwrap_err();
+                assert!(err.to_string().contains(cap), "{compression}: {err}");
+                assert!(err.to_string().contains("chunk record at byte 33"), "{err}");
+            }
+        }
+        // An honest small chunk of zeros in lz4 (255:1) still reads.
+        // Zeros are records of opcode 0 and length 0 (9 bytes each): no messages.
+        let records = vec![0u8; 9 << 17];
+        let mut e = lz4_flex::frame::FrameEncoder::new(Vec::new());
+        std::io::Write::write_all(&mut e, &records).unwrap();
+        let stored = e.finish().unwrap();
+        assert!(stored.len() * 200 < records.len());
+        let file = McapFile::from_bytes(one_chunk("lz4", 9 << 17, &stored)).unwrap();
+        assert_eq!(file.messages().filter(Result::is_err).count(), 0);
     }
 
     #[test]
     fn a_damaged_chunk_fails_its_crc() {
         let mut bytes = recording();
         // A byte in the middle of the first chunk's records.
-        let at = bytes.len() / 4;
+        let first = chunks_of(&bytes)[0];
+        let at = ((first.0 + first.1) / 2) as usize;
         bytes[at] ^= 0x55;
         let file = McapFile::from_bytes(bytes).unwrap();
         let err = file.messages().find_map(Result::err).expect("an error");

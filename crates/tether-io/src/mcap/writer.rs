@@ -15,6 +15,11 @@ use super::msgs::Ros2Message;
 /// Chunk size before compression: about 1 MiB, as `ros2 bag` and the Python writer use.
 const CHUNK_BYTES: u64 = 1 << 20;
 
+/// Longest stretch of log time one chunk holds: a message logged this long after the
+/// first one of the open chunk closes that chunk first (and flushes the file), so that
+/// a recording cut short loses at most about a second. See [`McapWriter::flush`].
+pub const MAX_CHUNK_SPAN_NS: u64 = 1_000_000_000;
+
 /// A channel opened by the writer.
 #[derive(Debug, Clone, Copy)]
 struct OpenChannel {
@@ -33,6 +38,14 @@ struct OpenChannel {
 /// statistics and CRCs. Each message's log time and publish time are the time given
 /// (for messages with a header: its stamp, see [`McapWriter::write_stamped`]).
 ///
+/// A chunk is closed when it reaches its byte size or when it spans
+/// [`MAX_CHUNK_SPAN_NS`] of log time, whichever comes first, and the underlying writer
+/// is flushed then: a file cut short (a killed recorder, a full disk) holds every
+/// message of the chunks closed before the cut, which [`super::McapFile`] reads by a
+/// linear scan. The schemas and channels are written in the chunk of their first
+/// message. Chunks close on log time only (never on the wall clock), so the same
+/// messages always give the same bytes.
+///
 /// ```no_run
 /// use tether_io::mcap::{McapWriter, TwistMsg};
 /// use tether_core::Stamp;
@@ -46,6 +59,8 @@ pub struct McapWriter<W: Write + Seek> {
     schemas: HashMap<&'static str, u16>,
     channels: HashMap<String, OpenChannel>,
     scratch: Vec<u8>,
+    /// Log time of the first message since the last flush (the open chunk's start).
+    chunk_start_ns: Option<u64>,
 }
 
 impl McapWriter<BufWriter<File>> {
@@ -79,6 +94,7 @@ impl<W: Write + Seek> McapWriter<W> {
             schemas: HashMap::new(),
             channels: HashMap::new(),
             scratch: Vec::new(),
+            chunk_start_ns: None,
         })
     }
 
@@ -93,6 +109,10 @@ impl<W: Write + Seek> McapWriter<W> {
             topic: topic.to_owned(),
             stamp: log_time,
         })?;
+        match self.chunk_start_ns {
+            Some(start) if start.abs_diff(log_ns) >= MAX_CHUNK_SPAN_NS => self.flush()?,
+            _ => {}
+        }
         let channel = self.channel::<M>(topic)?;
         let mut w = CdrWriter::reusing(std::mem::take(&mut self.scratch));
         msg.write_cdr(&mut w).map_err(|source| McapError::Encode {
@@ -112,7 +132,18 @@ impl<W: Write + Seek> McapWriter<W> {
         if let Some(c) = self.channels.get_mut(topic) {
             c.next_sequence = c.next_sequence.wrapping_add(1);
         }
-        Ok(result?)
+        result?;
+        self.chunk_start_ns.get_or_insert(log_ns);
+        Ok(())
+    }
+
+    /// Closes the open chunk (with its message indexes) and flushes the underlying
+    /// writer: everything written so far is then readable from the file even if the
+    /// program dies before [`McapWriter::finish`]. [`McapWriter::write`] calls it when
+    /// the open chunk spans [`MAX_CHUNK_SPAN_NS`] of log time.
+    pub fn flush(&mut self) -> Result<(), McapError> {
+        self.chunk_start_ns = None;
+        Ok(self.inner.flush()?)
     }
 
     /// Writes a message that has a header, with its header stamp as log time.

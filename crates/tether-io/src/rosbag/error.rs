@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use thiserror::Error;
 
-pub use crate::skips::Location;
+pub use crate::skips::{CutShort, Location};
 
 /// Why a bag cannot be read (any further). Every variant names the place in the file.
 ///
@@ -56,6 +56,20 @@ pub enum BagError {
     NotIndexed {
         /// Offset of the bag header record.
         at: u64,
+    },
+    /// The bag header puts the index past the end of the file: the file was cut short
+    /// (an interrupted copy or recording). The chunks before the cut can still be read
+    /// with [`super::Bag::open_salvaging`].
+    #[error(
+        "bag is cut short: its header puts the index at byte {index_pos} but the file has only \
+         {file_len} bytes (an interrupted copy or recording); the chunks before the cut can be \
+         read by walking the records (`Bag::open_salvaging`, what tether's commands do)"
+    )]
+    IndexPastEnd {
+        /// Where the bag header says the index starts.
+        index_pos: u64,
+        /// Size of the file.
+        file_len: u64,
     },
     /// A record runs past the end of the file or of its chunk.
     #[error(

@@ -15,7 +15,8 @@
 //! ([`definition_md5`]); [`RosMessageOut`] is what a message type needs to be written
 //! (LaserScan, PoseArray, Odometry, leg_tracker's Person and PersonArray).
 //! [`Bag::open_salvaging`] reads a bag whose index is missing or cut off by walking its
-//! records, up to where the file was cut.
+//! records, up to where the file was cut ([`Messages::cut`] says where). A compressed
+//! chunk's claimed size is checked against [`crate::limits`] before it is inflated.
 //!
 //! Damage to the structure (a truncated file, a record whose header contradicts the
 //! format, a chunk that does not decompress) is a [`BagError`] naming the byte offset
@@ -35,7 +36,7 @@ mod writer;
 
 pub use crate::mcap::{CompressedImageMsg, ImageMsg, OdometryMsg};
 pub use dataset::{LabelledScan, LabelledScans, ScanSet, read_labelled_scans, read_scans};
-pub use error::{BagError, DecodeError, Location};
+pub use error::{BagError, CutShort, DecodeError, Location};
 pub use md5::{DefinitionError, definition_md5, md5_hex};
 pub use msg::{
     Header, LaserScanMsg, PersonArrayMsg, PersonMsg, Pose3, PoseArrayMsg, RawLaserScan, RosMessage,

@@ -10,7 +10,7 @@ use std::sync::Arc;
 
 use tether_core::Stamp;
 
-use super::error::{BagError, DecodeError, Location};
+use super::error::{BagError, CutShort, DecodeError, Location};
 use super::msg::RosMessage;
 use super::record::{Fields, MAGIC, Op};
 use crate::skips::Skips;
@@ -288,11 +288,9 @@ impl<R: Read + Seek> Bag<R> {
             return Err(BagError::NotIndexed { at: header.at });
         }
         if index_pos > file_len {
-            return Err(BagError::Truncated {
-                record: "bag header record",
-                at: Location::File(header.at),
-                needed: index_pos - header.at,
-                available: file_len - header.at,
+            return Err(BagError::IndexPastEnd {
+                index_pos,
+                file_len,
             });
         }
         if index_pos < bag.data_start {
@@ -350,6 +348,7 @@ impl<R: Read + Seek> Bag<R> {
             topics: None,
             done: false,
             skipped: Skips::default(),
+            cut: None,
         }
     }
 
@@ -533,6 +532,16 @@ impl<R: Read + Seek> Bag<R> {
             .string("compression")
             .map_err(|e| rec.corrupt(e))?;
         let size = u64::from(rec.fields.u32("size").map_err(|e| rec.corrupt(e))?);
+        if compression != "none" {
+            // Checked before anything is read or decompressed: a bomb costs nothing.
+            crate::limits::check_chunk_size(size, rec.data_len).map_err(|problem| {
+                BagError::Decompress {
+                    at: rec.at,
+                    compression: compression.clone(),
+                    problem,
+                }
+            })?;
+        }
         let stored = self.read_at(rec.data_at, rec.data_len)?;
         let decompress_error = |problem: String| BagError::Decompress {
             at: rec.at,
@@ -655,6 +664,7 @@ pub struct Messages<'a, R> {
     topics: Option<Vec<String>>,
     done: bool,
     skipped: Skips<SkippedRecord>,
+    cut: Option<CutShort>,
 }
 
 impl<R: Read + Seek> Messages<'_, R> {
@@ -672,6 +682,13 @@ impl<R: Read + Seek> Messages<'_, R> {
     /// Number of message records skipped so far.
     pub fn skipped_count(&self) -> usize {
         self.skipped.count()
+    }
+
+    /// Where the walk stopped because the file ends inside a record (only a bag opened
+    /// with [`Bag::from_reader_salvaging`] is walked up to such a cut; a strictly
+    /// opened bag gives an error instead). `None` while the walk has met no cut.
+    pub fn cut(&self) -> Option<&CutShort> {
+        self.cut.as_ref()
     }
 
     fn wanted(&self, topic: &str) -> bool {
@@ -801,13 +818,12 @@ impl<R: Read + Seek> Messages<'_, R> {
                         cut: true,
                     });
                 }
-                self.skip(
-                    Location::File(at),
-                    format!(
-                        "the bag ends inside this {record} ({available} of {needed} bytes \
-                         there); what follows in it is lost"
-                    ),
-                );
+                self.cut = Some(CutShort {
+                    record,
+                    at: Location::File(at),
+                    needed,
+                    available,
+                });
                 return Ok(Some(Inner::Other));
             }
             Err(e) => return Err(e),
@@ -961,6 +977,11 @@ impl<R: Read + Seek, M: RosMessage> Decoded<'_, R, M> {
     pub fn skipped(&self) -> &[SkippedRecord] {
         self.messages.skipped()
     }
+
+    /// Where the walk stopped at a cut in the file; see [`Messages::cut`].
+    pub fn cut(&self) -> Option<&CutShort> {
+        self.messages.cut()
+    }
 }
 
 impl<R: Read + Seek, M: RosMessage> Iterator for Decoded<'_, R, M> {
@@ -1076,9 +1097,72 @@ mod tests {
         assert!(matches!(err, BagError::Truncated { .. }), "{err}");
         let err = open(&bytes[..5000]).unwrap_err();
         assert!(
-            err.to_string().contains("bag header record at byte 13"),
+            matches!(err, BagError::IndexPastEnd { file_len: 5000, .. }),
             "{err}"
         );
+        assert!(
+            err.to_string()
+                .starts_with("bag is cut short: its header puts the index at byte"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_salvaged_walk_reports_the_cut_and_reads_the_chunks_before_it() {
+        for compression in ["none", "bz2", "lz4"] {
+            let bytes = TestBag::scans_and_labels(messages(), compression, 4).build();
+            let whole = open(&bytes).unwrap();
+            let chunks: Vec<u64> = whole.chunk_infos().iter().map(|c| c.chunk_pos).collect();
+            assert_eq!(chunks.len(), 3);
+            // Cut in the middle of the third chunk: the first two are read whole.
+            let cut = (chunks[2] + 80) as usize;
+            let mut bag = Bag::from_reader_salvaging(Cursor::new(&bytes[..cut])).unwrap();
+            assert!(bag.salvaged().is_some());
+            let mut all = bag.messages();
+            let read: Vec<RawMessage> = (&mut all).map(|m| m.unwrap()).collect();
+            assert_eq!(read.len(), 8, "{compression}: two chunks of four");
+            let cut_at = *all.cut().expect("the cut is reported");
+            assert_eq!(cut_at.at, Location::File(chunks[2]), "{compression}");
+            assert_eq!(cut_at.record, "chunk record");
+            assert_eq!(cut_at.available, cut as u64 - chunks[2]);
+            assert_eq!(all.skipped_count(), 0, "a cut is not a skipped message");
+        }
+    }
+
+    #[test]
+    fn a_decompression_bomb_is_refused_before_it_is_inflated() {
+        // A chunk of 16 MiB of zeros (one message) compresses to a few hundred bytes with
+        // bz2: honest about its size, but a 1000:1 ratio is no recording.
+        let zeros = vec![(0u32, 1_000_000_000i64, vec![0u8; 16 << 20])];
+        let bytes = TestBag::scans_and_labels(zeros, "bz2", 1).build();
+        assert!(bytes.len() < 12_000, "{} bytes", bytes.len());
+        let mut bag = open(&bytes).unwrap();
+        let err = bag.messages().next().unwrap().unwrap_err();
+        assert!(
+            matches!(&err, BagError::Decompress { at: 4109, .. }),
+            "{err}"
+        );
+        assert!(err.to_string().contains("decompression bomb"), "{err}");
+        // A chunk that claims 4 GiB is refused by the size cap, whatever it holds.
+        for compression in ["bz2", "lz4"] {
+            let mut bomb = TestBag::scans_and_labels(messages(), compression, 100);
+            bomb.claimed_size = Some(u32::MAX);
+            let bytes = bomb.build();
+            let started = std::time::Instant::now();
+            let err = open(&bytes)
+                .unwrap()
+                .messages()
+                .next()
+                .unwrap()
+                .unwrap_err();
+            assert!(err.to_string().contains("256 MiB"), "{compression}: {err}");
+            assert!(started.elapsed().as_secs() < 2);
+        }
+        // Real chunks pass: a few KB of scans in bz2 and lz4.
+        for compression in ["bz2", "lz4"] {
+            let bytes = TestBag::scans_and_labels(messages(), compression, 100).build();
+            assert_eq!(open(&bytes).unwrap().messages().count(), 12);
+        }
     }
 
     #[test]

@@ -18,6 +18,9 @@ pub(crate) struct TestBag {
     pub messages: Vec<(u32, i64, Vec<u8>)>,
     pub compression: &'static str,
     pub messages_per_chunk: usize,
+    /// A `size` (uncompressed length) to write in every chunk header instead of the
+    /// true one, as a damaged file or a decompression bomb would.
+    pub claimed_size: Option<u32>,
 }
 
 fn field(out: &mut Vec<u8>, name: &str, value: &[u8]) {
@@ -81,6 +84,7 @@ impl TestBag {
             messages,
             compression,
             messages_per_chunk,
+            claimed_size: None,
         }
     }
 
@@ -129,7 +133,8 @@ impl TestBag {
             let mut h = Vec::new();
             field(&mut h, "op", &[0x05]);
             field(&mut h, "compression", self.compression.as_bytes());
-            field(&mut h, "size", &(inner.len() as u32).to_le_bytes());
+            let size = self.claimed_size.unwrap_or(inner.len() as u32);
+            field(&mut h, "size", &size.to_le_bytes());
             record(&mut out, &h, &stored);
             for (conn, entries) in &index {
                 let mut h = Vec::new();

@@ -1,19 +1,24 @@
-//! `tether legs`: detect legs and people in every scan of a ROS 1 bag and write them as
-//! JSON lines.
+//! `tether legs`: detect legs and people in every scan of a recording (ROS 1 bag or
+//! MCAP) and write them as JSON lines.
+//!
+//! The recording is read by [`tether::recording`]: a topic that holds no scans, or whose
+//! every scan fails to decode, is an error before the output is replaced; a recording
+//! cut short is read up to the cut, with a warning.
 
 use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
 use serde::Serialize;
+use tether::recording::{self, Sample, Topics};
 use tether_core::LaserModel;
-use tether_io::rosbag::{Bag, LaserScanMsg};
 use tether_laser::{DetectorConfig, DetectorKind, LegClassifier, LegDetector};
 
 /// Options of `tether legs`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The ROS 1 bag to read (chunks uncompressed, bz2 or lz4).
+    /// The recording: a ROS 1 bag (chunks uncompressed, bz2 or lz4) or an MCAP file
+    /// (ROS 2).
     pub bag: PathBuf,
     /// The `sensor_msgs/LaserScan` topic, e.g. `/scan`.
     #[arg(long)]
@@ -119,25 +124,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let laser = laser_model(args.laser.as_ref())?;
     let mut detector = detector(kind, args.model.as_ref(), &laser)?;
-    let mut bag = Bag::open(&args.bag)?;
-    if !bag.topics().contains(&args.topic.as_str()) {
-        anyhow::bail!(
-            "bag {} has no topic {:?}; its topics are: {}",
-            args.bag.display(),
-            args.topic,
-            bag.topics().join(", ")
-        );
-    }
-    let file = std::fs::File::create(&args.out)
+    // Replaces an earlier result only if this run succeeds.
+    let file = tether::output::AtomicFile::create(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut out = std::io::BufWriter::new(file);
     let (mut scans, mut legs, mut people, mut malformed) = (0usize, 0usize, 0usize, 0usize);
-    let mut messages = bag.decoded::<LaserScanMsg>(&[args.topic.as_str()]);
-    for message in &mut messages {
-        let message = message?;
-        let scan = &message.message.scan;
+    let topics = Topics {
+        scan: args.topic.clone(),
+        image: None,
+        odom: None,
+    };
+    let stats = recording::read(&args.bag, &topics, &mut |sample| {
+        let Sample::Scan(scan) = sample else {
+            return Ok(());
+        };
         malformed += scan.malformed_beams();
-        let detection = detector.detect(scan);
+        let detection = detector.detect(&scan);
         let leg_line = |l: &tether_laser::Leg| LegLine {
             x: l.centre_in_laser.x,
             y: l.centre_in_laser.y,
@@ -163,22 +165,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         scans += 1;
         legs += line.legs.len();
         people += line.people.len();
-    }
-    out.flush()
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
-    if messages.bad_count() > 0 {
+        Ok(())
+    })?;
+    out.into_inner()
+        .map_err(std::io::IntoInnerError::into_error)
+        .and_then(tether::output::AtomicFile::commit)
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    let skipped = stats.bad_messages + stats.unattributed;
+    if skipped > 0 {
         tracing::warn!(
-            "skipped {} scan messages that did not decode; first: {}",
-            messages.bad_count(),
-            messages
-                .bad_messages()
-                .first()
-                .map(|b| format!("{} at {}: {}", b.topic, b.at, b.error))
-                .or_else(|| messages
-                    .skipped()
-                    .first()
-                    .map(|s| format!("{}: {}", s.at, s.reason)))
-                .unwrap_or_default()
+            "skipped {skipped} scan messages that did not decode (the first reasons are above)"
         );
     }
     if malformed > 0 {
