@@ -89,10 +89,14 @@ pub fn parse_info(text: &str, base: &Path, name: &Path) -> Result<Vec<Annotation
         let count: usize = count
             .parse()
             .map_err(|_| err(format!("box count `{count}` is not a whole number")))?;
-        if coords.len() != 4 * count {
+        // Compared without multiplying: a count near 2^62 would wrap `4 * count` to a
+        // small number (and then ask for a vector of that many boxes).
+        if coords.len() % 4 != 0 || coords.len() / 4 != count {
+            let needed = count
+                .checked_mul(4)
+                .map_or_else(|| "more".to_string(), |n| n.to_string());
             return Err(err(format!(
-                "{count} boxes need {} numbers after the count, found {}",
-                4 * count,
+                "{count} boxes need {needed} numbers after the count, found {}",
                 coords.len()
             )));
         }
@@ -103,7 +107,7 @@ pub fn parse_info(text: &str, base: &Path, name: &Path) -> Result<Vec<Annotation
                 .map_err(|_| err(format!("`{c}` is not a whole number of pixels")))?;
             values.push(v);
         }
-        let mut boxes = Vec::with_capacity(count);
+        let mut boxes = Vec::with_capacity(values.len() / 4);
         for (k, b) in values.chunks_exact(4).enumerate() {
             let (x, y, w, h) = (b[0], b[1], b[2], b[3]);
             if w <= 0 || h <= 0 {
@@ -148,9 +152,54 @@ pub fn iou(a: &Rect, b: &Rect) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     fn parse(text: &str) -> Result<Vec<Annotation>, InfoError> {
         parse_info(text, Path::new("/data"), Path::new("info.dat"))
+    }
+
+    #[test]
+    fn a_box_count_that_would_wrap_is_refused_not_allocated() {
+        // 4 * 2^62 wraps to 0 in a release build: once "capacity overflow" in
+        // `eval-cascade` and `train-cascade`.
+        let e = parse("a.jpg 4611686018427387904\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("info.dat:1") && e.contains("found 0"), "{e}");
+        let e = parse(&format!("a.jpg {}\n", usize::MAX))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("need more numbers"), "{e}");
+    }
+
+    proptest::proptest! {
+        /// Any text is parsed or refused, never a panic, and what is parsed holds
+        /// exactly the boxes the lines list.
+        #[test]
+        fn any_text_parses_or_is_refused(
+            lines in proptest::collection::vec(
+                ("[a-z]{1,3}\\.jpg", proptest::collection::vec(
+                    proptest::prop_oneof![
+                        (-5_i64..60).prop_map(|v| v.to_string()),
+                        proptest::num::u64::ANY.prop_map(|v| v.to_string()),
+                        "[0-9a-z#.-]{1,4}",
+                    ],
+                    0..10,
+                )),
+                0..6,
+            )
+        ) {
+            let text: String = lines
+                .iter()
+                .map(|(image, fields)| format!("{image} {}\n", fields.join(" ")))
+                .collect();
+            if let Ok(annotations) = parse(&text) {
+                for a in &annotations {
+                    let (_, fields) = &lines[a.line - 1];
+                    proptest::prop_assert_eq!(fields.len(), 1 + 4 * a.boxes.len());
+                }
+            }
+        }
     }
 
     #[test]

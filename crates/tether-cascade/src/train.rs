@@ -294,6 +294,13 @@ pub enum TrainError {
     /// The mining pyramid could not be built.
     #[error(transparent)]
     Detect(#[from] tether_vision::DetectError),
+    /// The observer asked to stop ([`Observer::stop_after_stage`]); the finished stages
+    /// are in the saved state, from which the same training resumes.
+    #[error("training stopped after stage {trained} at the caller's request")]
+    Stopped {
+        /// Stages trained (and saved) so far.
+        trained: usize,
+    },
 }
 
 /// The annotated images and background images of a training.
@@ -699,6 +706,13 @@ pub trait Observer: Sync {
     fn now_secs(&self) -> Option<f64> {
         None
     }
+
+    /// Asked after each stage is saved: true ends the training there with
+    /// [`TrainError::Stopped`] (the stage in progress is finished first, so no work is
+    /// lost). Default: never.
+    fn stop_after_stage(&self) -> bool {
+        false
+    }
 }
 
 /// An observer that ignores everything.
@@ -912,6 +926,11 @@ pub fn train(
         }
         if let Some(r) = state.reports.last() {
             observer.event(&Event::StageDone(r));
+        }
+        if state.cascade.stages.len() < config.stages && observer.stop_after_stage() {
+            return Err(TrainError::Stopped {
+                trained: state.cascade.stages.len(),
+            });
         }
     }
     Ok(state)

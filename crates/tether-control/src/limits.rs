@@ -77,7 +77,7 @@ impl Default for MotionLimits {
 
 /// Why limits are unusable.
 #[derive(Debug, Clone, PartialEq, Error)]
-#[error("limit `{field}` = {value} is invalid: {why}")]
+#[error("limit `{field}` = {value:?} is invalid: {why}")]
 pub struct LimitsError {
     /// Field.
     pub field: &'static str,
@@ -88,32 +88,76 @@ pub struct LimitsError {
 }
 
 impl MotionLimits {
-    /// Checks every field.
+    /// Checks every field against a range that keeps the robot safe: positive (a
+    /// limit of 0 or below is no limit), and no larger than a person-following base
+    /// can use (a `max_speed_mps` of 1e300 or a `max_reverse_mps` of 10 switches the
+    /// limit off; the laser does not see behind, so reversing stays slow).
     pub fn validate(&self) -> Result<(), LimitsError> {
-        for (field, value) in [
-            ("max_speed_mps", self.max_speed_mps),
-            ("max_turn_radps", self.max_turn_radps),
-            ("max_wheel_speed_mps", self.max_wheel_speed_mps),
-            ("track_width_m", self.track_width_m),
-            ("max_accel_mps2", self.max_accel_mps2),
-            ("max_decel_mps2", self.max_decel_mps2),
-            ("max_angular_accel_radps2", self.max_angular_accel_radps2),
-            ("max_jerk_mps3", self.max_jerk_mps3),
-            ("max_angular_jerk_radps3", self.max_angular_jerk_radps3),
+        for (field, value, top, why) in [
+            (
+                "max_speed_mps",
+                self.max_speed_mps,
+                3.0,
+                "must be in (0, 3] m/s (a person walks at up to 2 m/s)",
+            ),
+            (
+                "max_turn_radps",
+                self.max_turn_radps,
+                std::f64::consts::TAU,
+                "must be in (0, 6.28] rad/s (one turn a second)",
+            ),
+            (
+                "max_wheel_speed_mps",
+                self.max_wheel_speed_mps,
+                3.0,
+                "must be in (0, 3] m/s",
+            ),
+            (
+                "track_width_m",
+                self.track_width_m,
+                2.0,
+                "must be in (0, 2] m",
+            ),
+            (
+                "max_accel_mps2",
+                self.max_accel_mps2,
+                10.0,
+                "must be in (0, 10] m/s^2",
+            ),
+            (
+                "max_decel_mps2",
+                self.max_decel_mps2,
+                10.0,
+                "must be in (0, 10] m/s^2",
+            ),
+            (
+                "max_angular_accel_radps2",
+                self.max_angular_accel_radps2,
+                100.0,
+                "must be in (0, 100] rad/s^2",
+            ),
+            (
+                "max_jerk_mps3",
+                self.max_jerk_mps3,
+                1000.0,
+                "must be in (0, 1000] m/s^3",
+            ),
+            (
+                "max_angular_jerk_radps3",
+                self.max_angular_jerk_radps3,
+                1000.0,
+                "must be in (0, 1000] rad/s^3",
+            ),
         ] {
-            if !(value.is_finite() && value > 0.0) {
-                return Err(LimitsError {
-                    field,
-                    value,
-                    why: "must be a positive number",
-                });
+            if !(value.is_finite() && value > 0.0 && value <= top) {
+                return Err(LimitsError { field, value, why });
             }
         }
-        if !(self.max_reverse_mps.is_finite() && self.max_reverse_mps >= 0.0) {
+        if !(self.max_reverse_mps.is_finite() && (0.0..=0.5).contains(&self.max_reverse_mps)) {
             return Err(LimitsError {
                 field: "max_reverse_mps",
                 value: self.max_reverse_mps,
-                why: "must be >= 0",
+                why: "must be in [0, 0.5] m/s (0: never reverse; the laser does not see behind)",
             });
         }
         Ok(())
@@ -238,6 +282,48 @@ pub struct MotionState {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn limits_that_switch_the_limit_off_are_refused() {
+        assert_eq!(MotionLimits::default().validate(), Ok(()));
+        let refused = |l: MotionLimits| l.validate().map_err(|e| e.field);
+        let d = MotionLimits::default;
+        assert_eq!(
+            refused(MotionLimits {
+                max_speed_mps: 1e300,
+                ..d()
+            }),
+            Err("max_speed_mps")
+        );
+        assert_eq!(
+            refused(MotionLimits {
+                max_reverse_mps: 10.0,
+                ..d()
+            }),
+            Err("max_reverse_mps")
+        );
+        assert_eq!(
+            refused(MotionLimits {
+                max_reverse_mps: -0.1,
+                ..d()
+            }),
+            Err("max_reverse_mps")
+        );
+        assert_eq!(
+            refused(MotionLimits {
+                max_turn_radps: f64::INFINITY,
+                ..d()
+            }),
+            Err("max_turn_radps")
+        );
+        assert_eq!(
+            refused(MotionLimits {
+                max_reverse_mps: 0.0,
+                ..d()
+            }),
+            Ok(())
+        );
+    }
 
     proptest! {
         #[test]

@@ -66,7 +66,75 @@ impl StopReason {
     }
 }
 
+/// A safety setting out of its safe range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("safety `{field}` = {value:?} is refused: {why}")]
+pub struct SafetyConfigError {
+    /// Field.
+    pub field: &'static str,
+    /// Value.
+    pub value: f64,
+    /// The range and why.
+    pub why: &'static str,
+}
+
 impl SafetyConfig {
+    /// Checks every field against a range that keeps the safety layer on: a watchdog
+    /// of `inf` or 1e9 s never fires, a stop distance of 0 or below lets the robot
+    /// touch what is ahead.
+    pub fn validate(&self) -> Result<(), SafetyConfigError> {
+        for (field, value, low, high, why) in [
+            (
+                "laser_timeout_s",
+                self.laser_timeout_s,
+                f64::MIN_POSITIVE,
+                1.0,
+                "must be in (0, 1] s: at 1.4 m/s a robot drives 1.4 m blind in a second \
+                 (a scanner's period is 0.025-0.2 s)",
+            ),
+            (
+                "target_timeout_s",
+                self.target_timeout_s,
+                f64::MIN_POSITIVE,
+                2.0,
+                "must be in (0, 2] s: longer drives on towards a guess",
+            ),
+            (
+                "stop_distance_m",
+                self.stop_distance_m,
+                0.1,
+                3.0,
+                "must be in [0.1, 3] m of free space ahead of the footprint",
+            ),
+            (
+                "robot_radius_m",
+                self.robot_radius_m,
+                f64::MIN_POSITIVE,
+                2.0,
+                "must be in (0, 2] m",
+            ),
+            (
+                "corridor_margin_m",
+                self.corridor_margin_m,
+                0.0,
+                1.0,
+                "must be in [0, 1] m",
+            ),
+            (
+                "search_turn_s",
+                self.search_turn_s,
+                0.0,
+                60.0,
+                "must be in [0, 60] s",
+            ),
+        ] {
+            if !(value.is_finite() && (low..=high).contains(&value)) {
+                return Err(SafetyConfigError { field, value, why });
+            }
+        }
+        Ok(())
+    }
+
     /// Checks the watchdogs at `now` given when the last scan and the last target update
     /// arrived.
     pub fn watchdog(
@@ -142,6 +210,30 @@ impl SafetyConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn settings_that_switch_safety_off_are_refused() {
+        assert_eq!(SafetyConfig::default().validate(), Ok(()));
+        for (field, set) in [
+            (
+                "laser_timeout_s",
+                (|s: &mut SafetyConfig| s.laser_timeout_s = f64::INFINITY) as fn(&mut SafetyConfig),
+            ),
+            ("laser_timeout_s", |s| s.laser_timeout_s = 1e9),
+            ("laser_timeout_s", |s| s.laser_timeout_s = 0.0),
+            ("target_timeout_s", |s| s.target_timeout_s = 1e9),
+            ("target_timeout_s", |s| s.target_timeout_s = f64::NAN),
+            ("stop_distance_m", |s| s.stop_distance_m = -2.0),
+            ("stop_distance_m", |s| s.stop_distance_m = 0.0),
+            ("robot_radius_m", |s| s.robot_radius_m = 0.0),
+            ("corridor_margin_m", |s| s.corridor_margin_m = -0.1),
+            ("search_turn_s", |s| s.search_turn_s = f64::INFINITY),
+        ] {
+            let mut s = SafetyConfig::default();
+            set(&mut s);
+            assert_eq!(s.validate().map_err(|e| e.field), Err(field));
+        }
+    }
 
     #[test]
     fn watchdog_trips_on_stale_laser_then_stale_target() {

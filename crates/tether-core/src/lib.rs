@@ -34,5 +34,5 @@ pub use image::{GrayImage, ImageError};
 pub use laser::{
     LaserModel, LaserModelError, LaserMount, Polynomial, RangeNoiseModel, UrgGeometry,
 };
-pub use scan::{LaserScan, NO_RETURN, ScanError};
+pub use scan::{LaserScan, MAX_BEAMS, NO_RETURN, ScanError};
 pub use time::{NS_PER_S, Stamp};

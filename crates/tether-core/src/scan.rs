@@ -29,6 +29,13 @@ pub enum ScanError {
     /// No beams at all.
     #[error("scan has no beams")]
     Empty,
+    /// More beams than any 2-D scanner gives ([`MAX_BEAMS`]): a damaged message or
+    /// a point cloud mistaken for a scan.
+    #[error(
+        "scan has {0} beams, more than the {MAX_BEAMS} tether takes (2-D scanners give \
+         hundreds to a few thousand)"
+    )]
+    TooManyBeams(usize),
     /// The header promises a different number of beams than the ranges hold.
     #[error("scan header describes {expected} beams but {got} ranges were given")]
     LengthMismatch {
@@ -62,6 +69,13 @@ pub struct LaserScan {
     ranges_m: Vec<f32>,
     malformed_beams: usize,
 }
+
+/// The most beams a scan may hold: 16,384, over three times the densest 2-D scanner's
+/// sweep (a SICK LMS5xx at 0.042 degrees over 190 degrees gives 4,561, a Hokuyo
+/// UTM-30LX 1,081, a URG-04LX 726, a 0.1-degree projection of a 3-D lidar 3,600). A
+/// recording's scan with more is refused, not processed: leg clustering costs up to
+/// the square of the beams within reach of each other (a million beams once took 44 s).
+pub const MAX_BEAMS: usize = 1 << 14;
 
 /// The value that marks a beam with no return.
 pub const NO_RETURN: f32 = f32::INFINITY;
@@ -101,6 +115,9 @@ impl LaserScan {
         }
         if ranges_m.is_empty() {
             return Err(ScanError::Empty);
+        }
+        if ranges_m.len() > MAX_BEAMS {
+            return Err(ScanError::TooManyBeams(ranges_m.len()));
         }
         let mut ranges_m = ranges_m;
         let mut malformed_beams = 0;
@@ -260,6 +277,12 @@ mod tests {
             Err(ScanError::BadRangeLimits { .. })
         ));
         assert!(matches!(scan(vec![]), Err(ScanError::Empty)));
+        // A million beams (once 44 s of leg clustering) is refused; the cap itself taken.
+        assert_eq!(
+            scan(vec![1.0; 1_000_000]).unwrap_err(),
+            ScanError::TooManyBeams(1_000_000)
+        );
+        assert!(scan(vec![1.0; MAX_BEAMS]).is_ok());
         assert!(matches!(
             LaserScan::with_angle_max(Stamp::ZERO, "l", -1.0, 1.0, 0.5, 0.0, 5.0, vec![1.0; 4]),
             Err(ScanError::LengthMismatch {

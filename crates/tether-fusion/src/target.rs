@@ -512,6 +512,12 @@ pub struct TargetSelector {
 }
 
 impl TargetSelector {
+    /// The camera is gone for good (a live camera that failed): from now on the
+    /// laser alone vouches for the target, as in a laser-only configuration.
+    pub fn camera_gone(&mut self) {
+        self.config.require_both_sensors = false;
+    }
+
     /// A selector in the `Searching` state; `motion` bounds where a lost person can be.
     pub fn new(config: TargetConfig, motion: MotionBounds) -> Self {
         TargetSelector {

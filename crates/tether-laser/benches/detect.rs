@@ -145,3 +145,39 @@ fn arc_real_urg(bencher: Bencher) {
     let scans: Vec<LaserScan> = real_scans().iter().map(as_urg).collect();
     run(bencher, arc_detector(), &scans);
 }
+
+/// A scan at the beam cap ([`tether_core::MAX_BEAMS`], 16,384 over 270 deg) whose ranges
+/// alternate between 0.03 m and 0.25 m: every beam is its own run, and the near half
+/// are all within reach of each other (the window of a return nearer than the
+/// clustering distance is unbounded). The worst case of the clustering, which the
+/// cap keeps to a fraction of a second.
+fn adversarial(ranges: impl Fn(usize) -> f32) -> LaserScan {
+    let n = tether_core::MAX_BEAMS;
+    let inc = 1.5 * std::f64::consts::PI / n as f64;
+    let ranges = (0..n).map(ranges).collect();
+    LaserScan::new(
+        tether_core::Stamp::ZERO,
+        "laser",
+        -2.36,
+        inc,
+        0.02,
+        30.0,
+        ranges,
+    )
+    .unwrap()
+}
+
+#[divan::bench(sample_count = 10)]
+fn arc_cap_alternating_near(bencher: Bencher) {
+    let scan = adversarial(|i| if i % 2 == 0 { 0.03 } else { 0.25 });
+    run(bencher, arc_detector(), &[scan]);
+}
+
+/// The cap's beams with pseudo-random ranges of 0.5-5 m (clutter everywhere).
+#[divan::bench(sample_count = 10)]
+fn arc_cap_random(bencher: Bencher) {
+    let scan = adversarial(|i| {
+        0.5 + 4.5 * ((i as u64).wrapping_mul(2_654_435_761) % 1000) as f32 / 1000.0
+    });
+    run(bencher, arc_detector(), &[scan]);
+}

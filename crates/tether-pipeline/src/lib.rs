@@ -301,6 +301,10 @@ impl Pipeline {
             .limits
             .validate()
             .map_err(|e| config_err("limits", e))?;
+        config
+            .safety
+            .validate()
+            .map_err(|e| config_err("safety", e))?;
         let noise = config.laser.noise.clone();
         let detector = match config.legs.detector {
             DetectorKind::Arc => LegDetector::arc(config.legs.config, noise),
@@ -366,6 +370,13 @@ impl Pipeline {
     /// The target selector (for statistics).
     pub fn selector(&self) -> &TargetSelector {
         &self.selector
+    }
+
+    /// The camera is gone for good: vision is out of fusion and the target is locked
+    /// and taken up again on the laser alone ([`TargetSelector::camera_gone`]).
+    pub fn camera_gone(&mut self) {
+        self.config.fusion.use_vision = false;
+        self.selector.camera_gone();
     }
 
     /// The last command sent.

@@ -762,12 +762,18 @@ impl Scenario {
 
         // World.
         let w = &self.world;
+        let far = format!(
+            "must be within {MAX_WORLD_EXTENT_M} m of the origin (a person-following run \
+             covers a few hundred metres)"
+        );
         for (i, room) in w.rooms.iter().enumerate() {
             if !all_finite(&[room.min[0], room.min[1], room.max[0], room.max[1]]) {
                 bad(
                     path!["world", "rooms", i],
                     "corners must be finite numbers".into(),
                 );
+            } else if !near(&[room.min[0], room.min[1], room.max[0], room.max[1]]) {
+                bad(path!["world", "rooms", i], format!("corners {far}"));
             } else if room.min[0] >= room.max[0] || room.min[1] >= room.max[1] {
                 bad(
                     path!["world", "rooms", i, "max"],
@@ -781,6 +787,8 @@ impl Scenario {
                     path!["world", "walls", i],
                     "ends must be finite numbers".into(),
                 );
+            } else if !near(&[wall.from[0], wall.from[1], wall.to[0], wall.to[1]]) {
+                bad(path!["world", "walls", i], format!("ends {far}"));
             } else if wall.from == wall.to {
                 bad(
                     path!["world", "walls", i, "to"],
@@ -797,6 +805,8 @@ impl Scenario {
             for (i, c) in list.iter().enumerate() {
                 if !all_finite(&c.center) {
                     bad(path!["world", kind, i, "center"], "must be finite".into());
+                } else if !near(&c.center) {
+                    bad(path!["world", kind, i, "center"], far.clone());
                 }
                 if !(c.radius_m.is_finite() && c.radius_m > 0.0 && c.radius_m <= 5.0) {
                     bad(
@@ -881,6 +891,8 @@ impl Scenario {
         let start = [r.start.x, r.start.y];
         if !all_finite(&[r.start.x, r.start.y, r.start.yaw_rad]) {
             bad(path!["robot", "start"], "must be finite".into());
+        } else if !near(&[r.start.x, r.start.y]) {
+            bad(path!["robot", "start"], far.clone());
         } else if !inside(start) {
             bad(
                 path!["robot", "start"],
@@ -1111,6 +1123,8 @@ impl Scenario {
                         path!["people", pi, "path", k],
                         "waypoints must be finite".into(),
                     );
+                } else if !near(wp) {
+                    bad(path!["people", pi, "path", k], format!("waypoints {far}"));
                 } else if !inside(*wp) {
                     bad(
                         path!["people", pi, "path", k],
@@ -1164,6 +1178,15 @@ impl Scenario {
 /// Space a walking person needs on each side of their path: half the widest leg spread
 /// plus a leg radius, m.
 const PERSON_CLEARANCE_M: f64 = 0.2;
+
+/// How far from the origin anything in a scenario may be, m: beyond it a world is a
+/// typo (a room of 1e15 m once took 60 s and 6.9 GB drawing its picture).
+pub const MAX_WORLD_EXTENT_M: f64 = 10_000.0;
+
+/// Every coordinate within [`MAX_WORLD_EXTENT_M`] of the origin.
+fn near(v: &[f64]) -> bool {
+    v.iter().all(|c| c.abs() <= MAX_WORLD_EXTENT_M)
+}
 
 fn all_finite(v: &[f64]) -> bool {
     v.iter().all(|x| x.is_finite())
@@ -1260,6 +1283,15 @@ path = [[2.0, 2.5], [8.0, 2.5]]
         assert!(e.contains("missing field `path`"), "{e}");
         // The error points at the [[people]] table.
         assert!(e.starts_with("bad.toml:16:1:"), "{e}");
+    }
+
+    #[test]
+    fn a_world_of_absurd_size_is_refused() {
+        // A room of 1e15 m once took 60 s and 6.9 GB drawing its grid.
+        let src = BASE.replace("max = [10.0, 5.0]", "max = [1e15, 5.0]");
+        let e = err_of(&src);
+        assert!(e.contains("field `world.rooms[0]`"), "{e}");
+        assert!(e.contains("within 10000 m of the origin"), "{e}");
     }
 
     #[test]

@@ -35,6 +35,19 @@ pub fn person_color(index: usize, is_target: bool) -> &'static str {
     }
 }
 
+/// The grid's spacing for a world `span_m` across: 1 m, or the smallest of 2, 5, 10,
+/// 20, 50 m... that draws at most 60 lines.
+pub fn grid_step_m(span_m: f64) -> f64 {
+    let mut step = 1.0;
+    for k in 0..40 {
+        if !(span_m.is_finite() && span_m / step > 60.0) {
+            break;
+        }
+        step = [2.0, 5.0, 10.0][k % 3] * 10f64.powi((k / 3) as i32);
+    }
+    step
+}
+
 /// Escapes text for SVG and HTML.
 pub fn xml_escape(text: &str) -> String {
     text.replace('&', "&amp;")
@@ -119,26 +132,44 @@ impl MapSvg {
 
     fn draw_world(&mut self, scenario: &Scenario, world: &StaticWorld, lo: [f64; 2], hi: [f64; 2]) {
         let mut s = String::new();
-        // 1 m grid.
+        // A grid of 1 m, or of a round step (2, 5, 10, 20, 50 m...) that keeps a large
+        // world to about 60 lines a side.
         let _ = writeln!(s, r##"<g stroke="#eeeeee" stroke-width="1">"##);
-        let (gx0, gx1) = (self.min_x.floor() as i64, (hi[0] + 0.5).ceil() as i64);
-        let (gy0, gy1) = ((lo[1] - 0.5).floor() as i64, self.max_y.ceil() as i64);
-        for gx in gx0..=gx1 {
-            let x = self.x(gx as f64);
+        let step = grid_step_m((hi[0] - self.min_x).max(self.max_y - lo[1]));
+        let (gx0, gx1) = (
+            (self.min_x / step).floor() as i64,
+            ((hi[0] + 0.5) / step).ceil() as i64,
+        );
+        let (gy0, gy1) = (
+            ((lo[1] - 0.5) / step).floor() as i64,
+            (self.max_y / step).ceil() as i64,
+        );
+        let (gx0, gx1, gy0, gy1) = (
+            gx0 as f64 * step,
+            gx1 as f64 * step,
+            gy0 as f64 * step,
+            gy1 as f64 * step,
+        );
+        let lines = |a: f64, b: f64| {
+            let n = ((b - a) / step).round().clamp(0.0, 1000.0) as usize;
+            (0..=n).map(move |k| a + k as f64 * step)
+        };
+        for gx in lines(gx0, gx1) {
+            let x = self.x(gx);
             let _ = writeln!(
                 s,
                 r#"<line x1="{x:.1}" y1="{:.1}" x2="{x:.1}" y2="{:.1}"/>"#,
-                self.y(gy0 as f64),
-                self.y(gy1 as f64)
+                self.y(gy0),
+                self.y(gy1)
             );
         }
-        for gy in gy0..=gy1 {
-            let y = self.y(gy as f64);
+        for gy in lines(gy0, gy1) {
+            let y = self.y(gy);
             let _ = writeln!(
                 s,
                 r#"<line x1="{:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}"/>"#,
-                self.x(gx0 as f64),
-                self.x(gx1 as f64)
+                self.x(gx0),
+                self.x(gx1)
             );
         }
         let _ = writeln!(s, "</g>");
@@ -365,4 +396,22 @@ pub fn scene_svg(
         map.robot(*pose, 0.8);
     }
     map.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_grid_step_keeps_a_large_world_to_a_few_lines() {
+        assert_eq!(grid_step_m(30.0), 1.0);
+        assert_eq!(grid_step_m(60.0), 1.0);
+        assert_eq!(grid_step_m(61.0), 2.0);
+        assert_eq!(grid_step_m(250.0), 5.0);
+        assert_eq!(grid_step_m(20_000.0), 500.0);
+        assert_eq!(grid_step_m(f64::INFINITY), 1.0);
+        for span in [1.0, 77.0, 999.0, 1e4, 1e7] {
+            assert!(span / grid_step_m(span) <= 60.0, "{span}");
+        }
+    }
 }

@@ -101,6 +101,17 @@ pub enum CascadeFileError {
         #[source]
         source: CascadeError,
     },
+    /// The file is not text at all (an image or another binary passed as the cascade).
+    #[error(
+        "cascade file {path} is not an XML text file ({what}); pass OpenCV's cascade XML, \
+         e.g. /usr/share/opencv4/haarcascades/haarcascade_upperbody.xml"
+    )]
+    NotText {
+        /// The file.
+        path: PathBuf,
+        /// What it looks like.
+        what: String,
+    },
 }
 
 /// Which XML layout a cascade was read from.
@@ -193,10 +204,34 @@ impl Cascade {
     /// Reads a cascade file (either XML layout).
     pub fn load(path: impl AsRef<Path>) -> Result<Cascade, CascadeFileError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| CascadeFileError::Io {
+        let bytes = std::fs::read(path).map_err(|source| CascadeFileError::Io {
             path: path.to_path_buf(),
             source,
         })?;
+        let not_text = |what: String| CascadeFileError::NotText {
+            path: path.to_path_buf(),
+            what,
+        };
+        let text = match String::from_utf8(bytes) {
+            Ok(text) if text.trim().is_empty() => {
+                return Err(not_text(format!("it is empty, {} bytes", text.len())));
+            }
+            Ok(text) => text,
+            Err(e) => {
+                let bytes = e.as_bytes();
+                let what = if bytes.starts_with(b"\x89PNG") {
+                    "it is a PNG image".to_string()
+                } else if bytes.starts_with(&[0xff, 0xd8]) {
+                    "it is a JPEG image".to_string()
+                } else {
+                    format!(
+                        "byte {} is not UTF-8: binary data",
+                        e.utf8_error().valid_up_to()
+                    )
+                };
+                return Err(not_text(what));
+            }
+        };
         Cascade::from_xml(&text).map_err(|source| CascadeFileError::Content {
             path: path.to_path_buf(),
             source,

@@ -55,6 +55,27 @@ pub enum ImreadError {
         #[source]
         source: std::io::Error,
     },
+    /// The file holds no bytes at all.
+    #[error("the file is empty (0 bytes): an interrupted copy or write?")]
+    Empty,
+    /// The header claims a picture far larger than the bytes that follow could encode
+    /// even if it were one flat colour: a truncated file or a damaged header, refused
+    /// before its pixels are allocated ([`min_plausible_bytes`]).
+    #[error(
+        "the header claims {width}x{height} pixels but the file holds only {bytes} bytes, \
+         fewer than the {needed} bytes even a flat picture of that size takes: the file is \
+         truncated or its header is damaged"
+    )]
+    Implausible {
+        /// Width the header claims, px.
+        width: u32,
+        /// Height the header claims, px.
+        height: u32,
+        /// The file's length.
+        bytes: usize,
+        /// The fewest bytes a complete picture of that size takes.
+        needed: u64,
+    },
     /// Neither PNG nor JPEG.
     #[error(
         "unsupported image format (the file starts with {magic:02x?}): tether reads PNG and \
@@ -156,13 +177,51 @@ pub fn dimensions(bytes: &[u8]) -> Option<(u32, u32)> {
     }
 }
 
-fn refuse_too_large(bytes: &[u8]) -> Result<(), ImreadError> {
-    match dimensions(bytes) {
-        Some((width, height)) if u64::from(width) * u64::from(height) > MAX_DECODE_PIXELS => {
-            Err(ImreadError::TooLarge { width, height })
-        }
-        _ => Ok(()),
+/// Pictures up to this many pixels are decoded however short their file, as OpenCV
+/// does (a truncated JPEG decodes grey past the cut, bit for bit like libjpeg); larger
+/// ones must hold at least [`min_plausible_bytes`].
+pub const PLAUSIBILITY_FROM_PIXELS: u64 = 1 << 22;
+
+/// The fewest bytes a complete PNG or JPEG of `width` x `height` takes, however flat
+/// the picture: a JPEG codes at least one bit per 8x8 luma block (its DC difference),
+/// so `ceil(w/8) ceil(h/8) / 8` bytes; a PNG's deflate stream expands at most 1032:1
+/// (a 258-byte match per 2-bit code at best), so `h (w + 1) / 1032` bytes for the
+/// narrowest (1-bit grey is not counted: tether reads 8-bit rows). Below it the file
+/// cannot hold the picture its header claims, and decoding it would allocate the
+/// whole picture for nothing (a 1 KB progressive JPEG claiming 8000x8000 took 1.6 GB).
+pub fn min_plausible_bytes(bytes: &[u8], width: u32, height: u32) -> u64 {
+    let (w, h) = (u64::from(width), u64::from(height));
+    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        // Bit depth and colour type are at IHDR bytes 24 and 25; 1-, 2- and 4-bit
+        // rows are narrower than a byte per pixel.
+        let bits = u64::from(bytes.get(24).copied().unwrap_or(1).max(1));
+        h * ((w * bits).div_ceil(8) + 1) / 1032
+    } else {
+        w.div_ceil(8) * h.div_ceil(8) / 8
     }
+}
+
+fn refuse_too_large(bytes: &[u8]) -> Result<(), ImreadError> {
+    if bytes.is_empty() {
+        return Err(ImreadError::Empty);
+    }
+    let Some((width, height)) = dimensions(bytes) else {
+        return Ok(());
+    };
+    let pixels = u64::from(width) * u64::from(height);
+    if pixels > MAX_DECODE_PIXELS {
+        return Err(ImreadError::TooLarge { width, height });
+    }
+    let needed = min_plausible_bytes(bytes, width, height);
+    if pixels > PLAUSIBILITY_FROM_PIXELS && (bytes.len() as u64) < needed {
+        return Err(ImreadError::Implausible {
+            width,
+            height,
+            bytes: bytes.len(),
+            needed,
+        });
+    }
+    Ok(())
 }
 
 /// [`imread_gray`] for a file that must be `width` x `height` (a camera's frame): a
@@ -203,9 +262,25 @@ pub fn imread_gray(path: impl AsRef<Path>) -> Result<GrayImage, ImreadError> {
 
 /// Decodes PNG or JPEG bytes (recognised by their signature) as 8-bit grey.
 pub fn decode_gray(bytes: &[u8]) -> Result<GrayImage, ImreadError> {
+    decode_gray_warned(bytes).map(|(image, _)| image)
+}
+
+/// [`imread_gray`] with the damage that was decoded anyway (a JPEG cut short decodes
+/// grey past the cut, as libjpeg does): one line per warning, empty for a sound file.
+pub fn imread_gray_warned(path: impl AsRef<Path>) -> Result<(GrayImage, Vec<String>), ImreadError> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| ImreadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    decode_gray_warned(&bytes)
+}
+
+/// [`decode_gray`] with the damage that was decoded anyway (see [`imread_gray_warned`]).
+pub fn decode_gray_warned(bytes: &[u8]) -> Result<(GrayImage, Vec<String>), ImreadError> {
     refuse_too_large(bytes)?;
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        decode_png(bytes)
+        decode_png(bytes).map(|image| (image, Vec::new()))
     } else if bytes.starts_with(&[0xff, 0xd8]) {
         decode_jpeg(bytes)
     } else {
@@ -369,13 +444,15 @@ fn decode_png(bytes: &[u8]) -> Result<GrayImage, ImreadError> {
     })
 }
 
-fn decode_jpeg(bytes: &[u8]) -> Result<GrayImage, ImreadError> {
+fn decode_jpeg(bytes: &[u8]) -> Result<(GrayImage, Vec<String>), ImreadError> {
     let decoded = crate::jpeg::decode_gray(bytes).map_err(ImreadError::Jpeg)?;
+    let warnings = decoded.warnings.iter().map(ToString::to_string).collect();
     let image = GrayImage::from_raw(decoded.width, decoded.height, decoded.pixels)?;
-    Ok(match decoded.exif.as_deref().and_then(exif_orientation) {
+    let image = match decoded.exif.as_deref().and_then(exif_orientation) {
         Some(o) => apply_orientation(&image, o),
         None => image,
-    })
+    };
+    Ok((image, warnings))
 }
 
 /// The EXIF orientation tag (0x0112) of IFD0 in a TIFF-structured EXIF block (with or
@@ -491,9 +568,49 @@ mod tests {
             "{e}"
         );
         assert!(e.to_string().contains("64 megapixels"), "{e}");
-        // At the limit the decoder gets it (and refuses the missing pixels).
+        // At the limit the size is allowed, but a header alone cannot hold that picture.
         let e = decode_gray(&png_header(8192, 8192)).unwrap_err();
+        assert!(matches!(e, ImreadError::Implausible { .. }), "{e}");
+        // Small pictures go to the decoder however short (it refuses the missing data).
+        let e = decode_gray(&png_header(640, 480)).unwrap_err();
         assert!(matches!(e, ImreadError::Png(_)), "{e}");
+    }
+
+    #[test]
+    fn a_short_file_claiming_a_big_picture_is_refused_before_decoding() {
+        // A 1 KB progressive JPEG claiming 8000 x 8000 once took 1.6 GB and 5.6 s.
+        let mut jpeg = vec![0xff, 0xd8, 0xff, 0xc2, 0, 11, 8];
+        jpeg.extend_from_slice(&8000u16.to_be_bytes());
+        jpeg.extend_from_slice(&8000u16.to_be_bytes());
+        jpeg.extend_from_slice(&[1, 1, 0x11, 0]);
+        jpeg.resize(1024, 0);
+        let e = decode_gray(&jpeg).unwrap_err();
+        match e {
+            ImreadError::Implausible {
+                width: 8000,
+                height: 8000,
+                bytes: 1024,
+                needed,
+            } => assert_eq!(needed, 1000 * 1000 / 8),
+            other => panic!("{other}"),
+        }
+        // The bound holds for a complete picture: a flat 2048 x 2048 PNG (as
+        // compressible as a picture gets) is longer than it.
+        let flat = vec![0_u8; 2048 * 2048];
+        let png = encode_png(
+            2048,
+            2048,
+            png::ColorType::Grayscale,
+            png::BitDepth::Eight,
+            &flat,
+            None,
+        );
+        assert!(
+            png.len() as u64 >= min_plausible_bytes(&png, 2048, 2048),
+            "{}",
+            png.len()
+        );
+        assert!(matches!(decode_gray(&[]), Err(ImreadError::Empty)));
     }
 
     fn encode_png(

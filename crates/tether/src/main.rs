@@ -59,6 +59,9 @@ enum Command {
     /// Calibrate a sensor from measurements.
     #[command(subcommand)]
     Calibrate(Calibrate),
+    /// The process `tether run` starts beside itself to stop the base if tether dies.
+    #[command(hide = true)]
+    BaseGuard(cmd::base_guard::Args),
 }
 
 #[derive(Debug, Subcommand)]
@@ -117,6 +120,7 @@ fn main() -> std::process::ExitCode {
         Command::EvalCascade(args) => cmd::eval_cascade::run(args),
         Command::Run(args) => cmd::run::run(args),
         Command::UrgEmulator(args) => cmd::urg_emulator::run(args),
+        Command::BaseGuard(args) => cmd::base_guard::run(args),
         Command::Calibrate(Calibrate::Camera(args)) => cmd::calibrate_camera::run(args),
         Command::Calibrate(Calibrate::Laser(args)) => cmd::calibrate_laser::run(args),
     };
@@ -133,6 +137,8 @@ fn main() -> std::process::ExitCode {
     }
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        // `tether demo | head -1`: the reader has what it wanted.
+        Err(err) if tether::output::is_stdout_closed(&err) => std::process::ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("error: {}", error_text(&err));
             std::process::ExitCode::FAILURE
@@ -171,7 +177,9 @@ fn init_logging(verbose: u8) -> Option<tether::logs::LogQueue> {
     let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_target(false)
-        .without_time();
+        .without_time()
+        // Colour codes only where a terminal shows them, not in a log file or a pipe.
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()));
     match tether::logs::LogQueue::start(std::io::stderr()) {
         Ok(queue) => {
             builder.with_writer(queue.clone()).init();

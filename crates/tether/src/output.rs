@@ -83,6 +83,44 @@ impl Drop for AtomicFile {
     }
 }
 
+/// Standard output was closed by its reader (`tether demo | head -1`): the command ends
+/// there, cleanly. `main` exits with status 0 and prints nothing more.
+#[derive(Debug, thiserror::Error)]
+#[error("standard output was closed by its reader")]
+pub struct StdoutClosed;
+
+/// True when `err` (or one of its causes) is [`StdoutClosed`].
+pub fn is_stdout_closed(err: &anyhow::Error) -> bool {
+    err.chain().any(|cause| cause.is::<StdoutClosed>())
+}
+
+/// Writes `args` and a newline to standard output. A pipe closed by its reader is
+/// [`StdoutClosed`] (where `println!` would panic); any other failure names stdout.
+pub fn print_line(args: std::fmt::Arguments<'_>) -> anyhow::Result<()> {
+    let mut out = io::stdout().lock();
+    let written = out
+        .write_fmt(args)
+        .and_then(|()| out.write_all(b"\n"))
+        .and_then(|()| out.flush());
+    match written {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == io::ErrorKind::BrokenPipe => Err(StdoutClosed.into()),
+        Err(e) => Err(anyhow::Error::new(e).context("cannot write to standard output")),
+    }
+}
+
+/// `println!` that returns an error instead of panicking when stdout is closed: see
+/// [`print_line`]. Use as `tether::outln!("{x}")?;`.
+#[macro_export]
+macro_rules! outln {
+    () => {
+        $crate::output::print_line(format_args!(""))
+    };
+    ($($arg:tt)*) => {
+        $crate::output::print_line(format_args!($($arg)*))
+    };
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used, reason = "tests fail loudly")]

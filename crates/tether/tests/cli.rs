@@ -314,3 +314,92 @@ fn a_failed_track_or_replay_leaves_the_earlier_result_as_it_was() {
         .collect();
     assert!(partial.is_empty(), "{partial:?}");
 }
+
+#[test]
+fn detect_names_each_bad_image_and_goes_on_when_asked() {
+    let jpeg =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/images/people/messi5.jpg");
+    if !jpeg.is_file() {
+        let reason = "../shared/data/images is missing";
+        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
+            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
+        }
+        eprintln!("SKIPPED: {reason}");
+        return;
+    }
+    let dir = scratch("detect-bad");
+    let cascade =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tether-cascade/models/vtest_upperbody.xml");
+    let cascade = cascade.to_str().unwrap();
+    let bytes = std::fs::read(&jpeg).unwrap();
+    let cut = dir.join("cut.jpg");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let empty = dir.join("empty.png");
+    std::fs::write(&empty, b"").unwrap();
+    // A 1 KB progressive JPEG whose frame header claims 8000 x 8000 pixels.
+    let mut huge = vec![
+        0xff, 0xd8, 0xff, 0xc2, 0, 11, 8, 0x1f, 0x40, 0x1f, 0x40, 1, 1, 0x11, 0,
+    ];
+    huge.resize(1024, 0);
+    let huge_path = dir.join("huge.jpg");
+    std::fs::write(&huge_path, &huge).unwrap();
+    let good = jpeg.to_str().unwrap();
+    let (cut, empty, huge_path) = (
+        cut.to_str().unwrap(),
+        empty.to_str().unwrap(),
+        huge_path.to_str().unwrap(),
+    );
+
+    // Without --keep-going the first bad image ends it, by name.
+    let out = tether(&["detect", "--cascade", cascade, good, empty, cut]);
+    assert!(!out.status.success());
+    let err = text(&out.stderr);
+    assert!(
+        err.contains(empty) && err.contains("the file is empty"),
+        "{err}"
+    );
+    let out = tether(&["detect", "--cascade", cascade, huge_path]);
+    assert!(!out.status.success());
+    let err = text(&out.stderr);
+    assert!(
+        err.contains(huge_path) && err.contains("8000x8000"),
+        "{err}"
+    );
+
+    // With it, every image is in the report, the bad ones with their error; the cut
+    // JPEG decodes (grey past the cut, as OpenCV) and says so.
+    let out = tether(&[
+        "detect",
+        "--keep-going",
+        "--cascade",
+        cascade,
+        good,
+        empty,
+        cut,
+        huge_path,
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let err = text(&out.stderr);
+    assert!(err.contains("2 of 4 images could not be read"), "{err}");
+    assert!(
+        err.contains(&format!("{cut}: premature end of JPEG data")),
+        "{err}"
+    );
+    assert!(!err.contains("\u{1b}["), "colour codes in a pipe: {err}");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let images = report["images"].as_array().unwrap();
+    assert_eq!(images.len(), 4);
+    assert!(images[0].get("error").is_none());
+    assert!(images[1]["error"].as_str().unwrap().contains("empty"));
+    assert!(!images[2]["damage"].as_array().unwrap().is_empty());
+    assert!(images[3]["error"].as_str().unwrap().contains("truncated"));
+
+    // An image passed as the cascade is named as such.
+    let out = tether(&["detect", "--cascade", good, good]);
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("is not an XML text file (it is a JPEG image)"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

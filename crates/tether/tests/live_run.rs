@@ -322,14 +322,15 @@ fn run_follows_the_emulators_person() {
     assert!(end_gap < 3.5, "the robot fell {end_gap:.2} m behind");
     assert_eq!(last["collisions"], 0, "{last}");
 
-    // The base adapter got every command and the final stop.
+    // The base adapter got every command and the final stop, then the base guard's
+    // stop when tether's pipe to it closed.
     let wheels = std::fs::read_to_string(dir.join("wheels.txt")).unwrap();
     assert_eq!(
         wheels.lines().count(),
-        lines.len(),
-        "one wheel line per command"
+        lines.len() + 1,
+        "one wheel line per command, and the guard's"
     );
-    assert_eq!(wheels.lines().last(), Some("0.000 0.000"));
+    assert!(wheels.ends_with("0.000 0.000\n0.000 0.000\n"), "{wheels}");
 
     // The recording replays.
     let record = dir.join("run.mcap");
@@ -417,9 +418,11 @@ fn a_stdout_nobody_reads_holds_up_neither_the_base_nor_ctrl_c() {
         "base lines at 10 s {at_10_s}, at 15 s {at_15_s}; exit {:.2} s after Ctrl-C",
         interrupted.elapsed().as_secs_f64()
     );
-    // The stop reached the base; stdout could not take it, and says so.
+    // The stop reached the base; stdout could not take it, and says so. (The base
+    // guard adds a stop of its own after tether's; it says when tether's is missing.)
     let text = std::fs::read_to_string(&wheels).unwrap();
     assert_eq!(text.lines().last(), Some("0.000 0.000"), "{stderr}");
+    assert!(!stderr.contains("without its final stop"), "{stderr}");
     assert!(!status.success(), "{stderr}");
     assert!(stderr.contains("lines are dropped"), "{stderr}");
     assert!(
@@ -547,4 +550,166 @@ cascade = "{}"
         .filter(|l| json(l)["input"] == "camera")
         .count();
     assert_eq!(camera_ticks, 5);
+}
+
+/// A grey 8-bit PNG of `width` x `height` at `path`.
+fn write_png(path: &Path, width: u32, height: u32, shade: u8) {
+    let file = std::fs::File::create(path).unwrap();
+    let mut encoder = png::Encoder::new(file, width, height);
+    encoder.set_color(png::ColorType::Grayscale);
+    encoder.set_depth(png::BitDepth::Eight);
+    let pixels: Vec<u8> = (0..width * height)
+        .map(|i| ((i % width) / 3) as u8 + shade)
+        .collect();
+    encoder
+        .write_header()
+        .unwrap()
+        .write_image_data(&pixels)
+        .unwrap();
+}
+
+fn camera_section(frames: &Path, cascade: &Path, fps: f64, repeat: bool) -> String {
+    format!(
+        r#"
+[camera]
+folder = "{}"
+fps = {fps:.1}
+repeat = {repeat}
+intrinsics = {{ fx_px = 460.0, fy_px = 460.0, cx_px = 319.5, cy_px = 239.5, width_px = 640, height_px = 480 }}
+mount = {{ x_m = 0.05, y_m = 0.0, yaw_rad = 0.0, height_m = 0.65, tilt_rad = 0.49 }}
+cascade = "{}"
+"#,
+        frames.display(),
+        cascade.display()
+    )
+}
+
+#[test]
+fn a_bad_camera_frame_is_skipped_and_a_dead_camera_leaves_the_laser_in_charge() {
+    let cascade = Path::new("/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml");
+    if !skip_unless(
+        cascade.is_file(),
+        "Debian's opencv-data cascades are not installed",
+    ) {
+        return;
+    }
+    // Two good frames around a truncated one and one of the wrong size: the two bad
+    // ones are skipped and counted, the camera goes on to its last frame.
+    let dir = scratch("live-bad-frame");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    write_png(&frames.join("frame0.png"), 640, 480, 0);
+    write_png(&frames.join("frame1.png"), 640, 480, 10);
+    let whole = std::fs::read(frames.join("frame1.png")).unwrap();
+    std::fs::write(frames.join("frame1.png"), &whole[..whole.len() / 3]).unwrap();
+    write_png(&frames.join("frame2.png"), 320, 240, 20);
+    write_png(&frames.join("frame3.png"), 640, 480, 30);
+    let (mut emu, pty) = emulator(&dir);
+    let feed = emu.child.stdin.take().unwrap();
+    let config = config_with(&dir, &pty, &camera_section(&frames, cascade, 10.0, false));
+    let (mut first, _) = run(&dir, &config, &["--duration", "2"], feed);
+    let status = first.wait_for(Duration::from_secs(60)).unwrap();
+    let stderr = first.stderr();
+    assert!(status.success(), "{stderr}");
+    assert!(stderr.contains("2 camera frames, "), "{stderr}");
+    assert!(stderr.contains("2 camera frames skipped"), "{stderr}");
+    assert!(stderr.contains("frame1.png"), "{stderr}");
+    assert!(stderr.contains("frames ended"), "{stderr}");
+    assert!(!stderr.contains("the camera failed"), "{stderr}");
+    drop(emu);
+
+    // A camera whose every frame is bad is gone after 30 in a row; the target is then
+    // locked on the laser alone (both sensors are required while the camera lives).
+    let dir = scratch("live-dead-camera");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    std::fs::write(frames.join("frame0.png"), &whole[..whole.len() / 3]).unwrap();
+    let (mut emu, pty) = emulator(&dir);
+    let feed = emu.child.stdin.take().unwrap();
+    let config = config_with(&dir, &pty, &camera_section(&frames, cascade, 30.0, true));
+    let (mut second, lines) = run(&dir, &config, &["--duration", "8"], feed);
+    let status = second.wait_for(Duration::from_secs(90)).unwrap();
+    let stderr = second.stderr();
+    assert!(status.success(), "{stderr}");
+    assert!(
+        stderr.contains("30 frames in a row could not be used"),
+        "{stderr}"
+    );
+    drop(emu);
+    let locked = lines
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|l| !json(l)["target"].is_null())
+        .count();
+    assert!(
+        locked > 20,
+        "the laser alone never held a target: {locked} ticks\n{stderr}"
+    );
+}
+
+#[test]
+fn a_run_killed_while_driving_leaves_the_base_stopped_by_its_guard() {
+    let dir = scratch("live-kill");
+    let (mut emu, pty) = emulator(&dir);
+    let feed = emu.child.stdin.take().unwrap();
+    let config = config(&dir, &pty);
+    let (mut run, lines) = run(&dir, &config, &[], feed);
+    // Until the robot drives.
+    let started = Instant::now();
+    loop {
+        let driving = lines
+            .lock()
+            .unwrap()
+            .iter()
+            .any(|l| json(l)["v_mps"].as_f64().unwrap_or(0.0) > 0.2);
+        if driving {
+            break;
+        }
+        if let Some(status) = run.child.try_wait().unwrap() {
+            panic!("tether run exited early ({status}):\n{}", run.stderr());
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "the robot never drove; stderr:\n{}",
+            run.stderr()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let wheels = dir.join("wheels.txt");
+    let last = || {
+        std::fs::read_to_string(&wheels)
+            .unwrap()
+            .lines()
+            .last()
+            .map(str::to_owned)
+    };
+    assert_ne!(last().as_deref(), Some("0.000 0.000"), "not driving");
+    run.signal("-KILL");
+    let killed = Instant::now();
+    let status = run.wait_for(Duration::from_secs(5)).unwrap();
+    assert!(!status.success());
+    // tether sends nothing after SIGKILL: the stop is the guard's.
+    let stopped = loop {
+        if last().as_deref() == Some("0.000 0.000") {
+            break killed.elapsed();
+        }
+        assert!(
+            killed.elapsed() < Duration::from_secs(5),
+            "the base's last command 5 s after kill -KILL: {:?}\n{}",
+            last(),
+            run.stderr()
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    eprintln!(
+        "the guard's stop reached the base {:.3} s after kill -KILL",
+        stopped.as_secs_f64()
+    );
+    assert!(stopped < Duration::from_millis(500), "{stopped:?}");
+    let stderr = run.stderr();
+    assert!(
+        stderr.contains("base guard: tether ended without its final stop"),
+        "{stderr}"
+    );
 }

@@ -138,40 +138,43 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ..MonocularParams::default()
     };
     let fit = calibrate_camera(&camera, &params, &samples, args.margin.is_none())?;
-    println!(
+    tether::outln!(
         "tilt   {:.3} deg +- {:.3} deg  ({:.5} rad)",
         fit.tilt_rad.to_degrees(),
         fit.tilt_sigma_rad.to_degrees(),
         fit.tilt_rad
-    );
+    )?;
     if fit.margin_fitted {
-        println!(
+        tether::outln!(
             "margin {:.4} +- {:.4} of the box height above the head",
-            fit.margin_frac, fit.margin_sigma
-        );
+            fit.margin_frac,
+            fit.margin_sigma
+        )?;
     } else {
-        println!("margin {:.4} (held)", fit.margin_frac);
+        tether::outln!("margin {:.4} (held)", fit.margin_frac)?;
     }
-    println!(
+    tether::outln!(
         "{:>10} {:>12} {:>12}",
-        "distance_m", "predicted_m", "residual_m"
-    );
+        "distance_m",
+        "predicted_m",
+        "residual_m"
+    )?;
     for (s, r) in samples.iter().zip(&fit.residuals_m) {
-        println!(
+        tether::outln!(
             "{:>10.3} {:>12.3} {:>+12.3}",
             s.distance_m,
             s.distance_m + r,
             r
-        );
+        )?;
     }
-    println!(
+    tether::outln!(
         "rms residual {:.3} m over {} samples",
         fit.rms_m,
         samples.len()
-    );
-    println!(
+    )?;
+    tether::outln!(
         "\n# camera model lines to keep:\n[mount]\ntilt_rad = {:.6}",
         fit.tilt_rad
-    );
+    )?;
     Ok(())
 }

@@ -105,18 +105,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .collect::<Vec<_>>()
             .join(" ")
     };
-    println!("{} samples used", fit.used);
-    println!("bias(r)  = {} m", poly(&fit.noise.bias_m.0));
-    println!(
+    tether::outln!("{} samples used", fit.used)?;
+    tether::outln!("bias(r)  = {} m", poly(&fit.noise.bias_m.0))?;
+    tether::outln!(
         "sigma(r) = max({} m, {} m)",
         fit.noise.sigma_floor_m,
         poly(&fit.noise.sigma_m.0)
-    );
+    )?;
     if !fit.per_range.is_empty() {
-        println!();
-        println!("true r (m)      n   mean err (mm)  fit bias (mm)   std (mm)  fit sigma (mm)");
+        tether::outln!()?;
+        tether::outln!(
+            "true r (m)      n   mean err (mm)  fit bias (mm)   std (mm)  fit sigma (mm)"
+        )?;
         for s in &fit.per_range {
-            println!(
+            tether::outln!(
                 "{:>10.3} {:>6} {:>14.2} {:>14.2} {:>10.2} {:>15.2}",
                 s.true_range_m,
                 s.count,
@@ -124,17 +126,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 1e3 * s.fitted_bias_m,
                 1e3 * s.std_error_m,
                 1e3 * s.fitted_sigma_m
-            );
+            )?;
         }
     }
-    println!();
-    println!(
+    tether::outln!()?;
+    tether::outln!(
         "residuals: bias curve vs means {:.2} mm RMS, sigma curve vs stds {:.2} mm RMS, \
          error after bias removal {:.2} mm RMS",
         1e3 * fit.bias_fit_rms_m,
         1e3 * fit.sigma_fit_rms_m,
         1e3 * fit.residual_rms_m
-    );
+    )?;
     let mut laser = laser_model(args.base.as_ref())?;
     laser.noise = fit.noise;
     laser
@@ -149,7 +151,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     std::fs::write(&args.out, header + &toml)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
-    println!("wrote {}", args.out.display());
+    tether::outln!("wrote {}", args.out.display())?;
     Ok(())
 }
 

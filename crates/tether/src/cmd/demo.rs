@@ -120,7 +120,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     bar.inc(1);
     bar.finish_and_clear();
 
-    println!(
+    tether::outln!(
         "{:<24} {:>10} {:>9} {:>8} {:>8} {:>9} {:>6} {:>5} {:>22}",
         "scenario",
         "mean|d-d0|",
@@ -131,14 +131,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "swaps",
         "coll.",
         "RMSE fused/laser/vis"
-    );
+    )?;
     let f = |v: Option<f64>| v.map_or("-".to_owned(), |x| format!("{x:.3}"));
     let rows = logs
         .iter()
         .map(|(_, m)| (m.scenario.clone(), m))
         .chain(std::iter::once(("printed*".to_owned(), &printed_metrics)));
     for (name, m) in rows {
-        println!(
+        tether::outln!(
             "{:<24} {:>10} {:>9} {:>8.2} {:>8} {:>9.1} {:>6} {:>5} {:>22}",
             name,
             f(m.mean_abs_distance_error_m),
@@ -155,9 +155,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 f(m.rmse_laser_m),
                 f(m.rmse_vision_m)
             )
-        );
+        )?;
     }
-    println!("(printed*: the corridor with the controller as the paper prints it, see the report)");
+    tether::outln!(
+        "(printed*: the corridor with the controller as the paper prints it, see the report)"
+    )?;
 
     let runs: Vec<ScenarioRun<'_>> = logs
         .iter()
@@ -199,6 +201,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     let path = args.out.join("report.html");
     std::fs::write(&path, html).with_context(|| format!("writing {}", path.display()))?;
-    println!("report: {}", path.display());
+    tether::outln!("report: {}", path.display())?;
     Ok(())
 }

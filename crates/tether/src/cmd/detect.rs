@@ -7,7 +7,8 @@ use std::time::Instant;
 
 use anyhow::Context;
 use serde_json::json;
-use tether_vision::{Cascade, DetectParams, Detector, imread_gray};
+use tether_vision::imread::imread_gray_warned;
+use tether_vision::{Cascade, DetectParams, Detector};
 
 /// Where Debian's `opencv-data` installs the pretrained cascades.
 pub const DEBIAN_CASCADE_DIR: &str = "/usr/share/opencv4/haarcascades";
@@ -31,6 +32,11 @@ pub struct Args {
     /// Also time this many runs per image and report the mean (`ms_per_run`).
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub time_runs: usize,
+    /// Go on past an image that cannot be read: it is listed in the JSON with its
+    /// `error` (and no boxes), counted on stderr, and the exit status is still 0.
+    /// Without it the first such image ends the command with an error naming it.
+    #[arg(long)]
+    pub keep_going: bool,
     /// PNG or JPEG images, read as 8-bit grey like cv2.imread(path, IMREAD_GRAYSCALE).
     #[arg(required = true, value_name = "IMAGE")]
     pub images: Vec<PathBuf>,
@@ -102,8 +108,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let params = args.search.params()?;
     let detector = Detector::new(cascade).with_threads(args.threads)?;
     let mut images = Vec::with_capacity(args.images.len());
+    let mut unreadable = 0_usize;
     for path in &args.images {
-        let image = imread_gray(path)?;
+        let (image, damage) = match imread_gray_warned(path) {
+            Ok(read) => read,
+            Err(e) if args.keep_going => {
+                let e = anyhow::Error::new(e);
+                tracing::warn!("{}: {e:#}; skipped (--keep-going)", path.display());
+                unreadable += 1;
+                images.push(json!({
+                    "path": path.display().to_string(),
+                    "error": format!("{e:#}"),
+                    "boxes": [],
+                }));
+                continue;
+            }
+            Err(e) => {
+                return Err(anyhow::Error::new(e).context(format!(
+                    "{} cannot be read (--keep-going skips such images and goes on)",
+                    path.display()
+                )));
+            }
+        };
+        // A damaged JPEG decodes anyway, as with OpenCV (grey past a cut): said, and
+        // kept in the report.
+        for w in &damage {
+            tracing::warn!("{}: {w}; decoded anyway, as OpenCV does", path.display());
+        }
         let mut boxes = detector
             .detect(&image, &params)
             .with_context(|| format!("detecting in {}", path.display()))?;
@@ -124,7 +155,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "height": image.height(),
             "boxes": boxes,
             "ms_per_run": ms_per_run,
+            "damage": damage,
         }));
+    }
+    if unreadable > 0 {
+        tracing::warn!(
+            "{unreadable} of {} images could not be read and have no boxes (their `error` is in the output)",
+            args.images.len()
+        );
     }
     let report = json!({
         "tether": env!("CARGO_PKG_VERSION"),
@@ -138,6 +176,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         "images": images,
     });
-    println!("{}", serde_json::to_string_pretty(&report)?);
+    tether::outln!("{}", serde_json::to_string_pretty(&report)?)?;
     Ok(())
 }

@@ -95,9 +95,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "recall": counts.recall(),
             "f1": counts.f1(),
         });
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        tether::outln!("{}", serde_json::to_string_pretty(&report)?)?;
     } else {
-        println!(
+        tether::outln!(
             "{}: precision {:.3}, recall {:.3}, F1 {:.3} ({} true positives, {} false positives, \
              {} missed; {} images, scale factor {}, minNeighbors {}, match at IoU >= {MATCH_IOU})",
             args.cascade.display(),
@@ -110,7 +110,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             annotations.len(),
             params.scale_factor,
             params.min_neighbors
-        );
+        )?;
     }
     Ok(())
 }

@@ -156,7 +156,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         rows.push(evaluate(scenario, args.seeds, || bar.inc(1))?);
     }
     bar.finish_and_clear();
-    println!(
+    tether::outln!(
         "{:<10} {:>5} {:>26} {:>22} {:>9} {:>6} {:>7} {:>6} {:>10}",
         "scenario",
         "runs",
@@ -167,9 +167,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "ID sw.",
         "swaps",
         "swap runs"
-    );
+    )?;
     for p in &rows {
-        println!(
+        tether::outln!(
             "{:<10} {:>5} {:>26} {:>22} {:>9.3} {:>6.3} {:>7} {:>6} {:>10}",
             p.scenario,
             p.runs,
@@ -186,10 +186,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             p.id_switches,
             p.target_swaps,
             p.runs_with_swaps
-        );
+        )?;
     }
-    println!(
+    tether::outln!(
         "NEES of a consistent 2-D estimate averages 2 (95 % band over 100 runs: 1.63-2.41); CI is conservative by design."
-    );
+    )?;
     Ok(())
 }

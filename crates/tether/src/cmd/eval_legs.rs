@@ -28,9 +28,9 @@ pub struct Args {
     pub laser: Option<PathBuf>,
 }
 
-fn row(name: &str, e: &Evaluation) {
+fn row(name: &str, e: &Evaluation) -> anyhow::Result<()> {
     let t = e.total();
-    println!(
+    tether::outln!(
         "{name:<8} {:>5} {:>9} {:>9} {:>5}   {:>9.3} {:>6.3}",
         t.true_positives,
         e.labelled.false_positives,
@@ -38,7 +38,7 @@ fn row(name: &str, e: &Evaluation) {
         t.false_negatives,
         t.precision(),
         t.recall()
-    );
+    )
 }
 
 /// Measures both detectors and prints a table.
@@ -54,7 +54,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let negatives = negative_scans(&args.data, &TEST_NEGATIVE_TOPICS)?;
     let region = LabelledRegion::leg_tracker();
     let labels: usize = positives.iter().map(|(_, l)| l.len()).sum();
-    println!(
+    tether::outln!(
         "test split: {} and {} {}: {} labelled scans with {labels} legs, {} scans without \
          people",
         TEST_POSITIVE_BAGS.join(", "),
@@ -62,8 +62,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         TEST_NEGATIVE_TOPICS.join(", "),
         positives.len(),
         negatives.len()
-    );
-    println!(
+    )?;
+    tether::outln!(
         "a detection within {EVAL_MATCH_RADIUS_M} m of a labelled leg centre finds it (one to \
          one); on labelled scans, a detection that finds none is false only if its returns' \
          centroid lies where the labeller labelled every cluster ({:.0} to {:.0} deg, under {} \
@@ -71,9 +71,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         region.min_bearing_rad.to_degrees(),
         region.max_bearing_rad.to_degrees(),
         region.max_range_m
-    );
-    println!();
-    println!("detector    TP  FP(lab.)  FP(neg.)    FN   precision recall");
+    )?;
+    tether::outln!()?;
+    tether::outln!("detector    TP  FP(lab.)  FP(neg.)    FN   precision recall")?;
     for (name, kind) in [
         ("arc", DetectorKind::Arc),
         ("learned", DetectorKind::Learned),
@@ -90,7 +90,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             negatives.iter(),
             &region,
         );
-        row(name, &e);
+        row(name, &e)?;
     }
     Ok(())
 }

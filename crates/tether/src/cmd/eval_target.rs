@@ -207,7 +207,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     bar.finish_and_clear();
-    println!(
+    tether::outln!(
         "{:<16} {:<7} {:>5} {:>7} {:>8} {:>10} {:>6} {:>12} {:>9} {:>6} {:>9} {:>8} {:>8}",
         "scenario",
         "mode",
@@ -222,9 +222,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "|d-d0|",
         "in band",
         "lost"
-    );
+    )?;
     for p in &rows {
-        println!(
+        tether::outln!(
             "{:<16} {:<7} {:>5} {:>7} {:>8} {:>9.2}% {:>6} {:>12} {:>8.1}s {:>6} {:>9.3} {:>7.0}% {:>7.1}s",
             p.scenario,
             format!("{:?}", p.mode).to_lowercase(),
@@ -239,7 +239,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             p.mean_abs_distance_error_m,
             100.0 * p.time_in_band_frac,
             p.target_lost_s
-        );
+        )?;
     }
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&rows)? + "\n";

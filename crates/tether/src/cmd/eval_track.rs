@@ -132,7 +132,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.labels_topic,
         report.label_messages
     );
-    print!("{}", report.text());
+    tether::outln!("{}", report.text().trim_end())?;
     if let Some(path) = &args.json {
         std::fs::write(path, serde_json::to_string_pretty(&report)? + "\n")
             .with_context(|| format!("writing {}", path.display()))?;

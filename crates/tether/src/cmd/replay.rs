@@ -370,13 +370,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let report = path.with_extension("html");
         std::fs::write(&report, summary.html(&args.recording, frame, target_counts))
             .with_context(|| format!("writing {}", report.display()))?;
-        println!(
+        tether::outln!(
             "results -> {}, report -> {}",
             path.display(),
             report.display()
-        );
+        )?;
     }
-    println!(
+    tether::outln!(
         "{} scans, {} camera frames ({} detections), {} odometry messages: {} people tracked, \
          target track ids {:?}; {}",
         summary.scans,
@@ -386,6 +386,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.trails.len(),
         summary.target_ids,
         summary.target.one_line(target_counts)
-    );
+    )?;
     Ok(())
 }

@@ -17,9 +17,10 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use tether::ego::EgoMotion;
 use tether::live::base::{CommandLine, CommandSink, CreateBase, QueuedLines, WheelLines};
-use tether::live::camera::{FolderFrames, FrameSource};
+use tether::live::camera::{CameraError, FolderFrames, FrameSource};
 use tether::live::clock::MonotonicClock;
 use tether::live::config::{BaseKind, CameraSection, FrameInput, LaserLink, RobotConfig};
+use tether::live::guard::{Guard, GuardSpec};
 use tether::live::run_loop::{self, Ending, Input, LoopConfig, Recorder};
 use tether_core::{CameraIntrinsics, Stamp};
 use tether_io::scip::{
@@ -113,6 +114,10 @@ fn start_laser<L: Link + Send + 'static>(
     Ok((thread, info.scan_period_s()))
 }
 
+/// Frames in a row that cannot be used before the camera is taken for gone (3 s at
+/// 10 fps); a single bad frame is skipped and counted.
+const CAMERA_GIVES_UP_AFTER_BAD_FRAMES: u32 = 30;
+
 /// Frames from `source` through the detector, stamped on arrival, until `stop` or the
 /// end of the frames.
 fn camera_thread(
@@ -123,17 +128,37 @@ fn camera_thread(
     tx: SyncSender<Input>,
     stop: Arc<AtomicBool>,
 ) {
+    // Consecutive frames that could not be used: a bad frame is skipped, a camera
+    // that sends nothing usable for this many frames in a row is gone.
+    let mut bad_in_a_row = 0_u32;
     while !stop.load(Ordering::Relaxed) {
         let input = match source.next_frame() {
             Ok(Some(image)) => {
                 let stamp = Stamp::from_ns(clock.now_ns());
                 match camera.boxes(&image, &intrinsics) {
                     Ok(boxes) => Input::Camera { stamp, boxes },
-                    Err(e) => Input::CameraEnded(Some(format!("{e:#}"))),
+                    Err(e) => Input::CameraFrameBad(format!("{e:#}")),
                 }
             }
             Ok(None) => Input::CameraEnded(None),
+            Err(e @ CameraError::Frame { .. }) => Input::CameraFrameBad(e.to_string()),
             Err(e) => Input::CameraEnded(Some(e.to_string())),
+        };
+        let input = match input {
+            Input::CameraFrameBad(why) => {
+                bad_in_a_row += 1;
+                if bad_in_a_row >= CAMERA_GIVES_UP_AFTER_BAD_FRAMES {
+                    Input::CameraEnded(Some(format!(
+                        "{bad_in_a_row} frames in a row could not be used; the last: {why}"
+                    )))
+                } else {
+                    Input::CameraFrameBad(why)
+                }
+            }
+            other => {
+                bad_in_a_row = 0;
+                other
+            }
         };
         let ended = matches!(input, Input::CameraEnded(_));
         if tx.send(input).is_err() || ended {
@@ -369,9 +394,45 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             QueuedLines::new("stdout", std::io::stdout()).context("starting the stdout writer")?,
         ));
     }
+    // The guard opens the base's device before tether does (tether's serial port
+    // would lock it out), and gets every command after the base has it.
+    let guard = match GuardSpec::of(&config.base) {
+        Some(spec) => {
+            let exe = std::env::current_exe()
+                .context("cannot find tether's own binary to start the base guard")?;
+            let (guard, pipe) = Guard::spawn(&exe, &spec, Duration::from_secs(5)).context(
+                "starting the base guard (`[base] guard = false` runs without it, and \
+                 without a stop if tether is killed)",
+            )?;
+            Some((guard, pipe))
+        }
+        None => None,
+    };
     if let Some(base) = open_base(&config)? {
         sinks.push(base);
     }
+    let guard = match guard {
+        Some((guard, pipe)) => {
+            sinks.push(Box::new(
+                QueuedLines::new("base guard", pipe).context("starting the base guard's writer")?,
+            ));
+            Some(guard)
+        }
+        None => None,
+    };
+    // The guard's pipe closes when the sinks go: it then sends its stop and exits.
+    let end_guard = move |sinks: Vec<Box<dyn CommandSink>>| {
+        drop(sinks);
+        if let Some(guard) = guard {
+            match guard.wait(Duration::from_secs(1)) {
+                Some(status) if status.success() => {}
+                other => tracing::warn!(
+                    "the base guard ended badly ({}); tether's own final stop went out",
+                    other.map_or_else(|| "no status".into(), |s| s.to_string())
+                ),
+            }
+        }
+    };
     let mut recorder = match &config.output.record {
         Some(path) => Some({
             let path = fresh_recording_path(path);
@@ -397,6 +458,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 }
             }
             stop.store(true, Ordering::Relaxed);
+            end_guard(sinks);
             return Err(e);
         }
     };
@@ -422,6 +484,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // The threads end at their next datum (a send to the dropped channel fails).
     stop.store(true, Ordering::Relaxed);
     drop(rx);
+    end_guard(sinks);
     let mut problems = Vec::new();
     if let Some(recorder) = recorder
         && let Err(e) = recorder.finish()
@@ -434,7 +497,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let stats = pipeline.stats();
     tracing::info!(
         "{}: {} scans, {} camera frames, {} ticks ({} with a target), {:.1} m driven by dead \
-         reckoning, {} laser faults recovered, {} stamps clamped, {} out-of-order ticks",
+         reckoning, {} laser faults recovered, {} camera frames skipped, {} stamps clamped, {} \
+         out-of-order ticks",
         summary.ending.name(),
         summary.scans,
         summary.frames,
@@ -442,6 +506,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.ticks_with_target,
         summary.distance_m,
         summary.laser_faults,
+        summary.bad_frames,
         summary.clamped_stamps,
         stats.out_of_order_ticks
     );

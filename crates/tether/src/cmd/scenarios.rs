@@ -18,13 +18,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "no built-in scenario named `{name}`; run `tether scenarios` to list them"
             )
         })?;
-        print!("{text}");
+        tether::outln!("{}", text.trim_end())?;
         return Ok(());
     }
     let width = BUILTIN_NAMES.iter().map(|n| n.len()).max().unwrap_or(0);
     for name in BUILTIN_NAMES {
         let scenario = Scenario::builtin(name)?;
-        println!(
+        tether::outln!(
             "{name:<width$}  {:>4.0} s  {} {}  {}",
             scenario.duration_s,
             scenario.people.len(),
@@ -34,7 +34,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "people, "
             },
             scenario.description
-        );
+        )?;
     }
     Ok(())
 }

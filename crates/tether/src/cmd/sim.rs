@@ -380,15 +380,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .finish()
             .with_context(|| format!("writing {}", path.display()))?;
         match target {
-            Some(id) => println!(
+            Some(id) => tether::outln!(
                 "bag -> {} (/scan, {}/people_truth; the target is person {id})",
                 path.display(),
                 if args.bag_without_odom { "" } else { "/odom, " }
-            ),
-            None => println!("bag -> {} (the scenario has no target)", path.display()),
+            )?,
+            None => tether::outln!("bag -> {} (the scenario has no target)", path.display())?,
         }
     }
-    println!(
+    tether::outln!(
         "{}: {:.1} s simulated, seed {}, {} scans, {} camera frames ({} boxes), {} collisions -> {}",
         summary.scenario,
         summary.duration_s,
@@ -398,6 +398,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.camera_boxes,
         summary.collisions,
         args.out.display()
-    );
+    )?;
     Ok(())
 }

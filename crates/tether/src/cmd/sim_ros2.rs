@@ -368,7 +368,7 @@ pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow:
     let path = out.join("ros2_run.json");
     let json = serde_json::to_string_pretty(&summary)?;
     std::fs::write(&path, json + "\n").with_context(|| format!("writing {}", path.display()))?;
-    println!(
+    tether::outln!(
         "{}: {:.1} s simulated {}, {} scans, {} odometry messages and {} camera frames \
          published, {} commands received, first motion at {}, mean |d - d0| {} (d0 = {d0} m), {} collisions, \
          {:.1} m driven -> {}",
@@ -391,7 +391,7 @@ pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow:
         summary.collisions,
         summary.distance_driven_m,
         path.display()
-    );
+    )?;
     Ok(())
 }
 

@@ -297,11 +297,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let frames = camera.as_ref().map_or(String::new(), |c| {
         format!(", {} camera frames with {} detections", c.frames, c.boxes)
     });
-    println!(
+    tether::outln!(
         "{scans} scans{frames}, {} people tracked, a target in {with_target} scans -> {}",
         ids.len(),
         args.out.display()
-    );
-    println!("{}", target_log.one_line(pipeline.selector().stats()));
+    )?;
+    tether::outln!("{}", target_log.one_line(pipeline.selector().stats()))?;
     Ok(())
 }

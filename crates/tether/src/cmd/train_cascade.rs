@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::Context;
@@ -131,13 +132,24 @@ struct Cli {
     bar: ProgressBar,
     start: Instant,
     stage: Mutex<usize>,
+    /// Set when stdout was closed by its reader: the training stops after the stage in
+    /// progress (saved), instead of losing it.
+    stdout_closed: AtomicBool,
 }
 
 impl Cli {
     /// A line above the progress bar (on stdout when there is no terminal to draw on).
     fn say(&self, line: String) {
         if self.bar.is_hidden() {
-            println!("{line}");
+            if self.stdout_closed.load(Ordering::Relaxed) {
+                return;
+            }
+            if let Err(e) = tether::outln!("{line}") {
+                if !tether::output::is_stdout_closed(&e) {
+                    tracing::warn!("{e:#}");
+                }
+                self.stdout_closed.store(true, Ordering::Relaxed);
+            }
         } else {
             self.bar.println(line);
         }
@@ -209,6 +221,10 @@ impl Observer for Cli {
 
     fn now_secs(&self) -> Option<f64> {
         Some(self.start.elapsed().as_secs_f64())
+    }
+
+    fn stop_after_stage(&self) -> bool {
+        self.stdout_closed.load(Ordering::Relaxed)
     }
 }
 
@@ -320,6 +336,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bar,
         start: Instant::now(),
         stage: Mutex::new(0),
+        stdout_closed: AtomicBool::new(false),
     };
     let result = pool.install(|| -> Result<TrainState, TrainError> {
         let data = TrainingData::load(&args.info, &args.bg)?;
@@ -329,7 +346,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     match result {
         Ok(state) => {
             write_outputs(&state, &config, &args.out, &report_path, &command)?;
-            println!(
+            tether::outln!(
                 "wrote {} ({} stages, {} weak classifiers) in {:.1} s; report {}, state {}",
                 args.out.display(),
                 state.cascade.stages.len(),
@@ -337,7 +354,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 cli.start.elapsed().as_secs_f64(),
                 report_path.display(),
                 state_path.display()
-            );
+            )?;
             Ok(())
         }
         Err(e @ TrainError::NegativesExhausted { trained, .. }) if trained > 0 => {
@@ -348,6 +365,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "the cascade of the {trained} stages trained so far was written to {}",
                 args.out.display()
             )))
+        }
+        Err(TrainError::Stopped { trained }) => {
+            tracing::warn!(
+                "standard output was closed: the training stopped after stage {trained}, saved \
+                 in {}; the same command resumes from it",
+                state_path.display()
+            );
+            Err(tether::output::StdoutClosed.into())
         }
         Err(e) => Err(e.into()),
     }

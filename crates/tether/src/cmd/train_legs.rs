@@ -111,14 +111,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     let started = std::time::Instant::now();
     let (model, set, cv) = train_with_cross_validation(&folds, &config)?;
-    println!(
+    tether::outln!(
         "cross-validation ({} folds: one positive bag and a block of the negative scans \
          each), detections within 0.15 m of a label:",
         folds.len()
-    );
-    println!("fold     TP     FP     FN   precision recall");
+    )?;
+    tether::outln!("fold     TP     FP     FN   precision recall")?;
     for (k, c) in cv.fold_counts.iter().enumerate() {
-        println!(
+        tether::outln!(
             "{:<5} {:>5} {:>6} {:>6}   {:>9.3} {:>6.3}",
             k + 1,
             c.true_positives,
@@ -126,10 +126,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             c.false_negatives,
             c.precision(),
             c.recall()
-        );
+        )?;
     }
     let c = cv.best_counts();
-    println!(
+    tether::outln!(
         "all   {:>5} {:>6} {:>6}   {:>9.3} {:>6.3}   (decision margin {}: the highest F1, {:.3})",
         c.true_positives,
         c.false_positives,
@@ -138,8 +138,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         c.recall(),
         cv.margin(),
         c.f1()
-    );
-    println!(
+    )?;
+    tether::outln!(
         "trained {} trees of depth {} on {} legs and {} non-legs in {:.1} s, cross-validation \
          included ({} labelled legs matched no cluster)",
         model.trees.len(),
@@ -148,12 +148,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         set.negatives(),
         started.elapsed().as_secs_f64(),
         set.unmatched_labels
-    );
+    )?;
     let json = model.to_json();
     std::fs::write(&args.out, &json)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     let same = LegClassifier::default_model().is_ok_and(|m| m.to_json() == json);
-    println!(
+    tether::outln!(
         "wrote {} ({})",
         args.out.display(),
         if same {
@@ -161,6 +161,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         } else {
             "differs from the built-in model"
         }
-    );
+    )?;
     Ok(())
 }

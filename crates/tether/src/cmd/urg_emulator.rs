@@ -330,6 +330,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let name = scenario.name.clone();
     serve(&args, config, scans, |endpoint| {
-        println!("URG-04LX emulator (SCIP 2.0, scenario `{name}`) on {endpoint}");
+        // The emulator serves on whether or not anybody reads where it listens.
+        tether::outln!("URG-04LX emulator (SCIP 2.0, scenario `{name}`) on {endpoint}").ok();
     })
 }

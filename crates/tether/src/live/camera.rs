@@ -255,10 +255,12 @@ mod v4l2 {
                 device: self.device.clone(),
                 message: format!("no frame: {e}"),
             })?;
+            // A frame that does not decode (a damaged MJPG) is one bad frame, not the
+            // end of the device.
             grey_from_raw(self.fourcc, self.width, self.height, self.stride, bytes)
                 .map(Some)
-                .map_err(|message| CameraError::Device {
-                    device: self.device.clone(),
+                .map_err(|message| CameraError::Frame {
+                    path: PathBuf::from(&self.device),
                     message,
                 })
         }

@@ -298,6 +298,15 @@ pub struct BaseSection {
     pub baud: Option<u32>,
     /// `wheels`: line format (default `json`).
     pub format: Option<WheelFormat>,
+    /// Run the base guard (default true): a small process that holds its own handle
+    /// on the device and stops the base when tether dies or hangs
+    /// ([`crate::live::guard`]).
+    #[serde(default)]
+    pub guard: Option<bool>,
+    /// The guard's patience: the base is stopped after this long without a command,
+    /// s (default 0.5; 0.1 to 2).
+    #[serde(default)]
+    pub guard_silence_s: Option<f64>,
 }
 
 /// `[output]`.
@@ -346,6 +355,18 @@ fn positive(field: &str, value: f64) -> Result<(), (String, String)> {
         Err((
             field.to_owned(),
             format!("= {value}: must be a positive number"),
+        ))
+    }
+}
+
+/// A positive number no larger than `top` (a limit that high switches the limit off).
+fn at_most(field: &str, value: f64, top: f64, unit: &str) -> Result<(), (String, String)> {
+    if value.is_finite() && value > 0.0 && value <= top {
+        Ok(())
+    } else {
+        Err((
+            field.to_owned(),
+            format!("= {value:?}: must be in (0, {top}] {unit}"),
         ))
     }
 }
@@ -432,10 +453,17 @@ impl RobotConfig {
     fn validate(&self, laser_link: bool) -> Result<(), (String, String)> {
         let r = &self.robot;
         positive("robot.radius_m", r.radius_m)?;
-        positive("robot.track_width_m", r.track_width_m)?;
-        positive("robot.max_speed_mps", r.max_speed_mps)?;
-        positive("robot.max_wheel_speed_mps", r.max_wheel_speed_mps)?;
-        positive("robot.max_accel_mps2", r.max_accel_mps2)?;
+        // The same ranges as `[pipeline.limits]` (tether_control::MotionLimits), named
+        // by the key the user wrote.
+        at_most("robot.track_width_m", r.track_width_m, 2.0, "m")?;
+        at_most("robot.max_speed_mps", r.max_speed_mps, 3.0, "m/s")?;
+        at_most(
+            "robot.max_wheel_speed_mps",
+            r.max_wheel_speed_mps,
+            3.0,
+            "m/s",
+        )?;
+        at_most("robot.max_accel_mps2", r.max_accel_mps2, 10.0, "m/s^2")?;
         let l = &self.laser;
         match (&l.serial, &l.tcp) {
             (Some(_), Some(_)) => {
@@ -578,6 +606,17 @@ impl RobotConfig {
         if b.baud == Some(0) {
             return Err(("base.baud".into(), "= 0: must be a baud rate".into()));
         }
+        if let Some(s) = b.guard_silence_s
+            && !(s.is_finite() && (0.1..=2.0).contains(&s))
+        {
+            return Err((
+                "base.guard_silence_s".into(),
+                format!(
+                    "= {s:?}: must be in [0.1, 2] s (the control loop commands at 20 Hz; \
+                     longer lets a hung tether drive on)"
+                ),
+            ));
+        }
         Ok(())
     }
 
@@ -668,6 +707,7 @@ impl RobotConfig {
         p.laser.validate().map_err(|e| format!("laser: {e}"))?;
         p.camera.validate().map_err(|e| format!("camera: {e}"))?;
         p.limits.validate().map_err(|e| format!("limits: {e}"))?;
+        p.safety.validate().map_err(|e| format!("safety: {e}"))?;
         p.follower
             .validate()
             .map_err(|e| format!("follower: {e}"))?;
@@ -830,6 +870,29 @@ stdout = true
         ))
         .unwrap();
         assert_eq!(c.base.kind, BaseKind::None);
+    }
+
+    #[test]
+    fn values_that_switch_safety_off_are_refused_by_name() {
+        for (table, key, value, says) in [
+            ("pipeline.safety", "laser_timeout_s", "inf", "(0, 1] s"),
+            ("pipeline.safety", "laser_timeout_s", "1e9", "(0, 1] s"),
+            ("pipeline.safety", "target_timeout_s", "1e9", "(0, 2] s"),
+            ("pipeline.safety", "stop_distance_m", "-2.0", "[0.1, 3] m"),
+            ("pipeline.safety", "stop_distance_m", "0", "[0.1, 3] m"),
+            ("pipeline.limits", "max_reverse_mps", "10", "[0, 0.5] m/s"),
+        ] {
+            let text = format!("{MINIMAL}\n[{table}]\n{key} = {value}\n");
+            let e = parse(&text).unwrap_err().to_string();
+            assert!(e.contains(key) && e.contains(says), "{key} = {value}: {e}");
+        }
+        let e = parse(&MINIMAL.replace("max_speed_mps = 1.0", "max_speed_mps = 1e300"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("robot.max_speed_mps") && e.contains("1e300") && e.contains("(0, 3] m/s"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -5,6 +5,7 @@ pub mod base;
 pub mod camera;
 pub mod clock;
 pub mod config;
+pub mod guard;
 pub mod odometry;
 #[cfg(feature = "ros2")]
 pub mod ros2;

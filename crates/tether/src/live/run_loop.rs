@@ -50,6 +50,9 @@ pub enum Input {
     /// The camera stopped: `None` at the end of a folder, the error otherwise. The run
     /// goes on with the laser alone.
     CameraEnded(Option<String>),
+    /// A camera frame that could not be used (undecodable, the wrong size): skipped
+    /// and counted; the camera goes on.
+    CameraFrameBad(String),
     /// The base's own odometry (ROS 2 `odom`): the robot's pose in the odometry frame,
     /// stamped in host time. Once it arrives it is the robot's pose for every datum (see
     /// [`LoopConfig::odometry_input`]).
@@ -152,6 +155,8 @@ pub struct RunSummary {
     pub frames: u64,
     /// Laser faults the driver recovered from.
     pub laser_faults: u64,
+    /// Camera frames skipped because they could not be used.
+    pub bad_frames: u64,
     /// Data processed at the last tick's time because they were older.
     pub clamped_stamps: u64,
     /// Ticks with a locked target.
@@ -172,6 +177,10 @@ pub struct RunSummary {
 
 /// The MCAP recording of a live run: the scans (`/scan`), the dead-reckoned odometry
 /// (`/odom`, `odom` -> `base_link`) and the pipeline's ticks (see [`ResultWriter`]).
+///
+/// It writes through a buffered file whose chunk closes, and whose buffer is flushed,
+/// at least once a second of log time ([`tether_io::mcap::MAX_CHUNK_SPAN_NS`]): a run
+/// that is killed leaves a recording readable up to its last second or so.
 pub struct Recorder<W: std::io::Write + std::io::Seek> {
     writer: ResultWriter<W>,
 }
@@ -484,8 +493,17 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
                     Ok(())
                 }
                 Ok(Input::LaserFailed(error)) => Err(Ending::LaserFailed(error)),
+                Ok(Input::CameraFrameBad(why)) => {
+                    self.summary.bad_frames += 1;
+                    let n = self.summary.bad_frames;
+                    if n <= 5 || n.is_multiple_of(100) {
+                        tracing::warn!("camera frame skipped ({n} so far): {why}");
+                    }
+                    Ok(())
+                }
                 Ok(Input::CameraEnded(why)) => {
                     camera_alive = false;
+                    self.pipeline.camera_gone();
                     match why {
                         None => tracing::info!("the camera's frames ended; laser only from now on"),
                         Some(e) => {
@@ -605,6 +623,7 @@ pub fn run<W: std::io::Write + std::io::Seek>(
             scans: 0,
             frames: 0,
             laser_faults: 0,
+            bad_frames: 0,
             clamped_stamps: 0,
             ticks_with_target: 0,
             final_stop_failures: Vec::new(),
