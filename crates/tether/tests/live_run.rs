@@ -81,21 +81,17 @@ impl Drop for Proc {
 /// The emulator on a new pty serving `corridor`, its robot driven by the commands on its
 /// stdin; returns it with the pty's path.
 fn emulator(dir: &Path) -> (Proc, String) {
+    emulator_reading(dir, &["--commands-stdin"])
+}
+
+/// The emulator on a new pty serving `corridor`, with `commands` saying where its
+/// robot's commands come from.
+fn emulator_reading(dir: &Path, commands: &[&str]) -> (Proc, String) {
     let truth = dir.join("truth.jsonl");
-    let mut emu = Proc::spawn(
-        "urg-emulator",
-        dir,
-        &[
-            "urg-emulator",
-            "--pty",
-            "--scenario",
-            "corridor",
-            "--commands-stdin",
-            "--truth",
-            truth.to_str().unwrap(),
-        ],
-        Stdio::piped(),
-    );
+    let mut args = vec!["urg-emulator", "--pty", "--scenario", "corridor"];
+    args.extend_from_slice(commands);
+    args.extend(["--truth", truth.to_str().unwrap()]);
+    let mut emu = Proc::spawn("urg-emulator", dir, &args, Stdio::piped());
     let stdout = emu.child.stdout.take().unwrap();
     let (tx, rx) = mpsc::channel();
     std::thread::spawn(move || {
@@ -685,10 +681,24 @@ fn a_run_killed_while_driving_leaves_the_base_stopped_by_its_guard() {
             .map(str::to_owned)
     };
     assert_ne!(last().as_deref(), Some("0.000 0.000"), "not driving");
+    // Frozen (a hang): the guard stops the base after its silence of 0.5 s...
+    run.signal("-STOP");
+    std::thread::sleep(Duration::from_millis(900));
+    assert_eq!(last().as_deref(), Some("0.000 0.000"), "{}", run.stderr());
+    assert!(run.stderr().contains("no command from tether for 500 ms"));
+    // ...and a tether that comes back drives again.
+    run.signal("-CONT");
+    let resumed = Instant::now();
+    while last().as_deref() == Some("0.000 0.000") {
+        assert!(
+            resumed.elapsed() < Duration::from_secs(10),
+            "no command after SIGCONT:\n{}",
+            run.stderr()
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
     run.signal("-KILL");
     let killed = Instant::now();
-    let status = run.wait_for(Duration::from_secs(5)).unwrap();
-    assert!(!status.success());
     // tether sends nothing after SIGKILL: the stop is the guard's.
     let stopped = loop {
         if last().as_deref() == Some("0.000 0.000") {
@@ -707,9 +717,136 @@ fn a_run_killed_while_driving_leaves_the_base_stopped_by_its_guard() {
         stopped.as_secs_f64()
     );
     assert!(stopped < Duration::from_millis(500), "{stopped:?}");
+    let status = run.wait_for(Duration::from_secs(5)).unwrap();
+    assert!(!status.success());
     let stderr = run.stderr();
     assert!(
         stderr.contains("base guard: tether ended without its final stop"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn the_readme_walk_through_follows_through_a_fifo_and_stops_when_its_terminal_dies() {
+    // The README's walk-through: configs/emulator.toml with the emulator's pty, the
+    // commands through a FIFO the emulator reads, stdout through a `tee` that dies
+    // (Ctrl-C in the terminal kills the pipe's reader and interrupts tether).
+    let dir = scratch("live-readme");
+    let fifo = dir.join("wheels");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    let (emu, pty) = emulator_reading(&dir, &["--commands", fifo.to_str().unwrap()]);
+    let shipped = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/emulator.toml"),
+    )
+    .unwrap();
+    let config = dir.join("robot.toml");
+    std::fs::write(
+        &config,
+        shipped
+            .replace("/dev/pts/N", &pty)
+            .replace("/tmp/tether-wheels", fifo.to_str().unwrap())
+            .replace("\"run.mcap\"", &format!("{:?}", dir.join("run.mcap"))),
+    )
+    .unwrap();
+    let mut run = Proc::spawn(
+        "run",
+        &dir,
+        &[
+            "run",
+            "--config",
+            config.to_str().unwrap(),
+            "--duration",
+            "30",
+        ],
+        Stdio::null(),
+    );
+    // The "tee": reads stdout for 10 s, then goes away.
+    let stdout = run.child.stdout.take().unwrap();
+    let started = Instant::now();
+    let mut reader = BufReader::new(stdout);
+    let mut lines = Vec::new();
+    while started.elapsed() < Duration::from_secs(10) {
+        let mut line = String::new();
+        if reader.read_line(&mut line).unwrap() == 0 {
+            panic!("tether run ended early:\n{}", run.stderr());
+        }
+        lines.push(line);
+    }
+    drop(reader);
+    run.signal("-INT");
+    let status = run.wait_for(Duration::from_secs(10)).unwrap();
+    let stderr = run.stderr();
+    // The target was followed all the way (the top speed is above the person's).
+    let truth: Vec<serde_json::Value> = std::fs::read_to_string(dir.join("truth.jsonl"))
+        .unwrap()
+        .lines()
+        .map(json)
+        .collect();
+    let driving: Vec<&serde_json::Value> = truth
+        .iter()
+        .filter(|t| t["v_mps"].as_f64().unwrap() > 0.5)
+        .collect();
+    assert!(
+        driving.len() > 50,
+        "the robot drove in {} scans\n{stderr}",
+        driving.len()
+    );
+    assert!(!stderr.contains("cannot keep up"), "{stderr}");
+    let locked = lines
+        .iter()
+        .filter(|l| !json(l)["target"].is_null())
+        .count();
+    assert!(
+        locked * 10 > lines.len() * 8,
+        "{locked} of {} lines with a target",
+        lines.len()
+    );
+    // After the interruption the emulator's robot got a stop as its last command: it
+    // went through the FIFO although stdout was gone.
+    let said = Instant::now();
+    let emulator_says = loop {
+        let text = emu.stderr();
+        if text.contains("the commands' writers closed") || said.elapsed() > Duration::from_secs(5)
+        {
+            break text;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(
+        emulator_says.contains("(the last: v 0.000 m/s, w 0.000 rad/s)"),
+        "{emulator_says}\n{stderr}"
+    );
+    assert!(
+        stderr.contains("the final stop to stdout failed") || status.success(),
+        "{status}: {stderr}"
+    );
+    assert!(!stderr.contains("without its final stop"), "{stderr}");
+}
+
+#[test]
+fn a_robot_too_slow_for_its_person_says_so_and_says_when_it_loses_them() {
+    // The example config's 0.5 m/s (a Create 2) behind the emulator's 1.0 m/s walker.
+    let dir = scratch("live-too-slow");
+    let (mut emu, pty) = emulator(&dir);
+    let feed = emu.child.stdin.take().unwrap();
+    let config = config(&dir, &pty);
+    let text = std::fs::read_to_string(&config)
+        .unwrap()
+        .replace("max_speed_mps = 1.4", "max_speed_mps = 0.5")
+        .replace("max_wheel_speed_mps = 1.6", "max_wheel_speed_mps = 0.5");
+    std::fs::write(&config, text).unwrap();
+    let (mut run, _) = run(&dir, &config, &["--duration", "16"], feed);
+    let status = run.wait_for(Duration::from_secs(90)).unwrap();
+    let stderr = run.stderr();
+    assert!(status.success(), "{stderr}");
+    assert!(
+        stderr.contains("the robot cannot keep up: at its speed limit (0.50 m/s)"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("is lost ("), "{stderr}");
+    assert!(
+        stderr.contains("could not keep up with the target"),
         "{stderr}"
     );
 }

@@ -511,6 +511,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         stats.out_of_order_ticks
     );
     tracing::info!("{}", summary.target.one_line(pipeline.selector().stats()));
+    if summary.cannot_keep_up > 0 {
+        tracing::warn!(
+            "the robot could not keep up with the target {} times (at its speed limit, {:.2} \
+             m/s, the target pulled away): raise [robot] max_speed_mps if the base allows",
+            summary.cannot_keep_up,
+            pipeline.config().limits.max_speed_mps
+        );
+    }
     for (output, error) in &summary.final_stop_failures {
         problems.push(format!("the final stop to {output} failed: {error}"));
     }

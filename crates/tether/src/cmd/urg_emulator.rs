@@ -60,11 +60,18 @@ pub struct Args {
     /// How long the stall lasts, ms.
     #[arg(long, default_value_t = 2000, value_name = "MS")]
     pub stall_ms: u64,
-    /// Drive the simulated robot by the velocity commands read from stdin, one JSON
-    /// object a line with `v_mps` and `w_radps` (what `tether run` prints); the robot
-    /// stops when stdin ends.
-    #[arg(long)]
+    /// Drive the simulated robot by the commands read from stdin: one a line, either
+    /// what `tether run` prints (`v_mps`, `w_radps`) or a wheels base's lines (JSON
+    /// `left_mps`, `right_mps`, or text `LEFT RIGHT`, m/s, turned into a velocity with
+    /// the scenario robot's track width); the robot stops when stdin ends.
+    #[arg(long, conflicts_with = "commands")]
     pub commands_stdin: bool,
+    /// Like `--commands-stdin`, from FILE: a FIFO that `tether run`'s `[base] kind =
+    /// "wheels"` writes into (its own command stream, apart from stdout). The robot
+    /// stops each time the writers close it, and the FIFO is opened again for the next
+    /// run.
+    #[arg(long, value_name = "FILE")]
+    pub commands: Option<PathBuf>,
     /// Write the ground truth of every served scan to FILE, one JSON line each:
     /// `t_s` (simulated time, from 0 at each start of the scenario), `robot` (`x`, `y`,
     /// `yaw`), `v_mps`, `w_radps`, `collisions`, `people` (`id`, `name`, `target`, `x`,
@@ -77,14 +84,49 @@ pub struct Args {
 pub type CommandInbox = Arc<Mutex<(u64, Command)>>;
 
 #[derive(Deserialize)]
-struct CommandIn {
-    v_mps: f64,
-    w_radps: f64,
+#[serde(untagged)]
+enum CommandIn {
+    Velocity { v_mps: f64, w_radps: f64 },
+    Wheels { left_mps: f64, right_mps: f64 },
 }
 
-/// Reads JSON command lines from `input` into `inbox` until it ends, then posts a
-/// stop. Lines that are not commands are skipped (the first is reported).
-pub fn read_commands(input: impl BufRead, inbox: &CommandInbox) {
+/// The velocity of a command line: tether's JSON (`v_mps`, `w_radps`), a wheels JSON
+/// line (`left_mps`, `right_mps`) or a text line `LEFT RIGHT`, the wheel speeds turned
+/// into `v = (l + r) / 2`, `w = (r - l) / b` for the track width `b`.
+fn parse_command(line: &str, track_width_m: f64) -> Option<Command> {
+    let (v_mps, w_radps) = match serde_json::from_str::<CommandIn>(line) {
+        Ok(CommandIn::Velocity { v_mps, w_radps }) => (v_mps, w_radps),
+        Ok(CommandIn::Wheels {
+            left_mps,
+            right_mps,
+        }) => (
+            0.5 * (left_mps + right_mps),
+            (right_mps - left_mps) / track_width_m,
+        ),
+        Err(_) => {
+            let mut words = line.split_whitespace();
+            let left: f64 = words.next()?.parse().ok()?;
+            let right: f64 = words.next()?.parse().ok()?;
+            if words.next().is_some() {
+                return None;
+            }
+            (0.5 * (left + right), (right - left) / track_width_m)
+        }
+    };
+    (v_mps.is_finite() && w_radps.is_finite()).then_some(Command { v_mps, w_radps })
+}
+
+/// Reads command lines from `input` into `inbox` until it ends, then posts a stop.
+/// Lines that are not commands are skipped (the first is reported). `track_width_m`
+/// turns wheel speeds into a velocity ([`parse_command`]). Returns how many commands
+/// came and the last of them (a robot's last word before its commands ended).
+pub fn read_commands(
+    input: impl BufRead,
+    inbox: &CommandInbox,
+    track_width_m: f64,
+) -> (u64, Option<Command>) {
+    let mut count = 0_u64;
+    let mut last = None;
     let post = |command: Command| {
         if let Ok(mut slot) = inbox.lock() {
             slot.0 += 1;
@@ -98,12 +140,13 @@ pub fn read_commands(input: impl BufRead, inbox: &CommandInbox) {
         if line.is_empty() {
             continue;
         }
-        match serde_json::from_str::<CommandIn>(line) {
-            Ok(c) if c.v_mps.is_finite() && c.w_radps.is_finite() => post(Command {
-                v_mps: c.v_mps,
-                w_radps: c.w_radps,
-            }),
-            _ if !warned => {
+        match parse_command(line, track_width_m) {
+            Some(command) => {
+                count += 1;
+                last = Some(command);
+                post(command);
+            }
+            None if !warned => {
                 warned = true;
                 tracing::warn!("ignoring input lines that are not commands, like: {line}");
             }
@@ -114,6 +157,42 @@ pub fn read_commands(input: impl BufRead, inbox: &CommandInbox) {
         v_mps: 0.0,
         w_radps: 0.0,
     });
+    (count, last)
+}
+
+/// Reads commands from the file or FIFO at `path`: a FIFO again after each time its
+/// writers close it (one `tether run` after another), a plain file once.
+fn read_command_file(path: &std::path::Path, inbox: &CommandInbox, track_width_m: f64) {
+    use std::os::unix::fs::FileTypeExt;
+    loop {
+        // Opening a FIFO waits for a writer.
+        let file = match std::fs::File::open(path) {
+            Ok(file) => file,
+            Err(e) => {
+                tracing::error!("--commands {}: {e}; the robot stands", path.display());
+                return;
+            }
+        };
+        let fifo = file.metadata().is_ok_and(|m| m.file_type().is_fifo());
+        let (count, last) = read_commands(std::io::BufReader::new(file), inbox, track_width_m);
+        let last = last.map_or_else(
+            || "none".to_string(),
+            |c| format!("v {:.3} m/s, w {:.3} rad/s", c.v_mps, c.w_radps),
+        );
+        tracing::info!(
+            "the commands' writers closed {} after {count} commands (the last: {last}): the \
+             robot stops{}",
+            path.display(),
+            if fifo {
+                "; waiting for the next writer"
+            } else {
+                ""
+            }
+        );
+        if !fifo {
+            return;
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -301,7 +380,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .with_context(|| format!("cannot create the truth file {}", path.display()))?;
         scans = scans.with_truth(Box::new(std::io::BufWriter::new(file)));
     }
-    if args.commands_stdin {
+    if args.commands_stdin || args.commands.is_some() {
         let inbox: CommandInbox = Arc::new(Mutex::new((
             0,
             Command {
@@ -310,9 +389,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             },
         )));
         let reader = Arc::clone(&inbox);
+        let track_width_m = scenario.robot.track_width_m;
+        let source = args.commands.clone();
+        if let Some(path) = &source {
+            // Refused now rather than in the reader thread.
+            std::fs::metadata(path).with_context(|| {
+                format!(
+                    "--commands {}: no such file or FIFO (mkfifo it first)",
+                    path.display()
+                )
+            })?;
+        }
         std::thread::Builder::new()
             .name("commands".into())
-            .spawn(move || read_commands(std::io::stdin().lock(), &reader))
+            .spawn(move || match source {
+                None => {
+                    read_commands(std::io::stdin().lock(), &reader, track_width_m);
+                }
+                Some(path) => read_command_file(&path, &reader, track_width_m),
+            })
             .context("starting the command reader")?;
         scans = scans.with_commands(inbox);
     }
@@ -333,4 +428,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         // The emulator serves on whether or not anybody reads where it listens.
         tether::outln!("URG-04LX emulator (SCIP 2.0, scenario `{name}`) on {endpoint}").ok();
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn commands_come_as_velocities_or_wheel_speeds() {
+        let v = |line: &str| parse_command(line, 0.3).map(|c| (c.v_mps, c.w_radps));
+        assert_eq!(
+            v(r#"{"v_mps":0.5,"w_radps":0.1,"stop":null}"#),
+            Some((0.5, 0.1))
+        );
+        let (speed, turn) = v(r#"{"stamp_ns":1,"left_mps":0.4,"right_mps":0.6}"#).unwrap();
+        assert!((speed - 0.5).abs() < 1e-12 && (turn - 0.2 / 0.3).abs() < 1e-12);
+        let (speed, turn) = v("0.400 0.600").unwrap();
+        assert!((speed - 0.5).abs() < 1e-12 && (turn - 0.2 / 0.3).abs() < 1e-12);
+        for bad in [
+            "",
+            "0.4",
+            "0.4 0.6 0.8",
+            "nan 0.1",
+            r#"{"v_mps":1e999,"w_radps":0}"#,
+            "x y",
+        ] {
+            assert_eq!(v(bad), None, "{bad}");
+        }
+    }
 }

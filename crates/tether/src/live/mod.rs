@@ -6,6 +6,7 @@ pub mod camera;
 pub mod clock;
 pub mod config;
 pub mod guard;
+pub mod monitor;
 pub mod odometry;
 #[cfg(feature = "ros2")]
 pub mod ros2;

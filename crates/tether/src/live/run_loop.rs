@@ -14,6 +14,7 @@
 //! such data are processed at the last tick's time (the clamp is counted), while the
 //! robot's pose is still looked up at the data's own stamp.
 
+use super::monitor::FollowMonitor;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::Duration;
@@ -173,6 +174,9 @@ pub struct RunSummary {
     pub skipped_stale_odometry: u64,
     /// Times the clock stood still for [`CLOCK_STALL`] and the robot was stopped.
     pub clock_stalls: u64,
+    /// Warnings that the robot could not keep up (the target pulling away at the
+    /// speed limit; [`FollowMonitor`]).
+    pub cannot_keep_up: u64,
 }
 
 /// The MCAP recording of a live run: the scans (`/scan`), the dead-reckoned odometry
@@ -254,6 +258,8 @@ struct Live<'a, W: std::io::Write + std::io::Seek> {
     travelled_to: tether_core::Point2<World>,
     /// The newest odometry (when it is the pose source) and the velocity with it.
     odometry_pose: Option<(Stamp, Pose2<World, Robot>, Twist)>,
+    /// Says when the target is lost and when the robot cannot keep up.
+    monitor: FollowMonitor,
 }
 
 impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
@@ -386,6 +392,17 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
         self.summary
             .target
             .record(tick.stamp, &tick.target.state, &tick.refusals);
+        let range_m = tick
+            .target
+            .estimate
+            .filter(|_| tick.target.state.locked_track().is_some())
+            .map(|e| (pose.inverse() * e.mean).range_m());
+        for warning in
+            self.monitor
+                .observe(tick.stamp, tick.command.v_mps, range_m, &tick.target.state)
+        {
+            tracing::warn!("{warning}");
+        }
         if let (Some(id), Some(estimate)) = (tick.target.state.locked_track(), tick.target.estimate)
         {
             self.summary.ticks_with_target += 1;
@@ -603,6 +620,10 @@ pub fn run<W: std::io::Write + std::io::Seek>(
 ) -> RunSummary {
     let start = Stamp::from_ns(clock.now_ns());
     let pipeline_mount = pipeline.config().laser.robot_from_laser();
+    let monitor = FollowMonitor::new(
+        pipeline.config().limits.max_speed_mps,
+        pipeline.config().follower.follow_distance_m,
+    );
     let mut live = Live {
         pipeline,
         clock,
@@ -632,10 +653,12 @@ pub fn run<W: std::io::Write + std::io::Seek>(
             odometry_messages: 0,
             skipped_stale_odometry: 0,
             clock_stalls: 0,
+            cannot_keep_up: 0,
         },
         scan_period_s,
         travelled_to: tether_core::Point2::ORIGIN,
         odometry_pose: None,
+        monitor,
     };
     // A panic in the loop (a bug) must not skip the final stop: it ends the run like a
     // failure, and the stop goes out.
@@ -644,6 +667,7 @@ pub fn run<W: std::io::Write + std::io::Seek>(
     live.finish(&ending);
     let mut summary = live.summary;
     summary.ending = ending;
+    summary.cannot_keep_up = live.monitor.pull_away_warnings;
     summary
 }
 
