@@ -417,8 +417,13 @@ fn files_written_by_rosbags_read_identically() {
 }
 
 /// What tether writes: every type, with the conversions from tether's own types.
-fn write_tether_file(path: &Path) -> Vec<(String, &'static str, i64, Flat)> {
-    let mut w = McapWriter::create(path).unwrap();
+fn write_tether_file(path: &Path, streaming: bool) -> Vec<(String, &'static str, i64, Flat)> {
+    let mut w = if streaming {
+        // A live run's recording: no chunks.
+        McapWriter::create_streaming(path).unwrap()
+    } else {
+        McapWriter::create(path).unwrap()
+    };
     let mut rows: Vec<(String, &'static str, i64, Vec<u8>)> = Vec::new();
     for k in 0..6i64 {
         let t = Stamp::from_ns(1_700_000_000_000_000_000 + k * 100_000_000);
@@ -627,30 +632,37 @@ fn files_written_by_tether_read_identically_in_python() {
     if !have_python() {
         return;
     }
-    let dir = scratch_dir("tether");
-    let path = dir.join("run.mcap");
-    let written = write_tether_file(&path);
-    assert_eq!(written.len(), 48);
+    // Chunked (replay's results) and unchunked (a live run's recording).
+    for streaming in [false, true] {
+        let dir = scratch_dir(if streaming {
+            "tether-streaming"
+        } else {
+            "tether"
+        });
+        let path = dir.join("run.mcap");
+        let written = write_tether_file(&path, streaming);
+        assert_eq!(written.len(), 48);
 
-    let out = dir.join("mcap_ros2.jsonl");
-    python(&["read-mcap", path.to_str().unwrap(), out.to_str().unwrap()]);
-    let rows = jsonl(&out);
-    for row in &rows {
-        assert_eq!(row["profile"], "ros2");
-        assert_eq!(row["schema_encoding"], "ros2msg");
-        assert_eq!(row["message_encoding"], "cdr");
-        assert_eq!(row["publish_time"], row["log_time"]);
+        let out = dir.join("mcap_ros2.jsonl");
+        python(&["read-mcap", path.to_str().unwrap(), out.to_str().unwrap()]);
+        let rows = jsonl(&out);
+        for row in &rows {
+            assert_eq!(row["profile"], "ros2");
+            assert_eq!(row["schema_encoding"], "ros2msg");
+            assert_eq!(row["message_encoding"], "cdr");
+            assert_eq!(row["publish_time"], row["log_time"]);
+        }
+        check_python_rows(&rows, &written, "mcap-ros2-support");
+
+        let out = dir.join("rosbags.jsonl");
+        python(&[
+            "read-rosbags",
+            path.to_str().unwrap(),
+            out.to_str().unwrap(),
+        ]);
+        check_python_rows(&jsonl(&out), &written, "rosbags");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
-    check_python_rows(&rows, &written, "mcap-ros2-support");
-
-    let out = dir.join("rosbags.jsonl");
-    python(&[
-        "read-rosbags",
-        path.to_str().unwrap(),
-        out.to_str().unwrap(),
-    ]);
-    check_python_rows(&jsonl(&out), &written, "rosbags");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]

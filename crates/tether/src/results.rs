@@ -177,6 +177,15 @@ impl ResultWriter<std::io::BufWriter<std::fs::File>> {
             frame: frame.to_owned(),
         })
     }
+
+    /// [`ResultWriter::create`] for a live recording of unbounded length: no chunks,
+    /// flushed every second ([`McapWriter::streaming`]).
+    pub fn create_streaming(path: &Path, frame: &str) -> Result<Self, McapError> {
+        Ok(ResultWriter {
+            writer: McapWriter::create_streaming(path)?,
+            frame: frame.to_owned(),
+        })
+    }
 }
 
 impl<W: std::io::Write + std::io::Seek> ResultWriter<W> {

@@ -850,3 +850,155 @@ fn a_robot_too_slow_for_its_person_says_so_and_says_when_it_loses_them() {
         "{stderr}"
     );
 }
+
+#[test]
+fn a_laser_that_sends_garbage_and_stalls_mid_scan_stops_the_robot_and_it_drives_on() {
+    // Garbage before every 7th scan, bad checksums, truncated lines, and a stall of
+    // 1.5 s in the middle of scan 60 (while following): the driver recovers from each,
+    // the robot stops during the stall (stale laser) and drives on after it.
+    let dir = scratch("live-laser-faults");
+    let (mut emu, pty) = emulator_reading(
+        &dir,
+        &[
+            "--commands-stdin",
+            "--garbage-every",
+            "7",
+            "--bad-checksum-every",
+            "11",
+            "--truncated-line-every",
+            "13",
+            "--stall-at-scan",
+            "60",
+            "--stall-ms",
+            "1500",
+        ],
+    );
+    let feed = emu.child.stdin.take().unwrap();
+    let config = config(&dir, &pty);
+    let (mut run, lines) = run(&dir, &config, &["--duration", "14"], feed);
+    let status = run.wait_for(Duration::from_secs(90)).unwrap();
+    let stderr = run.stderr();
+    assert!(status.success(), "{stderr}");
+    assert_final_stop(&lines, "duration", &stderr);
+    let lines: Vec<serde_json::Value> = lines.lock().unwrap().iter().map(|l| json(l)).collect();
+    let stale = lines
+        .iter()
+        .position(|l| l["stop"] == "stale_laser")
+        .unwrap_or_else(|| panic!("the stall never stopped the robot\n{stderr}"));
+    assert!(
+        lines[..stale]
+            .iter()
+            .any(|l| l["v_mps"].as_f64().unwrap() > 0.2),
+        "not driving before the stall\n{stderr}"
+    );
+    let stale_commands: Vec<f64> = lines[stale..]
+        .iter()
+        .take_while(|l| l["stop"] == "stale_laser")
+        .map(|l| l["v_mps"].as_f64().unwrap())
+        .collect();
+    // Braking is rate-limited, but the stop ends at zero before the stall is over.
+    assert_eq!(
+        stale_commands.last().copied(),
+        Some(0.0),
+        "{stale_commands:?}"
+    );
+    assert!(
+        lines[stale + stale_commands.len()..]
+            .iter()
+            .any(|l| l["v_mps"].as_f64().unwrap() > 0.2),
+        "the robot never drove again after the stall\n{stderr}"
+    );
+    // "N laser faults recovered" with N > 0.
+    let recovered = stderr
+        .split(" laser faults recovered")
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .and_then(|n| n.parse::<u64>().ok())
+        .unwrap_or(0);
+    assert!(recovered >= 5, "{recovered} faults recovered\n{stderr}");
+}
+
+/// Resident memory of process `pid`, kB (`VmRSS` of /proc/PID/status).
+fn rss_kb(pid: u32) -> Option<u64> {
+    std::fs::read_to_string(format!("/proc/{pid}/status"))
+        .ok()?
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))?
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()
+}
+
+/// The soak: `tether run` against the emulator with its commands driving the
+/// emulator's robot and its recording on, for `TETHER_SOAK_S` seconds (120 in CI; the
+/// one-hour soak of the README is `TETHER_SOAK_S=3600 TETHER_SOAK_SAMPLE_S=30 cargo
+/// nextest run --release -p tether --test live_run soak --no-capture`), its RSS
+/// sampled every `TETHER_SOAK_SAMPLE_S` (default 10): after the first minute it grows
+/// by under 5 %.
+#[test]
+fn a_soak_run_holds_its_memory_flat() {
+    let env = |key: &str, default: u64| {
+        std::env::var(key)
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(default)
+    };
+    let soak_s = env("TETHER_SOAK_S", 120).max(70);
+    let sample_s = env("TETHER_SOAK_SAMPLE_S", 10).max(1);
+    let dir = scratch("live-soak");
+    let (mut emu, pty) = emulator(&dir);
+    let feed = emu.child.stdin.take().unwrap();
+    let config = config(&dir, &pty);
+    let duration = soak_s.to_string();
+    let (mut run, lines) = run(&dir, &config, &["--duration", &duration], feed);
+    let pid = run.child.id();
+    let started = Instant::now();
+    let mut samples: Vec<(u64, u64)> = Vec::new();
+    let mut next = sample_s;
+    while run.child.try_wait().unwrap().is_none() {
+        if started.elapsed() >= Duration::from_secs(next) {
+            if let Some(kb) = rss_kb(pid) {
+                samples.push((next, kb));
+                eprintln!("soak: {next:>5} s  RSS {kb} kB");
+            }
+            next += sample_s;
+        }
+        // Keep only the last lines: the test's own memory stays flat too.
+        {
+            let mut kept = lines.lock().unwrap();
+            let n = kept.len();
+            if n > 1000 {
+                kept.drain(..n - 100);
+            }
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(soak_s + 60),
+            "tether run did not end"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let status = run.wait_for(Duration::from_secs(5)).unwrap();
+    let stderr = run.stderr();
+    assert!(status.success(), "{stderr}");
+    assert_final_stop(&lines, "duration", &stderr);
+    let after_a_minute: Vec<u64> = samples
+        .iter()
+        .filter(|(t, _)| *t >= 60)
+        .map(|(_, kb)| *kb)
+        .collect();
+    assert!(after_a_minute.len() >= 2, "samples: {samples:?}");
+    let base = after_a_minute[0] as f64;
+    let top = *after_a_minute.iter().max().unwrap() as f64;
+    let growth = (top - base) / base;
+    eprintln!(
+        "soak: {soak_s} s, RSS {base} kB at the first minute, at most {top} kB after: {:+.2} %",
+        100.0 * growth
+    );
+    assert!(
+        growth < 0.05,
+        "RSS grew {:.1} %: {samples:?}",
+        100.0 * growth
+    );
+}

@@ -1255,6 +1255,38 @@ mod tests {
         );
     }
 
+    #[test]
+    fn a_streaming_recording_cut_anywhere_holds_every_message_written_before() {
+        let target = Shared::default();
+        let mut w = McapWriter::streaming(target.clone()).unwrap();
+        let mut ends = Vec::new();
+        for k in 0..35i64 {
+            let t = Stamp::from_ns(1_000_000_000 + k * 100_000_000);
+            let scan = LaserScan::new(t, "laser", -1.0, 0.02, 0.02, 5.6, vec![1.5; 100]).unwrap();
+            w.write_stamped("/scan", &crate::mcap::LaserScanMsg::new(scan, 0.0, 0.1))
+                .unwrap();
+            ends.push(target.0.borrow().get_ref().len());
+        }
+        // The process dies here; any prefix of what it wrote is read up to its last
+        // complete message, in order.
+        let bytes = target.0.borrow().get_ref().clone();
+        for cut in (ends[0]..=bytes.len()).step_by(53).chain([bytes.len()]) {
+            let file = McapFile::from_bytes(bytes[..cut].to_vec()).unwrap();
+            let stamps: Vec<i64> = file
+                .decoded::<crate::mcap::LaserScanMsg>(&["/scan"])
+                .map(|m| m.unwrap().message.scan.stamp.ns())
+                .collect();
+            let complete = ends.iter().filter(|&&e| e <= cut).count();
+            assert_eq!(stamps.len(), complete, "cut at {cut}");
+            assert!(stamps.windows(2).all(|p| p[0] < p[1]));
+        }
+        w.finish().unwrap();
+        let bytes = target.0.borrow().get_ref().clone();
+        let file = McapFile::from_bytes(bytes).unwrap();
+        assert!(file.salvaged().is_none());
+        assert_eq!(file.message_count("/scan"), 35);
+    }
+
     /// An MCAP file of a header and one chunk record with these fields.
     fn one_chunk(compression: &str, uncompressed_size: u64, records: &[u8]) -> Vec<u8> {
         fn string(out: &mut Vec<u8>, s: &str) {

@@ -73,6 +73,17 @@ impl McapWriter<BufWriter<File>> {
         })?;
         Self::new(BufWriter::with_capacity(1 << 16, file))
     }
+
+    /// Creates (or truncates) the file at `path` for a recording of unbounded length:
+    /// see [`McapWriter::streaming`].
+    pub fn create_streaming(path: impl AsRef<Path>) -> Result<Self, McapError> {
+        let path = path.as_ref();
+        let file = File::create(path).map_err(|source| McapError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::streaming(BufWriter::with_capacity(1 << 16, file))
+    }
 }
 
 impl<W: Write + Seek> McapWriter<W> {
@@ -89,6 +100,25 @@ impl<W: Write + Seek> McapWriter<W> {
             .library(concat!("tether-io ", env!("CARGO_PKG_VERSION")))
             .compression(None)
             .chunk_size(Some(chunk_bytes.max(1)));
+        Self::with_options(w, options)
+    }
+
+    /// Starts an MCAP file on `w` for a recording of unbounded length (a live run):
+    /// messages go straight into the data section, without chunks, and the
+    /// underlying writer is flushed at least once a second of log time. A chunked
+    /// file keeps an index entry per chunk in memory until it is finished (the `mcap`
+    /// crate's, several hundred bytes each: 2-3 MB an hour at a chunk a second); this
+    /// one keeps nothing that grows. Readers scan it linearly (tether's, `mcap`'s,
+    /// Foxglove); the summary still holds the schemas, channels and statistics.
+    pub fn streaming(w: W) -> Result<Self, McapError> {
+        let options = mcap::WriteOptions::new()
+            .profile("ros2")
+            .library(concat!("tether-io ", env!("CARGO_PKG_VERSION")))
+            .use_chunks(false);
+        Self::with_options(w, options)
+    }
+
+    fn with_options(w: W, options: mcap::WriteOptions) -> Result<Self, McapError> {
         Ok(McapWriter {
             inner: options.create(w)?,
             schemas: HashMap::new(),

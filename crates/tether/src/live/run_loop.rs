@@ -182,9 +182,10 @@ pub struct RunSummary {
 /// The MCAP recording of a live run: the scans (`/scan`), the dead-reckoned odometry
 /// (`/odom`, `odom` -> `base_link`) and the pipeline's ticks (see [`ResultWriter`]).
 ///
-/// It writes through a buffered file whose chunk closes, and whose buffer is flushed,
-/// at least once a second of log time ([`tether_io::mcap::MAX_CHUNK_SPAN_NS`]): a run
-/// that is killed leaves a recording readable up to its last second or so.
+/// It writes its messages unchunked through a buffered file flushed at least once a
+/// second of log time ([`tether_io::mcap::McapWriter::streaming`]): a run that is
+/// killed leaves a recording readable up to its last second or so, and a run of hours
+/// keeps no index that grows in memory.
 pub struct Recorder<W: std::io::Write + std::io::Seek> {
     writer: ResultWriter<W>,
 }
@@ -193,7 +194,7 @@ impl Recorder<std::io::BufWriter<std::fs::File>> {
     /// A recording at `path`.
     pub fn create(path: &std::path::Path) -> Result<Self, McapError> {
         Ok(Recorder {
-            writer: ResultWriter::create(path, "odom")?,
+            writer: ResultWriter::create_streaming(path, "odom")?,
         })
     }
 }
