@@ -546,6 +546,21 @@ cascade = "{}"
         .filter(|l| json(l)["input"] == "camera")
         .count();
     assert_eq!(camera_ticks, 5);
+
+    // The recording holds the frames as they came: the run replays with its camera.
+    let replayed = tether(&[
+        "replay",
+        dir.join("run.mcap").to_str().unwrap(),
+        "--image-topic",
+        "/camera/image_raw/compressed",
+        "--cascade",
+        cascade.to_str().unwrap(),
+        "--out",
+        dir.join("replayed.mcap").to_str().unwrap(),
+    ]);
+    let said = format!("{}{}", text(&replayed.stdout), text(&replayed.stderr));
+    assert!(replayed.status.success(), "{said}");
+    assert!(said.contains(" 5 camera frames"), "{said}");
 }
 
 /// A grey 8-bit PNG of `width` x `height` at `path`.

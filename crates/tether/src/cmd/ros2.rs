@@ -611,7 +611,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     let boxes = frame.gray().and_then(|g| detector.boxes(&g, &intrinsics));
                     match boxes {
                         Ok(boxes) => {
-                            if tx.send(Input::Camera { stamp, boxes }).is_err() {
+                            if tx
+                                .send(Input::Camera {
+                                    stamp,
+                                    boxes,
+                                    frame: None,
+                                })
+                                .is_err()
+                            {
                                 break;
                             }
                         }

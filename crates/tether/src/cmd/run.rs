@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use tether::ego::EgoMotion;
 use tether::live::base::{CommandLine, CommandSink, CreateBase, QueuedLines, WheelLines};
-use tether::live::camera::{CameraError, FolderFrames, FrameSource};
+use tether::live::camera::{CameraError, FolderFrames, FrameSource, png_of};
 use tether::live::clock::MonotonicClock;
 use tether::live::config::{BaseKind, CameraSection, FrameInput, LaserLink, RobotConfig};
 use tether::live::guard::{Guard, GuardSpec};
@@ -127,6 +127,7 @@ fn camera_thread(
     clock: MonotonicClock,
     tx: SyncSender<Input>,
     stop: Arc<AtomicBool>,
+    record: bool,
 ) {
     // Consecutive frames that could not be used: a bad frame is skipped, a camera
     // that sends nothing usable for this many frames in a row is gone.
@@ -135,8 +136,14 @@ fn camera_thread(
         let input = match source.next_frame() {
             Ok(Some(image)) => {
                 let stamp = Stamp::from_ns(clock.now_ns());
+                // The recording keeps the frame as it came (or as PNG).
+                let frame = record.then(|| source.take_encoded().unwrap_or_else(|| png_of(&image)));
                 match camera.boxes(&image, &intrinsics) {
-                    Ok(boxes) => Input::Camera { stamp, boxes },
+                    Ok(boxes) => Input::Camera {
+                        stamp,
+                        boxes,
+                        frame,
+                    },
                     Err(e) => Input::CameraFrameBad(format!("{e:#}")),
                 }
             }
@@ -342,9 +349,12 @@ fn start(
     let mut threads = vec![("laser", laser)];
     if let Some((source, detector, intrinsics)) = camera {
         let thread_stop = Arc::clone(stop);
+        let record = config.output.record.is_some();
         let thread = std::thread::Builder::new()
             .name("camera".into())
-            .spawn(move || camera_thread(source, detector, intrinsics, clock, tx, thread_stop))
+            .spawn(move || {
+                camera_thread(source, detector, intrinsics, clock, tx, thread_stop, record);
+            })
             .context("starting the camera thread")?;
         threads.push(("camera", thread));
     }

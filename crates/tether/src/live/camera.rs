@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+use tether_io::mcap::CompressedFormat;
 
 use tether_core::GrayImage;
 
@@ -42,6 +43,42 @@ pub trait FrameSource: Send {
     fn next_frame(&mut self) -> Result<Option<GrayImage>, CameraError>;
     /// What the source is, for messages.
     fn describe(&self) -> String;
+    /// The last frame as the file or the device delivered it (a folder's PNG or JPEG,
+    /// a V4L2 MJPG frame), when the source has it, for the recording; taken, so a
+    /// second call gives `None`. Other frames are recorded as PNG ([`png_of`]).
+    fn take_encoded(&mut self) -> Option<EncodedFrame> {
+        None
+    }
+}
+
+/// A camera frame as compressed bytes, recorded as `sensor_msgs/msg/CompressedImage`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EncodedFrame {
+    /// JPEG or PNG.
+    pub format: CompressedFormat,
+    /// The file's bytes.
+    pub bytes: Vec<u8>,
+}
+
+/// An 8-bit grey PNG of `image` (fast compression: a frame of a live run, recorded).
+pub fn png_of(image: &GrayImage) -> EncodedFrame {
+    let mut bytes = Vec::new();
+    let (w, h) = (image.width() as u32, image.height() as u32);
+    let mut encoder = png::Encoder::new(&mut bytes, w, h);
+    encoder.set_color(png::ColorType::Grayscale);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_compression(png::Compression::Fast);
+    // Writing into a Vec fails only on a size the image cannot have.
+    let written = encoder
+        .write_header()
+        .and_then(|mut writer| writer.write_image_data(image.pixels()));
+    if written.is_err() {
+        bytes.clear();
+    }
+    EncodedFrame {
+        format: CompressedFormat::Png,
+        bytes,
+    }
 }
 
 /// The images of a folder (`.png`, `.jpg`, `.jpeg`, in name order), one every
@@ -54,6 +91,8 @@ pub struct FolderFrames {
     due: Option<Instant>,
     repeat: bool,
     size: Option<(u32, u32)>,
+    /// The last frame's file bytes, for the recording.
+    last_bytes: Option<EncodedFrame>,
 }
 
 impl FolderFrames {
@@ -91,6 +130,7 @@ impl FolderFrames {
             due: None,
             repeat,
             size: None,
+            last_bytes: None,
         })
     }
 
@@ -128,15 +168,34 @@ impl FrameSource for FolderFrames {
         self.due = Some((due + self.period).max(Instant::now()));
         let path = &self.files[self.next];
         self.next += 1;
-        match self.size {
-            Some(size) => tether_vision::imread::imread_gray_sized(path, size),
-            None => tether_vision::imread_gray(path),
-        }
-        .map(Some)
-        .map_err(|e| CameraError::Frame {
+        self.last_bytes = None;
+        let bad = |message: String| CameraError::Frame {
             path: path.clone(),
-            message: e.to_string(),
-        })
+            message,
+        };
+        let bytes = std::fs::read(path).map_err(|e| bad(format!("cannot read it: {e}")))?;
+        // The header's size is before any EXIF rotation, which may swap the two.
+        if let (Some((expected_w, expected_h)), Some((w, h))) =
+            (self.size, tether_vision::imread::dimensions(&bytes))
+            && (w, h) != (expected_w, expected_h)
+            && (h, w) != (expected_w, expected_h)
+        {
+            return Err(bad(format!(
+                "the image is {w}x{h} pixels, not the camera's {expected_w}x{expected_h}"
+            )));
+        }
+        let image = tether_vision::imread::decode_gray(&bytes).map_err(|e| bad(e.to_string()))?;
+        let format = if bytes.starts_with(&[0xff, 0xd8]) {
+            CompressedFormat::Jpeg
+        } else {
+            CompressedFormat::Png
+        };
+        self.last_bytes = Some(EncodedFrame { format, bytes });
+        Ok(Some(image))
+    }
+
+    fn take_encoded(&mut self) -> Option<EncodedFrame> {
+        self.last_bytes.take()
     }
 
     fn describe(&self) -> String {
@@ -285,6 +344,16 @@ mod tests {
     #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
 
     use super::*;
+
+    #[test]
+    fn a_recorded_frame_decodes_to_the_same_pixels() {
+        let pixels: Vec<u8> = (0..64 * 48).map(|i| (i * 7 % 251) as u8).collect();
+        let image = GrayImage::from_raw(64, 48, pixels).unwrap();
+        let frame = png_of(&image);
+        assert_eq!(frame.format, CompressedFormat::Png);
+        let back = tether_vision::imread::decode_gray(&frame.bytes).unwrap();
+        assert_eq!(back, image);
+    }
 
     #[test]
     fn yuyv_and_grey_frames() {

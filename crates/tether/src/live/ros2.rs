@@ -337,7 +337,15 @@ pub fn start_detections_reader(
         let now = clock.now_ns();
         let stamp = tether_core::Stamp::from_ns(loop_stamp(message.header.stamp.ns(), now).unwrap_or(now));
         let before = dropped;
-        let open = offer(&tx, Input::Camera { stamp, boxes }, &mut dropped);
+        let open = offer(
+            &tx,
+            Input::Camera {
+                stamp,
+                boxes,
+                frame: None,
+            },
+            &mut dropped,
+        );
         if dropped > before {
             counters.superseded.fetch_add(1, Ordering::Relaxed);
         }

@@ -14,6 +14,7 @@
 //! such data are processed at the last tick's time (the clamp is counted), while the
 //! robot's pose is still looked up at the data's own stamp.
 
+use super::camera::EncodedFrame;
 use super::monitor::FollowMonitor;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
@@ -21,7 +22,7 @@ use std::time::Duration;
 
 use tether_control::Twist;
 use tether_core::{LaserScan, PixelBox, Pose2, Robot, Stamp, World};
-use tether_io::mcap::{Header, LaserScanMsg, McapError, OdometryMsg, TwistMsg};
+use tether_io::mcap::{CompressedImageMsg, Header, LaserScanMsg, McapError, OdometryMsg, TwistMsg};
 use tether_io::scip::Clock;
 use tether_pipeline::{Pipeline, Tick, TickInput};
 
@@ -47,6 +48,8 @@ pub enum Input {
         stamp: Stamp,
         /// Upper-body boxes.
         boxes: Vec<PixelBox>,
+        /// The frame itself, compressed, when the run records.
+        frame: Option<EncodedFrame>,
     },
     /// The camera stopped: `None` at the end of a folder, the error otherwise. The run
     /// goes on with the laser alone.
@@ -179,8 +182,14 @@ pub struct RunSummary {
     pub cannot_keep_up: u64,
 }
 
-/// The MCAP recording of a live run: the scans (`/scan`), the dead-reckoned odometry
-/// (`/odom`, `odom` -> `base_link`) and the pipeline's ticks (see [`ResultWriter`]).
+/// Where a live run records its camera frames (`sensor_msgs/msg/CompressedImage`):
+/// `tether replay run.mcap --image-topic /camera/image_raw/compressed` runs the
+/// cascade on them again.
+pub const CAMERA_TOPIC: &str = "/camera/image_raw/compressed";
+
+/// The MCAP recording of a live run: the scans (`/scan`), the camera frames
+/// ([`CAMERA_TOPIC`]), the dead-reckoned odometry (`/odom`, `odom` -> `base_link`) and
+/// the pipeline's ticks (see [`ResultWriter`]).
 ///
 /// It writes its messages unchunked through a buffered file flushed at least once a
 /// second of log time ([`tether_io::mcap::McapWriter::streaming`]): a run that is
@@ -226,6 +235,12 @@ impl<W: std::io::Write + std::io::Seek> Recorder<W> {
         );
         self.writer.mcap().write("/odom", tick.stamp, &odom)?;
         self.writer.write_tick(tick)
+    }
+
+    /// A camera frame as it arrived, on [`CAMERA_TOPIC`] (frame `camera`).
+    fn camera(&mut self, stamp: Stamp, frame: EncodedFrame) -> Result<(), McapError> {
+        let msg = CompressedImageMsg::new(Header::new(stamp, "camera"), frame.format, frame.bytes);
+        self.writer.mcap().write(CAMERA_TOPIC, stamp, &msg)
     }
 
     fn final_stop(&mut self, stamp: Stamp) -> Result<(), McapError> {
@@ -342,11 +357,19 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
         }
     }
 
-    fn camera(&mut self, stamp: Stamp, boxes: &[PixelBox]) -> Result<(), Ending> {
+    fn camera(
+        &mut self,
+        stamp: Stamp,
+        boxes: &[PixelBox],
+        frame: Option<EncodedFrame>,
+    ) -> Result<(), Ending> {
         let Some(pose) = self.pose_between_scans(stamp) else {
             return Ok(());
         };
         let stamp = self.pipeline_stamp(stamp);
+        if let (Some(r), Some(frame)) = (self.recorder.as_deref_mut(), frame) {
+            r.camera(stamp, frame).map_err(recording_failed)?;
+        }
         let tick = self.pipeline.on_camera_boxes(stamp, boxes, pose);
         self.summary.frames += 1;
         self.emit(&tick, pose)
@@ -498,9 +521,13 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
             let wait = Duration::from_nanos(wait_ns as u64);
             let result = match inputs.recv_timeout(wait) {
                 Ok(Input::Scan(scan)) => self.scan(scan),
-                Ok(Input::Camera { stamp, boxes }) => {
+                Ok(Input::Camera {
+                    stamp,
+                    boxes,
+                    frame,
+                }) => {
                     if camera_alive {
-                        self.camera(stamp, &boxes)
+                        self.camera(stamp, &boxes, frame)
                     } else {
                         Ok(())
                     }
