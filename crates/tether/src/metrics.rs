@@ -13,8 +13,15 @@ use tether_pipeline::Tick;
 
 use crate::closed_loop::{RunLog, StepKind};
 
-/// Comfort band of the follow distance, m (SPEC 8).
+/// Comfort band of the follow distance for a follow distance of 1 m, m (SPEC 8).
 pub const BAND_M: (f64, f64) = (0.8, 1.5);
+
+/// The comfort band around a scenario's follow distance `d0`: SPEC 8's [0.8, 1.5] m
+/// for d0 = 1 m, moved with d0 (`[d0 - 0.2, d0 + 0.5]`: 0.2 m nearer, 0.5 m farther),
+/// so that `occlusion`'s d0 = 2 m is measured against [1.8, 2.5] m.
+pub fn band_m(d0_m: f64) -> (f64, f64) {
+    (d0_m - (1.0 - BAND_M.0), d0_m + (BAND_M.1 - 1.0))
+}
 
 /// Match threshold of CLEAR MOT and of target-swap detection, m.
 pub const MATCH_M: f64 = 0.75;
@@ -54,15 +61,17 @@ pub struct RunMetrics {
     pub rms_distance_error_m: Option<f64>,
     /// Smallest d over the run, m.
     pub min_distance_m: f64,
-    /// Share of time after the first lock with d in [0.8, 1.5] m.
+    /// Share of time after the first lock with d in the comfort band [`band_m`] (SPEC
+    /// 8's [0.8, 1.5] m for d0 = 1 m).
     pub time_in_band_frac: Option<f64>,
     /// Time after the first lock without a locked target, s.
     pub target_lost_s: f64,
     /// Collisions of the robot with walls or furniture.
     pub collisions: u32,
-    /// RMS jerk of the commanded speed, m/s^3.
+    /// RMS jerk of the commanded speed (its second difference over the control
+    /// period), m/s^3.
     pub rms_jerk: f64,
-    /// RMS jerk of the commanded turn rate, rad/s^3.
+    /// RMS jerk of the commanded turn rate (second difference), rad/s^3.
     pub rms_angular_jerk: f64,
     /// Time from the start to the first lock, s.
     pub first_lock_s: Option<f64>,
@@ -238,7 +247,8 @@ pub fn measure(log: &RunLog) -> RunMetrics {
         if step.kind == StepKind::Timer && first_lock.is_some() {
             timer_ticks += 1;
             d_err.push(d - log.follow_distance_m);
-            if (BAND_M.0..=BAND_M.1).contains(&d) {
+            let band = band_m(log.follow_distance_m);
+            if (band.0..=band.1).contains(&d) {
                 in_band += 1;
             }
             let locked = step
@@ -256,12 +266,14 @@ pub fn measure(log: &RunLog) -> RunMetrics {
         }
     }
 
-    // Jerk from the commands at the control rate: third differences.
+    // Jerk from the commanded velocities at the control rate: the derivative of the
+    // acceleration, the second difference of the velocity (a third difference of the
+    // velocity would be snap, m/s^4).
     let jerk = |component: fn(&(f64, f64, f64)) -> f64| {
         let values: Vec<f64> = commands.iter().map(component).collect();
         let j: Vec<f64> = values
-            .windows(4)
-            .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]) / timer_dt.powi(3))
+            .windows(3)
+            .map(|w| (w[2] - 2.0 * w[1] + w[0]) / timer_dt.powi(2))
             .collect();
         rmse(&j).unwrap_or(0.0)
     };

@@ -89,9 +89,77 @@ impl Drop for AtomicFile {
 #[error("standard output was closed by its reader")]
 pub struct StdoutClosed;
 
-/// True when `err` (or one of its causes) is [`StdoutClosed`].
+/// True when `err` (or one of its causes) is [`StdoutClosed`], itself or inside an
+/// `io::Error` (as [`Output`] reports it).
 pub fn is_stdout_closed(err: &anyhow::Error) -> bool {
-    err.chain().any(|cause| cause.is::<StdoutClosed>())
+    err.chain().any(|cause| {
+        cause.is::<StdoutClosed>()
+            || cause
+                .downcast_ref::<io::Error>()
+                .and_then(io::Error::get_ref)
+                .is_some_and(|inner| inner.is::<StdoutClosed>())
+    })
+}
+
+/// Where a command writes its one stream of results: a file written atomically
+/// ([`AtomicFile`]), or standard output when the path is `-`.
+pub enum Output {
+    /// A file, renamed into place by [`Output::commit`].
+    File(io::BufWriter<AtomicFile>),
+    /// Standard output (`--out -`).
+    Stdout(io::BufWriter<io::Stdout>),
+}
+
+impl Output {
+    /// `-` is standard output; anything else a file created by [`AtomicFile::create`].
+    pub fn create(path: &Path) -> io::Result<Output> {
+        if path.as_os_str() == "-" {
+            Ok(Output::Stdout(io::BufWriter::new(io::stdout())))
+        } else {
+            Ok(Output::File(io::BufWriter::new(AtomicFile::create(path)?)))
+        }
+    }
+
+    /// True for standard output: the command's own messages then go to stderr.
+    pub fn is_stdout(&self) -> bool {
+        matches!(self, Output::Stdout(_))
+    }
+
+    /// Flushes, and puts a file in its place.
+    pub fn commit(self) -> io::Result<()> {
+        match self {
+            Output::File(w) => w
+                .into_inner()
+                .map_err(io::IntoInnerError::into_error)
+                .and_then(AtomicFile::commit),
+            Output::Stdout(mut w) => w.flush().map_err(closed),
+        }
+    }
+}
+
+/// A broken pipe on stdout becomes [`StdoutClosed`] (inside the `io::Error`).
+fn closed(e: io::Error) -> io::Error {
+    if e.kind() == io::ErrorKind::BrokenPipe {
+        io::Error::new(io::ErrorKind::BrokenPipe, StdoutClosed)
+    } else {
+        e
+    }
+}
+
+impl Write for Output {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        match self {
+            Output::File(w) => w.write(buf),
+            Output::Stdout(w) => w.write(buf).map_err(closed),
+        }
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        match self {
+            Output::File(w) => w.flush(),
+            Output::Stdout(w) => w.flush().map_err(closed),
+        }
+    }
 }
 
 /// Writes `args` and a newline to standard output. A pipe closed by its reader is

@@ -12,7 +12,7 @@ use tether_sim::svg::{MapSvg, person_color, xml_escape};
 use tether_sim::{Scenario, StaticWorld};
 
 use crate::closed_loop::{RunLog, StepKind};
-use crate::metrics::{BAND_M, RunMetrics};
+use crate::metrics::{RunMetrics, band_m};
 use crate::plot::{Plot, Series};
 
 /// One scenario's material for the report.
@@ -237,12 +237,15 @@ pub fn run_plots(log: &RunLog) -> Vec<Plot> {
                 series("true", "#d62728", false, d_true),
                 series("estimated", ESTIMATE, true, d_est),
             ],
-            bands: vec![(
-                BAND_M.0,
-                BAND_M.1,
-                "#2ca02c".into(),
-                "comfort band 0.8–1.5 m".into(),
-            )],
+            bands: vec![{
+                let (low, high) = band_m(log.follow_distance_m);
+                (
+                    low,
+                    high,
+                    "#2ca02c".into(),
+                    format!("comfort band {low:.1}–{high:.1} m"),
+                )
+            }],
             hlines: vec![(
                 log.follow_distance_m,
                 "#000000".into(),

@@ -403,3 +403,56 @@ fn detect_names_each_bad_image_and_goes_on_when_asked() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_small_things_a_user_trips_on() {
+    let dir = scratch("small-things");
+    let bag = common::corridor_bag(&dir, 4);
+    let bag = bag.to_str().unwrap();
+
+    // `--out -` is standard output: the JSON lines there, the summary in the log.
+    let out = tether(&["track", bag, "--scan-topic", "/scan", "--out", "-"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let lines: Vec<serde_json::Value> = text(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert!(lines.len() >= 30, "{} lines", lines.len());
+    let err = text(&out.stderr);
+    assert!(err.contains("-> stdout"), "{err}");
+    assert!(!dir.join("-").exists());
+    // Nothing happened: no warning that says "0".
+    assert!(!err.contains(" 0 scans"), "{err}");
+    assert!(!err.contains("WARN"), "{err}");
+    let out = tether(&["legs", bag, "--topic", "/scan", "--out", "-"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).lines().count() >= 30);
+
+    // The emulator says which modes there are.
+    let out = tether(&["urg-emulator"]);
+    let err = text(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("--pty") && err.contains("--tcp"), "{err}");
+
+    // `--duration 0` says what is allowed.
+    let out = tether(&[
+        "sim",
+        "--scenario",
+        "corridor",
+        "--duration",
+        "0",
+        "--out",
+        dir.join("zero").to_str().unwrap(),
+    ]);
+    let err = text(&out.stderr);
+    assert!(err.contains("more than 0 s and at most 86400 s"), "{err}");
+
+    // A missing --data says where it looked.
+    let out = tether(&["eval-legs", "--data", "no/such/folder"]);
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("looked for /") && err.contains("no/such/folder"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -43,12 +43,7 @@ fn row(name: &str, e: &Evaluation) -> anyhow::Result<()> {
 
 /// Measures both detectors and prints a table.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if !args.data.is_dir() {
-        anyhow::bail!(
-            "{} is not a folder; pass --data with the folder of leg_tracker's bags",
-            args.data.display()
-        );
-    }
+    super::train_legs::check_data_folder(&args.data)?;
     let laser = laser_model(args.laser.as_ref())?;
     let positives = labelled_scans(&args.data, &TEST_POSITIVE_BAGS)?;
     let negatives = negative_scans(&args.data, &TEST_NEGATIVE_TOPICS)?;

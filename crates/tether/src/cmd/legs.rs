@@ -33,7 +33,7 @@ pub struct Args {
     /// calibration to apply (default: the uncalibrated URG-04LX model).
     #[arg(long, value_name = "FILE")]
     pub laser: Option<PathBuf>,
-    /// Where to write one JSON line per scan.
+    /// Where to write one JSON line per scan (`-`: standard output).
     #[arg(long, value_name = "FILE.jsonl")]
     pub out: PathBuf,
 }
@@ -124,10 +124,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let laser = laser_model(args.laser.as_ref())?;
     let mut detector = detector(kind, args.model.as_ref(), &laser)?;
-    // Replaces an earlier result only if this run succeeds.
-    let file = tether::output::AtomicFile::create(&args.out)
+    // Replaces an earlier result only if this run succeeds; `-` is stdout.
+    let mut out = tether::output::Output::create(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-    let mut out = std::io::BufWriter::new(file);
     let (mut scans, mut legs, mut people, mut malformed) = (0usize, 0usize, 0usize, 0usize);
     let topics = Topics {
         scan: args.topic.clone(),
@@ -167,9 +166,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         people += line.people.len();
         Ok(())
     })?;
-    out.into_inner()
-        .map_err(std::io::IntoInnerError::into_error)
-        .and_then(tether::output::AtomicFile::commit)
+    out.commit()
         .with_context(|| format!("writing {}", args.out.display()))?;
     let skipped = stats.bad_messages + stats.unattributed;
     if skipped > 0 {

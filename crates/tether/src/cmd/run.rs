@@ -507,8 +507,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let stats = pipeline.stats();
     tracing::info!(
         "{}: {} scans, {} camera frames, {} ticks ({} with a target), {:.1} m driven by dead \
-         reckoning, {} laser faults recovered, {} camera frames skipped, {} stamps clamped, {} \
-         out-of-order ticks",
+         reckoning, {} laser faults recovered, {} camera frames skipped",
         summary.ending.name(),
         summary.scans,
         summary.frames,
@@ -517,9 +516,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.distance_m,
         summary.laser_faults,
         summary.bad_frames,
-        summary.clamped_stamps,
-        stats.out_of_order_ticks
     );
+    if summary.clamped_stamps > 0 {
+        tracing::info!(
+            "{} scans or frames were stamped before the loop's last tick (a sensor thread a \
+             little late, a busy machine) and were processed at that tick's time instead",
+            summary.clamped_stamps
+        );
+    }
+    if stats.out_of_order_ticks > 0 {
+        tracing::warn!(
+            "{} inputs came out of order and were kept out of the tracks",
+            stats.out_of_order_ticks
+        );
+    }
     tracing::info!("{}", summary.target.one_line(pipeline.selector().stats()));
     if summary.cannot_keep_up > 0 {
         tracing::warn!(

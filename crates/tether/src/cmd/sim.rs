@@ -260,7 +260,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(duration) = args.duration {
         anyhow::ensure!(
             duration.is_finite() && duration > 0.0 && duration <= 86_400.0,
-            "--duration must be between 0 and 86400 s, got {duration}"
+            "--duration must be more than 0 s and at most 86400 s (a day), got {duration}"
         );
         scenario.duration_s = duration;
     }

@@ -47,7 +47,7 @@ pub struct Args {
     /// left out), `none` (the sensor is taken as still).
     #[arg(long, value_enum, default_value_t = tether::ego::EgoMotion::Auto)]
     pub ego_motion: tether::ego::EgoMotion,
-    /// Where to write one JSON line per scan message.
+    /// Where to write one JSON line per scan message (`-`: standard output).
     #[arg(long, value_name = "FILE.jsonl")]
     pub out: PathBuf,
 }
@@ -207,10 +207,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         image: args.image_topic.clone(),
         odom: args.odom_topic.clone(),
     };
-    // Replaces an earlier result only if this run succeeds.
-    let file = tether::output::AtomicFile::create(&args.out)
+    // Replaces an earlier result only if this run succeeds; `-` is stdout.
+    let mut out = tether::output::Output::create(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-    let mut out = std::io::BufWriter::new(file);
+    let to_stdout = out.is_stdout();
     let (mut scans, mut with_target) = (0usize, 0usize);
     let mut ids = std::collections::BTreeSet::new();
     let mut target_log = TargetLog::new();
@@ -279,29 +279,45 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(odometry) = &scan_odometry {
         tracing::info!("{}", odometry.summary());
     }
-    out.into_inner()
-        .map_err(std::io::IntoInnerError::into_error)
-        .and_then(tether::output::AtomicFile::commit)
+    out.commit()
         .with_context(|| format!("writing {}", args.out.display()))?;
     let stats = pipeline.stats();
     if skipped > 0 {
         tracing::warn!("{skipped} messages could not be decoded and were skipped");
     }
-    if stats.out_of_order_ticks > 0 || stats.malformed_beams > 0 {
+    if stats.out_of_order_ticks > 0 {
         tracing::warn!(
-            "{} scans arrived out of order (kept out of the tracks), {} beams were NaN or negative",
-            stats.out_of_order_ticks,
+            "{} scans were stamped before one already processed (out of order): they were \
+             kept out of the tracks",
+            stats.out_of_order_ticks
+        );
+    }
+    if stats.malformed_beams > 0 {
+        tracing::warn!(
+            "{} beams were NaN or negative (a sensor's error codes): read as no return",
             stats.malformed_beams
         );
     }
     let frames = camera.as_ref().map_or(String::new(), |c| {
         format!(", {} camera frames with {} detections", c.frames, c.boxes)
     });
-    tether::outln!(
+    let summary = format!(
         "{scans} scans{frames}, {} people tracked, a target in {with_target} scans -> {}",
         ids.len(),
-        args.out.display()
-    )?;
-    tether::outln!("{}", target_log.one_line(pipeline.selector().stats()))?;
+        if to_stdout {
+            "stdout".to_string()
+        } else {
+            args.out.display().to_string()
+        }
+    );
+    let target = target_log.one_line(pipeline.selector().stats());
+    if to_stdout {
+        // stdout holds the results: the summary goes with the log.
+        tracing::info!("{summary}");
+        tracing::info!("{target}");
+    } else {
+        tether::outln!("{summary}")?;
+        tether::outln!("{target}")?;
+    }
     Ok(())
 }

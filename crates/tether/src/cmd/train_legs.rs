@@ -60,6 +60,23 @@ pub(crate) fn labelled_scans(
 }
 
 /// The scans of the given topics of the bag without people.
+/// Refuses a `--data` that is not a folder, saying where it looked (a relative default
+/// is relative to the current folder, not to the checkout).
+pub(crate) fn check_data_folder(data: &Path) -> anyhow::Result<()> {
+    if data.is_dir() {
+        return Ok(());
+    }
+    let looked = std::path::absolute(data).unwrap_or_else(|_| data.to_path_buf());
+    anyhow::bail!(
+        "{} is not a folder (looked for {}); pass --data with the folder of leg_tracker's \
+         bags (their test split: {}; training: {})",
+        data.display(),
+        looked.display(),
+        tether_laser::training::TEST_POSITIVE_BAGS.join(", "),
+        TRAIN_POSITIVE_BAGS.join(", ")
+    )
+}
+
 pub(crate) fn negative_scans(data: &Path, topics: &[&str]) -> anyhow::Result<Vec<LaserScan>> {
     let path = data.join(NEGATIVE_BAG);
     let mut out = Vec::new();
@@ -81,12 +98,7 @@ pub(crate) fn negative_scans(data: &Path, topics: &[&str]) -> anyhow::Result<Vec
 
 /// Trains on the training split and writes the model.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if !args.data.is_dir() {
-        anyhow::bail!(
-            "{} is not a folder; pass --data with the folder of leg_tracker's bags",
-            args.data.display()
-        );
-    }
+    check_data_folder(&args.data)?;
     let config = AdaBoostConfig {
         rounds: args.rounds,
         max_depth: args.depth,

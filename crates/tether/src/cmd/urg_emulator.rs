@@ -24,9 +24,10 @@ use tether_sim::{Command, Scenario, SensorData, Simulation, Truth};
 
 /// Options of `tether urg-emulator`.
 #[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("endpoint").required(true).args(["pty", "tcp"])))]
 pub struct Args {
     /// Serve on a new pseudo-terminal; its path is printed (open it as a serial port).
-    #[arg(long, conflicts_with = "tcp", required_unless_present = "tcp")]
+    #[arg(long)]
     pub pty: bool,
     /// Serve on this TCP address, like an Ethernet URG (e.g. 127.0.0.1:10940).
     #[arg(long, value_name = "ADDR")]
