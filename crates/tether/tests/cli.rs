@@ -456,3 +456,66 @@ fn the_small_things_a_user_trips_on() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_robots_own_config_tunes_a_replay() {
+    let dir = scratch("robot-config");
+    let bag = common::corridor_bag(&dir, 4);
+    let bag = bag.to_str().unwrap();
+    let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robot.example.toml");
+    let config = config.to_str().unwrap();
+    let out = tether(&[
+        "-v",
+        "track",
+        bag,
+        "--scan-topic",
+        "/scan",
+        "--config",
+        config,
+        "--out",
+        dir.join("t.jsonl").to_str().unwrap(),
+    ]);
+    let err = text(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("not used here: [base], [output], laser.serial, laser.baud"),
+        "{err}"
+    );
+    let out = tether(&[
+        "replay",
+        bag,
+        "--scan-topic",
+        "/scan",
+        "--config",
+        config,
+        "--out",
+        dir.join("r.mcap").to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // A robot config with a mistake is refused by name, as `tether run` would.
+    let bad = dir.join("bad.toml");
+    std::fs::write(
+        &bad,
+        std::fs::read_to_string(config)
+            .unwrap()
+            .replace("max_speed_mps = 0.5 ", "max_speed_mps = 1e300 "),
+    )
+    .unwrap();
+    let out = tether(&[
+        "track",
+        bag,
+        "--scan-topic",
+        "/scan",
+        "--config",
+        bad.to_str().unwrap(),
+        "--out",
+        dir.join("t2.jsonl").to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("robot.max_speed_mps"),
+        "{}",
+        text(&out.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

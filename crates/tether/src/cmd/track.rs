@@ -98,13 +98,48 @@ struct PoseLine {
     yaw: f64,
 }
 
-/// Reads a pipeline configuration file.
+/// Reads a configuration file: a pipeline configuration (every table optional), or a
+/// robot's own config (`tether run`'s, with `[robot]`), whose robot, laser mount,
+/// camera, follower and `[pipeline]` tables make the pipeline's configuration; its
+/// live-only tables (`[base]`, `[output]`, the laser's port) are accepted and, with
+/// `-v`, listed as unused.
 pub fn load_config(path: Option<&PathBuf>) -> anyhow::Result<PipelineConfig> {
     let Some(path) = path else {
         return Ok(PipelineConfig::default());
     };
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read config {}", path.display()))?;
+    let is_robot = toml::from_str::<toml::Table>(&text)
+        .map(|t| t.contains_key("robot"))
+        .unwrap_or(false);
+    if is_robot {
+        let robot = tether::live::config::RobotConfig::load_for_recordings(path)?;
+        let table: toml::Table = toml::from_str(&text)?;
+        let unused: Vec<String> = ["base", "output"]
+            .iter()
+            .filter(|k| table.contains_key(**k))
+            .map(|k| format!("[{k}]"))
+            .chain(["serial", "tcp", "baud"].iter().filter_map(|k| {
+                table
+                    .get("laser")
+                    .and_then(|l| l.get(k))
+                    .map(|_| format!("laser.{k}"))
+            }))
+            .collect();
+        tracing::debug!(
+            "config {} is a robot's: its robot, laser mount, camera, follow and pipeline \
+             tables are used; not used here: {}",
+            path.display(),
+            if unused.is_empty() {
+                "nothing".to_string()
+            } else {
+                unused.join(", ")
+            }
+        );
+        return robot
+            .pipeline_config()
+            .map_err(|e| anyhow::anyhow!("config {}: {e}", path.display()));
+    }
     toml::from_str(&text).with_context(|| {
         format!(
             "config {} is not a valid tether configuration",

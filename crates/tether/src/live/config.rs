@@ -403,6 +403,13 @@ impl RobotConfig {
         Self::parse_checked(&text, path, false)
     }
 
+    /// Reads and checks a robot's config for a command that replays a recording
+    /// (`track`, `replay`, `eval-track`): like [`RobotConfig::load_for_ros2`], the
+    /// scans come from elsewhere, so `[laser]` needs only its mount.
+    pub fn load_for_recordings(path: &Path) -> Result<Self, ConfigError> {
+        Self::load_for_ros2(path)
+    }
+
     /// Parses and checks a config; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
         Self::parse_checked(text, path, true)
@@ -975,5 +982,79 @@ mount = { x_m = 0.05, y_m = 0.0, yaw_rad = 0.0, height_m = 0.65, tilt_rad = 0.3 
                 device: "/dev/video0".into()
             })
         );
+    }
+
+    /// Values that break naive parsers and checks: non-finite, huge, negative, zero,
+    /// of the wrong type, unterminated.
+    const NASTY_VALUES: [&str; 16] = [
+        "inf",
+        "-inf",
+        "nan",
+        "1e300",
+        "-1e300",
+        "0",
+        "-0.0",
+        "-2",
+        "1e9",
+        "9223372036854775807",
+        "\"\"",
+        "\"x\"",
+        "[]",
+        "{}",
+        "true",
+        "\"unterminated",
+    ];
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+
+        /// A valid config damaged (values replaced by nasty ones, lines dropped or
+        /// doubled, random bytes put in) parses or gives an error, never panics; one that
+        /// passes gives its laser link, frame input and pipeline configuration.
+        #[test]
+        fn damaged_configs_never_panic(
+            edits in proptest::collection::vec((proptest::num::usize::ANY, 0usize..NASTY_VALUES.len() + 3, proptest::num::u8::ANY), 1..5),
+        ) {
+            let mut lines: Vec<String> = MINIMAL.lines().map(str::to_owned).collect();
+            lines.push("[camera]".into());
+            lines.push("folder = \"frames\"".into());
+            lines.push("fps = 10.0".into());
+            for (at, what, byte) in edits {
+                let at = at % lines.len();
+                match what.checked_sub(3) {
+                    Some(v) => {
+                        if let Some((key, _)) = lines[at].split_once('=') {
+                            lines[at] = format!("{key}= {}", NASTY_VALUES[v]);
+                        }
+                    }
+                    None if what == 0 => {
+                        lines.remove(at);
+                    }
+                    None if what == 1 => {
+                        let line = lines[at].clone();
+                        lines.insert(at, line);
+                    }
+                    None => {
+                        let line = &mut lines[at];
+                        let cut = (usize::from(byte) % (line.len() + 1)).min(line.len());
+                        if line.is_char_boundary(cut) {
+                            line.insert(cut, char::from(byte % 128));
+                        }
+                    }
+                }
+            }
+            let text = lines.join("\n");
+            if let Ok(config) = parse(&text) {
+                let _ = config.laser_link();
+                let _ = config.frame_input();
+                let _ = config.pipeline_config();
+            }
+        }
+
+        /// Arbitrary text never panics the parser.
+        #[test]
+        fn arbitrary_text_never_panics(text in "[\\[\\]a-z_=.0-9\"\n {}-]{0,200}") {
+            let _ = parse(&text);
+        }
     }
 }
