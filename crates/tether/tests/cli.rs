@@ -519,3 +519,62 @@ fn the_robots_own_config_tunes_a_replay() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn detect_draws_its_boxes() {
+    let image =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/images/people/messi5.jpg");
+    if !image.is_file() {
+        let reason = "../shared/data/images is missing";
+        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
+            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
+        }
+        eprintln!("SKIPPED: {reason}");
+        return;
+    }
+    let dir = scratch("detect-draw");
+    let cascade =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tether-cascade/models/vtest_upperbody.xml");
+    let drawn = dir.join("drawn");
+    let out = tether(&[
+        "detect",
+        "--cascade",
+        cascade.to_str().unwrap(),
+        "--min-neighbors",
+        "0",
+        "--draw",
+        drawn.to_str().unwrap(),
+        image.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let boxes = report["images"][0]["boxes"].as_array().unwrap();
+    assert!(!boxes.is_empty(), "no boxes to draw");
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(drawn.join("messi5.png")).unwrap(),
+    ));
+    let mut reader = decoder.read_info().unwrap();
+    let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut pixels).unwrap();
+    assert_eq!(
+        (info.width, info.height, info.color_type),
+        (
+            report["images"][0]["width"].as_u64().unwrap() as u32,
+            report["images"][0]["height"].as_u64().unwrap() as u32,
+            png::ColorType::Rgb
+        )
+    );
+    let b: Vec<usize> = boxes[0]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap() as usize)
+        .collect();
+    let at = 3 * (b[1] * info.width as usize + b[0]);
+    assert_eq!(
+        &pixels[at..at + 3],
+        &[230, 20, 20],
+        "the box's corner is red"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

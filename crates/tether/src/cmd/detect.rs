@@ -37,6 +37,9 @@ pub struct Args {
     /// Without it the first such image ends the command with an error naming it.
     #[arg(long)]
     pub keep_going: bool,
+    /// Also write each image with its boxes drawn (red, 2 px) as `DIR/NAME.png`.
+    #[arg(long, value_name = "DIR")]
+    pub draw: Option<PathBuf>,
     /// PNG or JPEG images, read as 8-bit grey like cv2.imread(path, IMREAD_GRAYSCALE).
     #[arg(required = true, value_name = "IMAGE")]
     pub images: Vec<PathBuf>,
@@ -101,6 +104,44 @@ impl DetectOptions {
     }
 }
 
+/// `image` in RGB with each box outlined in red, 2 px wide, as PNG bytes.
+pub fn drawn(
+    image: &tether_core::GrayImage,
+    boxes: &[tether_vision::Rect],
+) -> std::io::Result<Vec<u8>> {
+    let (w, h) = (image.width(), image.height());
+    let mut rgb: Vec<u8> = image.pixels().iter().flat_map(|&g| [g, g, g]).collect();
+    let mut paint = |x: i64, y: i64| {
+        if (0..w as i64).contains(&x) && (0..h as i64).contains(&y) {
+            let at = 3 * (y as usize * w + x as usize);
+            rgb[at..at + 3].copy_from_slice(&[230, 20, 20]);
+        }
+    };
+    for b in boxes {
+        let (x0, y0) = (i64::from(b.x), i64::from(b.y));
+        let (x1, y1) = (x0 + i64::from(b.width) - 1, y0 + i64::from(b.height) - 1);
+        for t in 0..2 {
+            for x in x0..=x1 {
+                paint(x, y0 + t);
+                paint(x, y1 - t);
+            }
+            for y in y0..=y1 {
+                paint(x0 + t, y);
+                paint(x1 - t, y);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    let mut encoder = png::Encoder::new(&mut out, w as u32, h as u32);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder
+        .write_header()
+        .and_then(|mut writer| writer.write_image_data(&rgb))
+        .map_err(std::io::Error::other)?;
+    Ok(out)
+}
+
 /// Runs the detector on every image and prints the JSON report.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let cascade_path = resolve_cascade(args.cascade.as_deref())?;
@@ -149,6 +190,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             None
         };
         tracing::debug!("{}: {} boxes", path.display(), boxes.len());
+        if let Some(dir) = &args.draw {
+            let name = path
+                .file_stem()
+                .map_or_else(|| "image".to_string(), |s| s.to_string_lossy().into_owned());
+            let out = dir.join(format!("{name}.png"));
+            std::fs::create_dir_all(dir)
+                .and_then(|()| std::fs::write(&out, drawn(&image, &boxes)?))
+                .with_context(|| format!("writing {}", out.display()))?;
+        }
         images.push(json!({
             "path": path.display().to_string(),
             "width": image.width(),
