@@ -578,3 +578,103 @@ fn detect_draws_its_boxes() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn calibrate_laser_prints_the_block_that_pastes_into_the_robots_config() {
+    let dir = scratch("calibrate-paste");
+    let mut csv = String::from("true_range_m,measured_range_m\n");
+    for (k, r) in [0.5, 1.0, 2.0, 3.0, 4.0, 5.0].iter().enumerate() {
+        for i in 0..30 {
+            // A 10 mm bias and a spread that grows with range (deterministic).
+            let e = 0.010 + (0.003 + 0.002 * r) * (((i * 7 + k * 3) % 11) as f64 - 5.0) / 5.0;
+            csv.push_str(&format!("{r},{}\n", r + e));
+        }
+    }
+    let samples = dir.join("s.csv");
+    std::fs::write(&samples, csv).unwrap();
+    let out = tether(&[
+        "calibrate",
+        "laser",
+        "--samples",
+        samples.to_str().unwrap(),
+        "--out",
+        dir.join("laser.toml").to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    let block = &stdout[stdout.find("[pipeline.laser.noise]").expect(&stdout)..];
+    // Pasted at the end of the example robot config, it is read by the commands.
+    let example = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robot.example.toml"),
+    )
+    .unwrap();
+    let config = dir.join("robot.toml");
+    std::fs::write(&config, format!("{example}\n{block}")).unwrap();
+    let bag = common::corridor_bag(&dir, 2);
+    let out = tether(&[
+        "track",
+        bag.to_str().unwrap(),
+        "--scan-topic",
+        "/scan",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        dir.join("t.jsonl").to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn calibrate_camera_prints_what_goes_into_the_robots_config() {
+    let dir = scratch("calibrate-camera-paste");
+    let samples = dir.join("cam.csv");
+    std::fs::write(
+        &samples,
+        "distance_m,x,y,w,h\n2.0,290,60,80,160\n3.0,300,110,56,112\n4.0,305,135,42,84\n5.0,310,150,34,68\n",
+    )
+    .unwrap();
+    let out = tether(&[
+        "calibrate",
+        "camera",
+        "--samples",
+        samples.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    let mount = stdout
+        .lines()
+        .find(|l| l.starts_with("mount = {"))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    let vision = &stdout[stdout.find("[pipeline.vision]").expect(&stdout)..];
+    assert!(vision.contains("box_margin_frac = "), "{stdout}");
+    // The mount line replaces the example's, the table goes at the end: the commands
+    // read the result.
+    let example = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robot.example.toml"),
+    )
+    .unwrap();
+    let old = example
+        .lines()
+        .find(|l| l.starts_with("mount = { x_m = 0.05"))
+        .unwrap();
+    let config = dir.join("robot.toml");
+    std::fs::write(
+        &config,
+        format!("{}\n{vision}", example.replace(old, mount)),
+    )
+    .unwrap();
+    let bag = common::corridor_bag(&dir, 2);
+    let out = tether(&[
+        "track",
+        bag.to_str().unwrap(),
+        "--scan-topic",
+        "/scan",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        dir.join("t.jsonl").to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -172,9 +172,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         fit.rms_m,
         samples.len()
     )?;
+    let m = &camera.mount;
     tether::outln!(
-        "\n# camera model lines to keep:\n[mount]\ntilt_rad = {:.6}",
-        fit.tilt_rad
+        "\nFor the robot's config (tether run, ros2, and track, replay --config): in \
+         [camera],\n\nmount = {{ x_m = {}, y_m = {}, yaw_rad = {}, height_m = {}, tilt_rad = {:.6} }}\n\n\
+         and paste (the box's margin above the head, {}):\n\n[pipeline.vision]\n\
+         box_margin_frac = {:.6}",
+        m.x_m,
+        m.y_m,
+        m.yaw_rad,
+        m.height_m,
+        fit.tilt_rad,
+        if fit.margin_fitted { "fitted" } else { "held" },
+        fit.margin_frac
     )?;
     Ok(())
 }

@@ -151,8 +151,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     std::fs::write(&args.out, header + &toml)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
-    tether::outln!("wrote {}", args.out.display())?;
+    tether::outln!(
+        "wrote {} (a laser config, for `--laser` of legs, eval-legs and train-legs)",
+        args.out.display()
+    )?;
+    tether::outln!()?;
+    tether::outln!(
+        "For the robot's config (tether run, ros2, and track, replay --config), paste:"
+    )?;
+    tether::outln!()?;
+    tether::outln!("{}", noise_block(&laser.noise)?)?;
     Ok(())
+}
+
+/// The `[pipeline.laser.noise]` table of a robot's config holding `noise`.
+fn noise_block(noise: &tether_core::RangeNoiseModel) -> anyhow::Result<String> {
+    let body = toml::to_string(noise).context("cannot write the noise model as TOML")?;
+    Ok(format!("[pipeline.laser.noise]\n{}", body.trim_end()))
 }
 
 #[cfg(test)]
