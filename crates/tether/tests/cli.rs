@@ -63,6 +63,7 @@ fn sim_writes_identical_files_for_the_same_seed() {
         "camera_truth.jsonl",
         "scene.svg",
         "run.json",
+        "report.html",
     ] {
         let x = std::fs::read(a.join(file)).unwrap();
         assert!(!x.is_empty(), "{file} is empty");
@@ -80,6 +81,10 @@ fn sim_writes_identical_files_for_the_same_seed() {
     );
     let svg = std::fs::read_to_string(a.join("scene.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("polyline"));
+    // The demo's report, for this run.
+    let report = std::fs::read_to_string(a.join("report.html")).unwrap();
+    assert!(report.contains("<h1>tether sim: office</h1>"), "no title");
+    assert!(report.contains("id=\"office\"") || report.contains("href=\"#office\""));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

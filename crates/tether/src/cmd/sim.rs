@@ -22,7 +22,7 @@ use tether_sim::{Event, Scenario, SensorData, Simulation, StaticWorld, run_to_di
 pub enum DriverChoice {
     /// tether's full pipeline (laser legs, camera model, fusion, tracking, spring,
     /// safety), with laser-only and vision-only pipelines riding along for comparison;
-    /// writes `metrics.json`.
+    /// writes `metrics.json` and the demo's `report.html` for the run.
     Tether,
     /// The scenario's own `robot.driver` (still, scripted, or the ground-truth oracle).
     Scenario,
@@ -371,6 +371,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let path = args.out.join("metrics.json");
             std::fs::write(&path, serde_json::to_string_pretty(&metrics)? + "\n")
                 .with_context(|| format!("writing {}", path.display()))?;
+            // The demo's report, for this one run.
+            let runs = [tether::report::ScenarioRun {
+                scenario: &scenario,
+                log: &log,
+                metrics: &metrics,
+            }];
+            let intro = format!(
+                "<p><code>tether sim --scenario {}</code>, seed {}: tether's pipeline drives \
+                 the simulated robot.</p>",
+                tether_sim::svg::xml_escape(&scenario.name),
+                args.seed
+            );
+            let html = tether::report::html(
+                &format!("tether sim: {}", scenario.name),
+                &intro,
+                &runs,
+                &[],
+            );
+            let path = args.out.join("report.html");
+            std::fs::write(&path, html).with_context(|| format!("writing {}", path.display()))?;
             summary
         }
     };
