@@ -319,7 +319,7 @@ mod v4l2 {
             grey_from_raw(self.fourcc, self.width, self.height, self.stride, bytes)
                 .map(Some)
                 .map_err(|message| CameraError::Frame {
-                    path: PathBuf::from(&self.device),
+                    path: std::path::PathBuf::from(&self.device),
                     message,
                 })
         }
