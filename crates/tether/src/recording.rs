@@ -175,13 +175,69 @@ fn raw_sample(m: ImageMsg) -> anyhow::Result<Sample> {
 }
 
 /// Whether `path` is an MCAP file (by its magic bytes), else a ROS 1 bag.
+/// True for an MCAP file, false for a ROS 1 bag; any other file is refused, saying
+/// what it looks like (whatever its name: a `.mcap` that is not one is not taken for
+/// a bag).
 fn is_mcap(path: &Path) -> anyhow::Result<bool> {
     use std::io::Read;
-    let mut magic = [0u8; 8];
+    if path.is_dir() {
+        anyhow::bail!(
+            "{} is a folder: a ROS 2 bag folder? pass its .mcap file (SQLite .db3 bags are \
+             not read; `ros2 bag convert` writes MCAP)",
+            path.display()
+        );
+    }
+    let mut magic = [0u8; 16];
     let mut file =
         std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
-    let n = file.read(&mut magic)?;
-    Ok(n == 8 && &magic == mcap::MAGIC)
+    let mut n = 0;
+    while n < magic.len() {
+        match file.read(&mut magic[n..])? {
+            0 => break,
+            k => n += k,
+        }
+    }
+    let head = &magic[..n];
+    if head.starts_with(mcap::MAGIC) {
+        return Ok(true);
+    }
+    if head.starts_with(b"#ROSBAG") {
+        return Ok(false);
+    }
+    anyhow::bail!(
+        "{} is neither an MCAP file nor a ROS 1 bag: {}",
+        path.display(),
+        what_it_looks_like(head)
+    )
+}
+
+/// What a file that is no recording seems to be, from its first bytes.
+fn what_it_looks_like(head: &[u8]) -> String {
+    let kind = if head.is_empty() {
+        return "it is empty (an interrupted copy or recording?)".into();
+    } else if head.starts_with(b"\x89PNG") {
+        "a PNG image"
+    } else if head.starts_with(&[0xff, 0xd8]) {
+        "a JPEG image"
+    } else if head.starts_with(b"SQLite format 3") {
+        "an SQLite database (a ROS 2 .db3 bag: `ros2 bag convert` it to MCAP)"
+    } else if head.starts_with(&[0x1f, 0x8b]) {
+        "gzip-compressed (unpack it first)"
+    } else if head.starts_with(b"PK") {
+        "a zip archive (unpack it first)"
+    } else if head
+        .iter()
+        .all(|b| b.is_ascii_graphic() || b.is_ascii_whitespace())
+    {
+        "text"
+    } else {
+        "binary data of another kind"
+    };
+    format!(
+        "it starts with {:?}, which looks like {kind} (an MCAP file starts with \
+         \"\\x89MCAP0\\r\\n\", a ROS 1 bag with \"#ROSBAG V2.0\")",
+        String::from_utf8_lossy(head)
+    )
 }
 
 /// Checks that every topic asked for is in the recording and of a type its stream

@@ -683,3 +683,47 @@ fn calibrate_camera_prints_what_goes_into_the_robots_config() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_file_that_is_no_recording_is_named_for_what_it_is() {
+    let dir = scratch("not-a-recording");
+    let fake = dir.join("fake.mcap");
+    std::fs::write(&fake, "hello\n").unwrap();
+    let image = dir.join("image.bag");
+    std::fs::write(&image, b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR").unwrap();
+    for (file, says) in [
+        (&fake, "looks like text"),
+        (&image, "looks like a PNG image"),
+    ] {
+        for args in [
+            vec![
+                "track",
+                file.to_str().unwrap(),
+                "--scan-topic",
+                "/scan",
+                "--out",
+            ],
+            vec!["legs", file.to_str().unwrap(), "--topic", "/scan", "--out"],
+        ] {
+            let mut args = args;
+            let out_path = dir.join("out.jsonl");
+            args.push(out_path.to_str().unwrap());
+            let out = tether(&args);
+            let err = text(&out.stderr);
+            assert!(!out.status.success());
+            assert!(
+                err.contains("is neither an MCAP file nor a ROS 1 bag"),
+                "{err}"
+            );
+            assert!(err.contains(says), "{err}");
+        }
+    }
+    let out = tether(&[
+        "replay",
+        dir.to_str().unwrap(),
+        "--out",
+        dir.join("r.mcap").to_str().unwrap(),
+    ]);
+    assert!(text(&out.stderr).contains("is a folder: a ROS 2 bag folder?"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
