@@ -429,7 +429,7 @@ mod tests {
             .unwrap()
             .sized(640, 480);
         let e = other.next_frame().unwrap_err().to_string();
-        assert!(e.contains("3x2 pixels, not the expected 640x480"), "{e}");
+        assert!(e.contains("3x2 pixels, not the camera's 640x480"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 
