@@ -756,7 +756,10 @@ impl Scenario {
         {
             bad(
                 path!["duration_s"],
-                format!("must be between 0 and 86400 s, got {}", self.duration_s),
+                format!(
+                    "must be more than 0 s and at most 86400 s (a day), got {}",
+                    self.duration_s
+                ),
             );
         }
 
@@ -1336,5 +1339,94 @@ path = [[2.0, 2.5], [8.0, 2.5]]
         assert!(e.contains("field `laser.noise.sigma_floor_m`"), "{e}");
         let src = format!("{BASE}\n[camera_sim]\nrate_hz = 0.0\n");
         assert!(err_of(&src).contains("field `camera_sim.rate_hz`"));
+    }
+
+    /// The byte ranges of the numbers in a TOML text (runs of digits, signs, points
+    /// and exponents that start with a digit or a minus).
+    fn number_spans(src: &str) -> Vec<std::ops::Range<usize>> {
+        let b = src.as_bytes();
+        let mut spans = Vec::new();
+        let mut i = 0;
+        while i < b.len() {
+            let starts = b[i].is_ascii_digit()
+                || (b[i] == b'-' && b.get(i + 1).is_some_and(u8::is_ascii_digit));
+            // Not inside a name such as `x1` or `leg_0`.
+            let after_word = i > 0 && (b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'_');
+            if starts && !after_word {
+                let start = i;
+                i += 1;
+                while i < b.len() && (b[i].is_ascii_digit() || b"-+.eE".contains(&b[i])) {
+                    i += 1;
+                }
+                spans.push(start..i);
+            } else {
+                i += 1;
+            }
+        }
+        spans
+    }
+
+    /// Numbers that break naive geometry: huge (a room of 1e15 m once drew its SVG grid
+    /// for 60 s and 6.9 GB), at the cap, non-finite, zero, tiny, negative.
+    const NASTY_NUMBERS: [&str; 14] = [
+        "1e15",
+        "-1e15",
+        "1e308",
+        "inf",
+        "-inf",
+        "nan",
+        "0",
+        "-0.0",
+        "1e-300",
+        "10000.0",
+        "-10000.0",
+        "9999.5",
+        "-1",
+        "4294967296",
+    ];
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(96))]
+
+        /// A valid scenario with some of its numbers replaced by nasty ones parses or is
+        /// refused, never panics; one that passes builds its world, draws an SVG map no
+        /// bigger than its input justifies and simulates its first events.
+        #[test]
+        fn damaged_scenarios_never_panic_and_draw_bounded_maps(
+            office in proptest::bool::ANY,
+            edits in proptest::collection::vec((proptest::num::usize::ANY, 0usize..NASTY_NUMBERS.len()), 1..4),
+        ) {
+            let mut src = if office {
+                Scenario::builtin_toml("office").unwrap().to_owned()
+            } else {
+                BASE.to_owned()
+            };
+            for (which, value) in edits {
+                let spans = number_spans(&src);
+                let span = spans[which % spans.len()].clone();
+                src.replace_range(span, NASTY_NUMBERS[value]);
+            }
+            let Ok(scenario) = Scenario::from_toml_str(&src, "damaged.toml") else {
+                return Ok(());
+            };
+            proptest::prop_assert!(scenario.validate().is_empty());
+            let mut sim = crate::sim::Simulation::new(&scenario, 0).unwrap();
+            let extent: Vec<_> = scenario
+                .people
+                .iter()
+                .flat_map(|p| p.path.iter().map(|&xy| point(xy)))
+                .collect();
+            let svg = crate::svg::MapSvg::new(&scenario, sim.world(), extent, 60.0).finish();
+            proptest::prop_assert!(svg.len() < 1_000_000 + 2_000 * src.len(), "{} bytes", svg.len());
+            for _ in 0..3 {
+                sim.advance();
+            }
+        }
+
+        /// Arbitrary text never panics the parser.
+        #[test]
+        fn arbitrary_text_never_panics(text in "[\\[\\]a-z_=.0-9\"\n {},-]{0,200}") {
+            let _ = Scenario::from_toml_str(&text, "random.toml");
+        }
     }
 }

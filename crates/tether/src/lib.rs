@@ -2,6 +2,7 @@
 //! report, shared by the command line, the tests and the benchmarks.
 
 pub mod closed_loop;
+pub mod config_docs;
 pub mod ego;
 pub mod live;
 pub mod logs;

@@ -41,6 +41,8 @@ enum Command {
     EvalFusion(cmd::eval_fusion::Args),
     /// Measure tracking and the target on an annotated recording (CLEAR MOT, target share).
     EvalTrack(cmd::eval_track::Args),
+    /// Show what a recording (ROS 1 bag or MCAP) holds: topics, types, counts, rates, frames, scan geometry.
+    Info(cmd::info::Args),
     /// Measure the target lock over many simulated seeds, per sensor mode.
     EvalTarget(cmd::eval_target::Args),
     /// Detect objects with an OpenCV Haar cascade (prints opencv_reference.py's JSON).
@@ -59,6 +61,9 @@ enum Command {
     /// Calibrate a sensor from measurements.
     #[command(subcommand)]
     Calibrate(Calibrate),
+    /// Show configuration: `tether config defaults` prints every pipeline parameter.
+    #[command(subcommand)]
+    Config(cmd::config::ConfigCommand),
     /// The process `tether run` starts beside itself to stop the base if tether dies.
     #[command(hide = true)]
     BaseGuard(cmd::base_guard::Args),
@@ -114,6 +119,7 @@ fn main() -> std::process::ExitCode {
         Command::Replay(args) => cmd::replay::run(args),
         Command::EvalFusion(args) => cmd::eval_fusion::run(args),
         Command::EvalTrack(args) => cmd::eval_track::run(args),
+        Command::Info(args) => cmd::info::run(args),
         Command::EvalTarget(args) => cmd::eval_target::run(args),
         Command::Detect(args) => cmd::detect::run(args),
         Command::TrainCascade(args) => cmd::train_cascade::run(args),
@@ -121,6 +127,7 @@ fn main() -> std::process::ExitCode {
         Command::Run(args) => cmd::run::run(args),
         Command::UrgEmulator(args) => cmd::urg_emulator::run(args),
         Command::BaseGuard(args) => cmd::base_guard::run(args),
+        Command::Config(command) => cmd::config::run(command),
         Command::Calibrate(Calibrate::Camera(args)) => cmd::calibrate_camera::run(args),
         Command::Calibrate(Calibrate::Laser(args)) => cmd::calibrate_laser::run(args),
     };

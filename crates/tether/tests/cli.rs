@@ -727,3 +727,33 @@ fn a_file_that_is_no_recording_is_named_for_what_it_is() {
     assert!(text(&out.stderr).contains("is a folder: a ROS 2 bag folder?"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn config_defaults_prints_a_config_the_commands_read() {
+    let dir = scratch("config-defaults");
+    let out = tether(&["config", "defaults"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let defaults = text(&out.stdout);
+    assert!(
+        defaults.contains(
+            "# Stop when the newest laser scan is older than this, s.\nlaser_timeout_s = 0.3"
+        ),
+        "{defaults}"
+    );
+    assert!(defaults.contains("\n[safety]\n"), "{defaults}");
+    let config = dir.join("defaults.toml");
+    std::fs::write(&config, &defaults).unwrap();
+    let bag = common::corridor_bag(&dir, 2);
+    let out = tether(&[
+        "track",
+        bag.to_str().unwrap(),
+        "--scan-topic",
+        "/scan",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        dir.join("t.jsonl").to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -3,6 +3,7 @@
 pub mod base_guard;
 pub mod calibrate_camera;
 pub mod calibrate_laser;
+pub mod config;
 pub mod demo;
 pub mod detect;
 pub mod eval_cascade;
@@ -10,6 +11,7 @@ pub mod eval_fusion;
 pub mod eval_legs;
 pub mod eval_target;
 pub mod eval_track;
+pub mod info;
 pub mod legs;
 pub mod replay;
 #[cfg(feature = "ros2")]

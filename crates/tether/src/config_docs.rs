@@ -1,0 +1,107 @@
+//! Every pipeline parameter with its default and its meaning, in the TOML layout that
+//! `track`, `replay`, `sim` and a robot's `[pipeline]` read (`tether config defaults`).
+//! The meanings are the first lines of the fields' doc comments, gathered from the
+//! sources by the build script; units are in the key names (`_m`, `_s`, `_mps`, ...)
+//! and at the end of each meaning.
+
+use std::fmt::Write as _;
+
+use tether_pipeline::PipelineConfig;
+
+include!(concat!(env!("OUT_DIR"), "/config_docs.rs"));
+
+/// The type and first doc line of `field` of struct `name`, if the sources have it.
+fn doc_of(name: &str, field: &str) -> Option<(&'static str, &'static str)> {
+    CONFIG_DOCS
+        .iter()
+        .find(|(s, f, _, _)| *s == name && *f == field)
+        .map(|(_, _, ty, doc)| (*ty, *doc))
+}
+
+/// The defaults as annotated TOML, and how many keys had no doc comment.
+pub fn annotated_defaults() -> Result<(String, usize), toml::ser::Error> {
+    let table = toml::Table::try_from(PipelineConfig::default())?;
+    let mut out = String::from(
+        "# tether's pipeline parameters and their defaults (`tether config defaults`).\n\
+         # The same layout as a --config file of track, replay and eval-target, and as\n\
+         # the [pipeline] tables of a robot's config, which refuses (by name) the keys\n\
+         # its own tables hold: laser.mount, camera, and the limits [robot] sets.\n\
+         # Every table and key is optional.\n\n",
+    );
+    let mut undocumented = 0;
+    write_table(
+        &mut out,
+        "",
+        Some("PipelineConfig"),
+        &table,
+        &mut undocumented,
+    );
+    Ok((out, undocumented))
+}
+
+fn write_table(
+    out: &mut String,
+    path: &str,
+    strukt: Option<&str>,
+    table: &toml::Table,
+    undocumented: &mut usize,
+) {
+    // A tagged enum's tag (`rule = "euclidean"`) is said by the enum's own doc.
+    let doc = |key: &str| {
+        strukt.and_then(|s| {
+            doc_of(s, key).or_else(|| {
+                let (_, d) = doc_of(s, "<enum>")?;
+                table
+                    .get(key)
+                    .is_some_and(toml::Value::is_str)
+                    .then_some(("", d))
+            })
+        })
+    };
+    let (tables, scalars): (Vec<_>, Vec<_>) = table.iter().partition(|(_, v)| v.is_table());
+    if !path.is_empty() && !scalars.is_empty() {
+        let _ = writeln!(out, "\n[{path}]");
+    }
+    for (key, value) in scalars {
+        match doc(key) {
+            Some((_, d)) if !d.is_empty() => {
+                let _ = writeln!(out, "# {d}");
+            }
+            _ => *undocumented += 1,
+        }
+        let _ = writeln!(out, "{key} = {value}");
+    }
+    for (key, value) in tables {
+        let inner = if path.is_empty() {
+            key.clone()
+        } else {
+            format!("{path}.{key}")
+        };
+        let found = doc(key);
+        if let Some((_, d)) = found
+            && !d.is_empty()
+        {
+            let _ = write!(out, "\n# [{inner}]: {d}");
+        }
+        if let Some(t) = value.as_table() {
+            write_table(out, &inner, found.map(|(ty, _)| ty), t, undocumented);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
+
+    use super::*;
+
+    #[test]
+    fn the_defaults_read_back_as_the_defaults_and_every_key_says_what_it_is() {
+        let (text, undocumented) = annotated_defaults().unwrap();
+        let back: PipelineConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back, PipelineConfig::default());
+        assert_eq!(undocumented, 0, "keys without a meaning:\n{text}");
+        assert!(text.contains("[safety]\n"), "{text}");
+        assert!(text.contains("laser_timeout_s = 0.3"), "{text}");
+    }
+}
