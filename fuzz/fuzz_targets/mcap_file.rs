@@ -10,7 +10,7 @@ use tether_io::mcap::{LaserScanMsg, MAGIC, McapFile};
 
 fuzz_target!(|data: &[u8]| {
     let mut bytes = Vec::with_capacity(data.len() + 8);
-    if data.first().is_some_and(|b| b % 16 != 0) {
+    if !data.starts_with(MAGIC) && data.first().is_some_and(|b| b % 16 != 0) {
         bytes.extend_from_slice(MAGIC);
     }
     bytes.extend_from_slice(data);

@@ -6,9 +6,9 @@
 
 use libfuzzer_sys::fuzz_target;
 use tether_io::mcap::{
-    ClockMsg, CompressedImageMsg, Detection2DArrayMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg, OdometryMsg,
-    PoseArrayMsg, PoseWithCovarianceStampedMsg, Ros2Message, StringMsg, TfMessage, TwistMsg,
-    TwistStampedMsg, from_cdr, to_cdr,
+    ClockMsg, CompressedImageMsg, Detection2DArrayMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg,
+    OdometryMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, Ros2Message, StringMsg, TfMessage,
+    TwistMsg, TwistStampedMsg, from_cdr, to_cdr,
 };
 
 fn check<M: Ros2Message>(payload: &[u8]) {

@@ -1006,12 +1006,13 @@ pub(crate) mod tests {
     }
 
     proptest::proptest! {
-        /// Damaged files never panic: random bytes replaced, or numbers changed to other
-        /// numbers (negative, huge, fractional), either load or give an error, and a
-        /// cascade that loads can scan an image.
+        /// Damaged files (of either layout) never panic: random bytes replaced, or
+        /// numbers changed to other numbers (negative, huge, fractional), either load or
+        /// give an error, and a cascade that loads can scan an image.
         #[test]
-        fn damaged_files_never_panic(edits in proptest::collection::vec((0usize..4000, 0usize..12), 1..6)) {
-            let mut text = TINY_TRAINCASCADE.as_bytes().to_vec();
+        fn damaged_files_never_panic(old_format in proptest::bool::ANY, edits in proptest::collection::vec((0usize..4000, 0usize..12), 1..6)) {
+            let source = if old_format { TINY_HAARTRAINING } else { TINY_TRAINCASCADE };
+            let mut text = source.as_bytes().to_vec();
             let replacements: [&[u8]; 12] = [b"-", b"9", b"<", b">", b"e9", b" ", b"-7 ", b"1e40", b"0.5", b"_", b"\"", b"99999999999"];
             for (pos, which) in edits {
                 let at = pos % text.len();

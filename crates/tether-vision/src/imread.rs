@@ -158,6 +158,10 @@ pub fn dimensions(bytes: &[u8]) -> Option<(u32, u32)> {
         let marker = *bytes.get(at)?;
         at += 1;
         match marker {
+            // FF 00 is a stuffed zero, not a marker: the decoder (libjpeg's
+            // `next_marker`) discards it with the garbage before it and reads on, so
+            // must this scan, or a frame after it decodes at a size never checked.
+            0x00 => {}
             // Start of frame: every SOFn but DHT (c4), JPG (c8) and DAC (cc).
             0xc0..=0xcf if !matches!(marker, 0xc4 | 0xc8 | 0xcc) => {
                 let b = bytes.get(at + 3..at + 7)?;
@@ -554,6 +558,21 @@ mod tests {
     }
 
     #[test]
+    fn a_stuffed_zero_before_the_frame_does_not_hide_its_size() {
+        // Found by the `image_decode` fuzzer: garbage holding FF 00 before the frame
+        // header; the decoder skips it, the header scan took 00 for a marker with a
+        // length and missed the SOF9 after it, so a 4864 x 24592 frame went unchecked
+        // and 255 bytes took 120 MB. Here: a SOF0 claiming 32768 x 32768.
+        let jpeg = [
+            0xff, 0xd8, 0x01, 0xff, 0x00, 0x43, 0x01, 0xff, 0xc0, 0x00, 0x0b, 0x08, 0x80, 0x00,
+            0x80, 0x00, 0x01, 0x01, 0x11, 0x00, 0xff, 0xd9,
+        ];
+        assert_eq!(dimensions(&jpeg), Some((32768, 32768)));
+        let e = decode_gray(&jpeg).unwrap_err();
+        assert!(matches!(e, ImreadError::TooLarge { .. }), "{e}");
+    }
+
+    #[test]
     fn a_header_claiming_too_many_pixels_is_refused_before_decoding() {
         // 390 KB of this claimed 20000 x 20000 once took 10 GB in `tether detect`.
         let e = decode_gray(&png_header(20_000, 20_000)).unwrap_err();
@@ -741,5 +760,108 @@ mod tests {
         assert_eq!(exif_orientation(&exif), Some(6));
         assert_eq!(exif_orientation(b"Exif\0\0II"), None);
         assert_eq!(exif_orientation(&exif[..20]), None);
+    }
+
+    /// A small PNG written here: `color` RGBA 16-bit with a gAMA chunk, else 8-bit grey.
+    fn small_png(color: bool) -> Vec<u8> {
+        let (w, h) = (13u32, 7u32);
+        let mut out = Vec::new();
+        {
+            let mut e = png::Encoder::new(&mut out, w, h);
+            let samples = if color {
+                e.set_color(png::ColorType::Rgba);
+                e.set_depth(png::BitDepth::Sixteen);
+                e.set_source_gamma(png::ScaledFloat::new(0.6));
+                8
+            } else {
+                e.set_color(png::ColorType::Grayscale);
+                e.set_depth(png::BitDepth::Eight);
+                1
+            };
+            let mut writer = e.write_header().unwrap();
+            let data: Vec<u8> = (0..w * h * samples).map(|i| (i * 29 % 256) as u8).collect();
+            writer.write_image_data(&data).unwrap();
+        }
+        out
+    }
+
+    /// Files of every kind the decoders read, to be damaged.
+    fn fixtures() -> Vec<Vec<u8>> {
+        vec![
+            small_png(false),
+            small_png(true),
+            include_bytes!("../tests/data/jpeg/baseline_420_rst2.jpg").to_vec(),
+            include_bytes!("../tests/data/jpeg/progressive_420.jpg").to_vec(),
+            include_bytes!("../tests/data/jpeg/arith_420_rst2.jpg").to_vec(),
+            include_bytes!("../tests/data/jpeg/arith_progressive_420.jpg").to_vec(),
+            include_bytes!("../tests/data/jpeg/cmyk_adobe.jpg").to_vec(),
+            include_bytes!("../tests/data/jpeg/luma_subsampled.jpg").to_vec(),
+        ]
+    }
+
+    /// What every decode must hold: no more pixels than the cap, the header's size (or
+    /// its transpose, after an EXIF rotation), and a large picture only from a file
+    /// that can hold it.
+    fn check_decode(bytes: &[u8]) -> Result<(), proptest::test_runner::TestCaseError> {
+        if let Ok((image, _)) = decode_gray_warned(bytes) {
+            let (w, h) = (image.width() as u64, image.height() as u64);
+            proptest::prop_assert!(w > 0 && h > 0 && w * h <= MAX_DECODE_PIXELS);
+            // Without a size in the header the cap would not have been applied.
+            let size = dimensions(bytes);
+            proptest::prop_assert!(
+                size.is_some(),
+                "decoded {w}x{h} from a header without a size"
+            );
+            let (cw, ch) = size.map_or((0, 0), |(cw, ch)| (u64::from(cw), u64::from(ch)));
+            proptest::prop_assert!((w, h) == (cw, ch) || (w, h) == (ch, cw));
+        }
+        Ok(())
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(192))]
+
+        /// Valid PNG and JPEG files damaged (bytes overwritten, inserted, deleted, the
+        /// file cut) decode or give an error, never panic, and what decodes keeps to
+        /// its header.
+        #[test]
+        fn damaged_images_never_panic(
+            which in 0usize..8,
+            edits in proptest::collection::vec((proptest::num::usize::ANY, proptest::num::u8::ANY, 0u8..4), 0..8),
+            cut in proptest::option::of(proptest::num::usize::ANY),
+        ) {
+            let mut bytes = fixtures().swap_remove(which);
+            for (at, byte, kind) in edits {
+                let at = at % bytes.len().max(1);
+                match kind {
+                    0 if at < bytes.len() => bytes[at] = byte,
+                    1 => bytes.insert(at.min(bytes.len()), byte),
+                    2 if at < bytes.len() => {
+                        bytes.remove(at);
+                    }
+                    // A big value in a size field: 0xff after a header byte.
+                    _ if at + 1 < bytes.len() => {
+                        bytes[at] = 0xff;
+                        bytes[at + 1] = byte;
+                    }
+                    _ => {}
+                }
+            }
+            if let Some(cut) = cut {
+                bytes.truncate(cut % (bytes.len() + 1));
+            }
+            check_decode(&bytes)?;
+        }
+
+        /// Random bytes after a PNG or JPEG signature never panic.
+        #[test]
+        fn random_bytes_after_a_signature_never_panic(
+            png in proptest::bool::ANY,
+            tail in proptest::collection::vec(proptest::num::u8::ANY, 0..400),
+        ) {
+            let mut bytes = if png { b"\x89PNG\r\n\x1a\n".to_vec() } else { vec![0xff, 0xd8] };
+            bytes.extend_from_slice(&tail);
+            check_decode(&bytes)?;
+        }
     }
 }
