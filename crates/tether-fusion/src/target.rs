@@ -509,6 +509,9 @@ pub struct TargetSelector {
     evidence_at_loss: Option<(u64, u32, Option<Stamp>)>,
     /// The locked track, its last update and the update before that.
     target_updates: Option<(u64, Stamp, Option<Stamp>)>,
+    /// Every track's last good estimate at the previous update: what a track the
+    /// tracker has since merged into another one was doing.
+    last_anchors: std::collections::BTreeMap<u64, crate::tracker::Anchor>,
 }
 
 impl TargetSelector {
@@ -543,6 +546,7 @@ impl TargetSelector {
             presented: None,
             evidence_at_loss: None,
             target_updates: None,
+            last_anchors: std::collections::BTreeMap::new(),
         }
     }
 
@@ -653,6 +657,23 @@ impl TargetSelector {
     /// Updates the state from the current tracks, knowing what the sensors see.
     pub fn update_with_view(&mut self, now: Stamp, tracks: &[Track], view: &View) -> TargetState {
         self.refusals_now.clear();
+        // The tracker dropped somebody else's track as a second track on the locked
+        // target's person since the last update: the target's track may have come onto
+        // them (a bystander crossing close behind the target while it was partly
+        // hidden), and it is checked as a track led off (before the other track is
+        // forgotten below).
+        let merged_somebody_else = match self.state {
+            TargetState::Locked { track } => tracks
+                .iter()
+                .find(|t| t.id == track)
+                .and_then(|t| t.merged)
+                .filter(|&(u, when)| {
+                    self.last_now.is_none_or(|l| when > l) && self.seen_beside_long_enough(u)
+                })
+                .and_then(|(u, _)| self.last_anchors.get(&u).copied()),
+            _ => None,
+        };
+        self.last_anchors = tracks.iter().map(|t| (t.id, t.anchor)).collect();
         let fresh = |t: &Track| now.secs_since(t.last_update) <= self.config.lost_after_s;
         // Time since the previous update, capped so that a gap in the input does not
         // count as time seen together.
@@ -768,7 +789,7 @@ impl TargetSelector {
                         self.stats.handovers += 1;
                         self.last_good = tracks.iter().find(|k| k.id == u).map(|k| k.anchor);
                         TargetState::Locked { track: u }
-                    } else if self.led_off(t, tracks, now, dt) {
+                    } else if self.led_off(t, tracks, now, dt, merged_somebody_else) {
                         let alone = self
                             .alone
                             .filter(|a| now.secs_since(a.stamp) <= self.config.encounter_max_s);
@@ -985,9 +1006,16 @@ impl TargetSelector {
     /// Whether another track `u` is surely somebody else: both were seen as whole
     /// people, apart, at the same instants for `beside_s`.
     fn is_somebody_else(&self, u: &Track) -> bool {
+        self.seen_beside_long_enough(u.id)
+    }
+
+    /// Whether track `id` has been seen beside the target for `beside_s` (the time is a
+    /// sum of scan intervals: five 0.1 s intervals make 0.49999999999999994 s, which
+    /// counts as 0.5 s).
+    fn seen_beside_long_enough(&self, id: u64) -> bool {
         self.beside
-            .get(&u.id)
-            .is_some_and(|&s| s >= self.config.beside_s)
+            .get(&id)
+            .is_some_and(|&s| s >= self.config.beside_s - 1e-6)
     }
 
     /// Adds `dt_s` to the time the target's track `t` has spent on each track of
@@ -997,13 +1025,34 @@ impl TargetSelector {
     /// the other track that came onto the target's person (a phantom swept along by
     /// the robot's turn, a track that lost its own person), not the target that was
     /// led off: nothing accrues.
-    fn led_off(&mut self, t: &Track, tracks: &[Track], now: Stamp, dt_s: f64) -> bool {
-        let on_course = self
+    ///
+    /// When the tracker has just merged somebody else's track into the target's (the
+    /// two stayed on one spot for its `duplicate_after_s`; `merged`: the other track's
+    /// last good estimate), the target's track now follows one of the two people: it
+    /// is led off when it carries on the other person's motion better than the
+    /// target's from when it was last alone (`encounter_max_s` ago at most). Two
+    /// tracks that have walked together for longer than that are one person's legs
+    /// tracked apart, or two people walking as one, and the merge changes nothing.
+    fn led_off(
+        &mut self,
+        t: &Track,
+        tracks: &[Track],
+        now: Stamp,
+        dt_s: f64,
+        merged: Option<crate::tracker::Anchor>,
+    ) -> bool {
+        let alone = self
             .alone
-            .filter(|a| now.secs_since(a.stamp) <= self.config.encounter_max_s && now > a.stamp)
-            .is_some_and(|a| {
-                self.off_motion_sq(&a, t, now) <= self.config.handover_within_sigma.powi(2)
-            });
+            .filter(|a| now.secs_since(a.stamp) <= self.config.encounter_max_s && now > a.stamp);
+        if let Some(other) = merged {
+            let d_other = self.off_motion_sq(&other, t, now);
+            if alone.is_some_and(|a| d_other < self.off_motion_sq(&a, t, now)) {
+                return true;
+            }
+        }
+        let on_course = alone.is_some_and(|a| {
+            self.off_motion_sq(&a, t, now) <= self.config.handover_within_sigma.powi(2)
+        });
         if on_course {
             self.on_other.clear();
             return false;
@@ -1022,7 +1071,7 @@ impl TargetSelector {
         for id in on {
             let s = self.on_other.entry(id).or_insert(0.0);
             *s += dt_s;
-            led |= *s >= self.config.led_off_after_s;
+            led |= *s >= self.config.led_off_after_s - 1e-6;
         }
         led
     }
@@ -1080,12 +1129,11 @@ impl TargetSelector {
         // born at the target, and away from where the target was last seen. A track
         // born at the target, or standing where it was lost, may be the target itself,
         // taken up by a new track while the old one coasted or was led off.
-        let beside_s = self.config.beside_s;
         self.others_at_loss = tracks
             .iter()
             .filter(|t| t.confirmed && t.id != track)
             .filter(|t| {
-                self.beside.get(&t.id).is_some_and(|&s| s >= beside_s)
+                self.seen_beside_long_enough(t.id)
                     || anchor.is_some_and(|a| self.there_before(t, &a))
                     || (self.born_apart.contains(&t.id)
                         && anchor.is_some_and(|a| {
@@ -1482,6 +1530,7 @@ mod tests {
             last_pair: Some(t),
             pair_anchor: Some(anchor),
             duplicate_since: None,
+            merged: None,
         }
     }
 
@@ -2047,6 +2096,63 @@ mod tests {
             assert_eq!(state.locked_track(), Some(1), "{ms} ms: {state:?}");
         }
         assert_eq!(s.stats().lost_led_off, 0);
+    }
+
+    /// The target walks +y at 1 m/s from (0, 0); a bystander, seen apart from it as a
+    /// whole person, walks +x along y = 1.2 and crosses just behind it. From 1300 ms the
+    /// target's track is at `merged_track(ms)` with velocity `merged_v`, and at 1500 ms
+    /// the tracker drops the bystander's track as a second track on the same person.
+    fn merge_run(merged_track: impl Fn(i64) -> (f64, f64), merged_v: (f64, f64)) -> TargetState {
+        let mut s = selector();
+        let mut state = TargetState::Searching;
+        for ms in (0..=2000).step_by(100) {
+            let t = ms as f64 / 1000.0;
+            let bystander = walker(2, t - 1.3, 1.2, (1.0, 0.0), ms);
+            let target = if ms < 1300 {
+                walker(1, 0.0, t, (0.0, 1.0), ms)
+            } else {
+                let (x, y) = merged_track(ms);
+                walker(1, x, y, merged_v, ms)
+            };
+            let mut tracks = vec![target];
+            if ms < 1500 {
+                tracks.push(bystander);
+            } else {
+                tracks[0].merged = Some((2, at(1500)));
+            }
+            state = s.update(at(ms), &tracks, Pose2::IDENTITY);
+            if ms == 1400 {
+                assert!(
+                    s.is_somebody_else(&tracks[1]),
+                    "the bystander was seen apart"
+                );
+            }
+            if state.locked_track().is_none() {
+                break;
+            }
+        }
+        state
+    }
+
+    #[test]
+    fn a_target_whose_track_takes_over_a_bystanders_is_lost_if_it_walks_their_walk() {
+        // The target's track ends up on the bystander (who walks +x): led off.
+        let state = merge_run(|ms| ((ms - 1300) as f64 / 1000.0, 1.2), (1.0, 0.0));
+        assert!(
+            matches!(
+                state,
+                TargetState::Lost {
+                    reason: LossReason::LedOff,
+                    track: 1,
+                    ..
+                }
+            ),
+            "{state:?}"
+        );
+        // It carries on the target's own walk (+y): the bystander's track was the one
+        // that came onto the target, and the lock stays.
+        let state = merge_run(|ms| (0.0, ms as f64 / 1000.0), (0.0, 1.0));
+        assert_eq!(state.locked_track(), Some(1), "{state:?}");
     }
 
     #[test]

@@ -394,6 +394,11 @@ pub struct Track {
     /// Since when this track has stayed within `duplicate_distance_m` of an older
     /// confirmed track.
     pub duplicate_since: Option<Stamp>,
+    /// The last track dropped as a second track on this one's person (its id, and
+    /// when): the two stayed within `duplicate_distance_m`. Usually this track's own
+    /// person's other leg; but when the dropped track was somebody else, this track
+    /// may have come onto them, and whoever follows it must check.
+    pub merged: Option<(u64, Stamp)>,
 }
 
 /// A track's state right after an update.
@@ -791,6 +796,7 @@ impl Tracker {
                 pair_anchor: (o.leg_pair || o.source != Source::Laser)
                     .then_some(Anchor::of(&filter, stamp)),
                 duplicate_since: None,
+                merged: None,
             });
             self.stats.tracks_started += 1;
             track_of[oi] = Some(id);
@@ -826,22 +832,44 @@ impl Tracker {
                 .iter()
                 .map(|t| (t.confirmed, t.position().mean))
                 .collect();
-            for (i, t) in self.tracks.iter_mut().enumerate() {
-                let shadowed = t.confirmed
-                    && positions[..i].iter().any(|(confirmed, p)| {
+            // For each track, the older confirmed track it shadows, if any.
+            let shadows: Vec<Option<usize>> = self
+                .tracks
+                .iter()
+                .enumerate()
+                .map(|(i, t)| {
+                    if !t.confirmed {
+                        return None;
+                    }
+                    positions[..i].iter().position(|(confirmed, p)| {
                         *confirmed && p.distance_m(t.position().mean) < c.duplicate_distance_m
-                    });
-                t.duplicate_since = if shadowed {
-                    t.duplicate_since.or(Some(now))
-                } else {
-                    None
+                    })
+                })
+                .collect();
+            let mut merges: Vec<(u64, u64)> = Vec::new();
+            for (t, shadow) in self.tracks.iter_mut().zip(&shadows) {
+                t.duplicate_since = match shadow {
+                    Some(_) => t.duplicate_since.or(Some(now)),
+                    None => None,
                 };
+            }
+            for (i, t) in self.tracks.iter().enumerate() {
+                if let (Some(since), Some(j)) = (t.duplicate_since, shadows[i])
+                    && now.secs_since(since) >= c.duplicate_after_s
+                {
+                    merges.push((t.id, self.tracks[j].id));
+                }
             }
             let before = self.tracks.len();
             self.tracks.retain(|t| {
                 t.duplicate_since
                     .is_none_or(|since| now.secs_since(since) < c.duplicate_after_s)
             });
+            for (dropped, into) in merges {
+                if let Some(t) = self.tracks.iter_mut().find(|t| t.id == into) {
+                    t.merged = Some((dropped, now));
+                }
+            }
             let merged = (before - self.tracks.len()) as u64;
             self.stats.tracks_dropped += merged;
             self.stats.duplicates_dropped += merged;
@@ -890,6 +918,36 @@ mod tests {
         assert!(tr.tracks().iter().all(|t| t.confirmed));
         let a = tr.track(ids.unwrap().0).unwrap();
         assert!((a.velocity().x - 1.0).abs() < 0.1);
+    }
+
+    #[test]
+    fn a_track_dropped_as_a_duplicate_is_recorded_on_the_one_it_merged_into() {
+        let mut tr = Tracker::new(TrackerConfig::default()).unwrap();
+        // One person at x = 1 walking +y; from 0.5 s a second track starts 0.6 m
+        // beside it (out of its gate) and comes within 0.3 m of it, walking with it
+        // (the person's legs tracked apart).
+        let mut second = None;
+        for k in 0..30 {
+            let y = k as f64 * 0.1;
+            let mut o = vec![obs(1.0, y, Source::Laser)];
+            if k >= 5 {
+                let dx = if k < 10 { 0.6 } else { 0.3 };
+                o.push(obs(1.0 + dx, y, Source::Laser));
+            }
+            let r = tr.process(at(100 * k), &o);
+            if k == 5 {
+                second = r.track_of[1];
+            }
+        }
+        let second = second.unwrap();
+        assert!(tr.track(second).is_none(), "the duplicate is dropped");
+        assert_eq!(tr.stats().duplicates_dropped, 1);
+        let first = &tr.tracks()[0];
+        assert!(
+            matches!(first.merged, Some((id, _)) if id == second),
+            "{:?}",
+            first.merged
+        );
     }
 
     #[test]
