@@ -74,7 +74,10 @@ pub struct TargetConfig {
     /// has learned the room).
     pub min_leg_pairs_standing: u32,
     /// Distance a track must have walked before the laser alone vouches for it when
-    /// re-acquiring, m.
+    /// re-acquiring, m: about one step (a post's or a table leg's track moves a few
+    /// centimetres; a bush's, whose returns wander over it, is kept out by the learned
+    /// static clutter). Each tenth of a metre costs a tenth of a second of a walker
+    /// who reappears.
     pub min_walked_m: f64,
     /// Share of a track's (not weak) updates that must be leg pairs before the laser
     /// alone vouches for it when re-acquiring: a bush or a phantom that now and then
@@ -150,7 +153,7 @@ impl Default for TargetConfig {
             lost_after_s: 1.0,
             min_leg_pairs: 1,
             min_leg_pairs_standing: 2,
-            min_walked_m: 0.5,
+            min_walked_m: 0.3,
             min_pair_share: 0.2,
             max_weak_share: 0.5,
             region_margin_m: 0.3,
