@@ -9,6 +9,7 @@
 #![allow(clippy::unwrap_used, reason = "a diagnostic tool")]
 
 use tether::closed_loop::{self, StepKind};
+use tether::target_metrics::nearest_other;
 use tether_fusion::TargetState;
 use tether_pipeline::PipelineConfig;
 use tether_sim::scenario::Scenario;
@@ -53,14 +54,7 @@ fn main() -> anyhow::Result<()> {
         };
         let locked = tick.target.estimate.map(|e| e.mean);
         let d_target = locked.map(|p| (p - target.position).norm());
-        let d_other = locked.and_then(|p| {
-            truth
-                .people
-                .iter()
-                .filter(|q| !q.target)
-                .map(|q| (q.position - p).norm())
-                .min_by(f64::total_cmp)
-        });
+        let d_other = locked.and_then(|p| nearest_other(&truth, p));
         let near: Vec<String> = tick
             .tracks
             .iter()

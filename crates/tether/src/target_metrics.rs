@@ -45,7 +45,8 @@ pub struct TargetLockMetrics {
     pub max_reacquire_s: Option<f64>,
 }
 
-fn nearest_other(truth: &Truth, p: Point2<World>) -> Option<f64> {
+/// Distance from `p` to the nearest person who is not the target, m.
+pub fn nearest_other(truth: &Truth, p: Point2<World>) -> Option<f64> {
     truth
         .people
         .iter()
