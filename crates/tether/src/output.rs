@@ -90,7 +90,9 @@ impl Drop for AtomicFile {
 pub struct StdoutClosed;
 
 /// True when `err` (or one of its causes) is [`StdoutClosed`], itself or inside an
-/// `io::Error` (as [`Output`] reports it).
+/// `io::Error` (as [`Output`] reports it), or inside a `serde_json::Error` of a JSON
+/// writer on an [`Output`] (which keeps only the `io::Error`'s kind, `BrokenPipe`: only
+/// standard output, a pipe, has that kind; an [`Output`] file never does).
 pub fn is_stdout_closed(err: &anyhow::Error) -> bool {
     err.chain().any(|cause| {
         cause.is::<StdoutClosed>()
@@ -98,6 +100,10 @@ pub fn is_stdout_closed(err: &anyhow::Error) -> bool {
                 .downcast_ref::<io::Error>()
                 .and_then(io::Error::get_ref)
                 .is_some_and(|inner| inner.is::<StdoutClosed>())
+            || cause
+                .downcast_ref::<serde_json::Error>()
+                .and_then(serde_json::Error::io_error_kind)
+                == Some(io::ErrorKind::BrokenPipe)
     })
 }
 

@@ -120,3 +120,17 @@ fn a_training_whose_stdout_closes_saves_the_stage_it_was_on_and_stops() {
     assert_eq!(saved["cascade"]["stages"].as_array().unwrap().len(), 1);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_closed_stdout_ends_track_and_legs_with_out_dash_cleanly() {
+    // Thirty simulated seconds make some 300 lines, more than a pipe holds: tether is
+    // still writing when the reader goes.
+    let dir = scratch("pipes-track");
+    let bag = common::corridor_bag(&dir, 30);
+    let bag = bag.to_str().unwrap();
+    let (line, out) = first_line_then_close(&["track", bag, "--scan-topic", "/scan", "--out", "-"]);
+    assert_clean_end("track --out -", &line, &out);
+    let (line, out) = first_line_then_close(&["legs", bag, "--topic", "/scan", "--out", "-"]);
+    assert_clean_end("legs --out -", &line, &out);
+    let _ = std::fs::remove_dir_all(&dir);
+}
