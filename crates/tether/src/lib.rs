@@ -11,6 +11,7 @@ pub mod metrics;
 pub mod output;
 pub mod plot;
 pub mod recording;
+pub mod replay_report;
 pub mod report;
 pub mod results;
 pub mod target_log;

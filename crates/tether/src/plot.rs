@@ -42,7 +42,7 @@ const TOP: f64 = 28.0;
 const BOTTOM: f64 = 34.0;
 
 /// "Nice" tick spacing for a range.
-fn tick_step(span: f64) -> f64 {
+pub(crate) fn tick_step(span: f64) -> f64 {
     if !(span.is_finite() && span > 0.0) {
         return 1.0;
     }
@@ -295,7 +295,7 @@ impl Plot {
     }
 }
 
-fn trim(v: f64) -> String {
+pub(crate) fn trim(v: f64) -> String {
     let s = format!("{v:.2}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
     if s == "-0" {

@@ -1,20 +1,26 @@
 //! `tether replay`: the per-tick pipeline of the simulator and the live robot, run over
 //! a recording (MCAP or ROS 1 bag); writes what tether saw and would have commanded as
-//! ROS 2 messages in an MCAP file, and an HTML report.
+//! ROS 2 messages in an MCAP file, and an HTML report (its pictures and track table are
+//! drawn by [`tether::replay_report`]).
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use tether::ego::{EgoMotion, PoseSource, ScanOdometry};
 use tether::plot::{Plot, Series};
 use tether::recording::{self, Sample, Topics};
+use tether::replay_report::{
+    Chosen, Snapshot, SnapshotPicker, TrackSeen, TrackTable, leg_detector, overview_svg,
+    snapshots_html,
+};
 use tether::report::simple_page;
 use tether::results::ResultWriter;
 use tether::target_log::TargetLog;
-use tether_core::{Pose2, Robot, Stamp, World};
-use tether_fusion::TargetStats;
+use tether_core::{Gaussian2, Laser, LaserScan, Pose2, Robot, Stamp, World};
+use tether_fusion::tracker::Track;
+use tether_fusion::{TargetState, TargetStats};
+use tether_laser::LegDetector;
 use tether_pipeline::{Pipeline, Tick};
 use tether_scanmatch::{MotionPrior, ScanMatcherConfig};
 use tether_sim::svg::xml_escape;
@@ -52,7 +58,9 @@ pub struct Args {
     /// confirmed tracks), `/tether/target` (PoseWithCovarianceStamped, while locked),
     /// `/tether/cmd_vel` (Twist, every tick), `/tether/laser_people` and
     /// `/tether/vision_people` (PoseArray, per scan and per camera frame). The report
-    /// goes beside it, with the extension `.html`.
+    /// goes beside it, with the extension `.html`: a map, snapshots of the scan with
+    /// the legs, people, tracks and target at chosen instants, the target's locks and
+    /// losses, a table of the tracks, and plots over time.
     #[arg(long, value_name = "RESULT.mcap")]
     pub out: Option<PathBuf>,
 }
@@ -67,8 +75,41 @@ struct TickRow {
     tracks: usize,
 }
 
+/// The last scan replayed, with the robot's pose at it and its laser people: what a
+/// snapshot draws (a loss on a camera frame draws the scan before it).
+struct LastScan {
+    index: usize,
+    scan: LaserScan,
+    world_from_robot: Pose2<World, Robot>,
+    laser_people: Vec<Gaussian2<World>>,
+}
+
+impl LastScan {
+    /// A snapshot of this scan with the tick's tracks and target.
+    fn snapshot(
+        &self,
+        tick: &Tick,
+        start: Stamp,
+        robot_from_laser: Pose2<Robot, Laser>,
+        chosen: Chosen,
+    ) -> Snapshot {
+        Snapshot {
+            t_s: tick.stamp.secs_since(start),
+            stamp: tick.stamp,
+            scan_index: self.index,
+            chosen,
+            scan: self.scan.clone(),
+            world_from_robot: self.world_from_robot,
+            robot_from_laser,
+            laser_people: self.laser_people.clone(),
+            tracks: tick.tracks.clone(),
+            target: tick.target.state,
+            target_estimate: tick.target.estimate,
+        }
+    }
+}
+
 /// Everything the report needs, gathered while replaying.
-#[derive(Default)]
 struct Summary {
     scans: usize,
     frames: usize,
@@ -81,13 +122,77 @@ struct Summary {
     target_ids: Vec<u64>,
     start: Option<Stamp>,
     target: TargetLog,
+    robot_from_laser: Pose2<Robot, Laser>,
+    /// Scans that reached the pipeline (with a pose).
+    scans_replayed: usize,
+    last_scan: Option<LastScan>,
+    snapshots: SnapshotPicker,
+    track_table: TrackTable,
+    lost: bool,
 }
 
 impl Summary {
-    fn record(&mut self, tick: &Tick, world_from_robot: Pose2<World, Robot>) {
+    fn new(robot_from_laser: Pose2<Robot, Laser>) -> Self {
+        Summary {
+            scans: 0,
+            frames: 0,
+            boxes: 0,
+            odom: 0,
+            waiting_for_odom: 0,
+            ticks: Vec::new(),
+            trails: BTreeMap::new(),
+            robot_path: Vec::new(),
+            target_ids: Vec::new(),
+            start: None,
+            target: TargetLog::new(),
+            robot_from_laser,
+            scans_replayed: 0,
+            last_scan: None,
+            snapshots: SnapshotPicker::new(),
+            track_table: TrackTable::new(),
+            lost: false,
+        }
+    }
+
+    /// A scan went through the pipeline: it is the last scan, and perhaps one of the
+    /// evenly spaced snapshots.
+    fn scan(&mut self, scan: LaserScan, world_from_robot: Pose2<World, Robot>, tick: &Tick) {
+        let start = *self.start.get_or_insert(tick.stamp);
+        let index = self.scans_replayed;
+        self.scans_replayed += 1;
+        let last = LastScan {
+            index,
+            scan,
+            world_from_robot,
+            laser_people: tick.laser_people.clone(),
+        };
+        let robot_from_laser = self.robot_from_laser;
+        self.snapshots.scan(index, || {
+            last.snapshot(tick, start, robot_from_laser, Chosen::Evenly)
+        });
+        self.last_scan = Some(last);
+    }
+
+    fn record(&mut self, tick: &Tick, world_from_robot: Pose2<World, Robot>, tracks: &[Track]) {
         let start = *self.start.get_or_insert(tick.stamp);
         self.target
             .record(tick.stamp, &tick.target.state, &tick.refusals);
+        let lost = matches!(tick.target.state, TargetState::Lost { .. });
+        if let (TargetState::Lost { reason, .. }, false, Some(last)) =
+            (tick.target.state, self.lost, &self.last_scan)
+        {
+            let robot_from_laser = self.robot_from_laser;
+            self.snapshots
+                .loss(|| last.snapshot(tick, start, robot_from_laser, Chosen::Loss(reason)));
+        }
+        self.lost = lost;
+        let seen: Vec<TrackSeen> = tracks.iter().map(TrackSeen::of).collect();
+        self.track_table.update(
+            tick.stamp,
+            matches!(tick.input, tether_pipeline::TickInput::Scan),
+            &seen,
+            tick.target.state.locked_track(),
+        );
         let robot = world_from_robot.translation();
         self.robot_path.push((robot.x, robot.y));
         let target = tick
@@ -126,72 +231,13 @@ impl Summary {
         }
     }
 
-    /// A top view of the tracks' trails and the robot's path, as SVG.
-    fn map_svg(&self) -> String {
-        let all = self
-            .trails
-            .values()
-            .flatten()
-            .chain(self.robot_path.iter())
-            .copied();
-        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for (x, y) in all {
-            x0 = x0.min(x);
-            x1 = x1.max(x);
-            y0 = y0.min(y);
-            y1 = y1.max(y);
-        }
-        if x0 > x1 {
-            return String::from("<p>No tracks.</p>");
-        }
-        let span = (x1 - x0).max(y1 - y0).max(1.0);
-        let (size, pad) = (560.0, 20.0);
-        let k = (size - 2.0 * pad) / span;
-        let px = |x: f64, y: f64| (pad + (x - x0) * k, size - pad - (y - y0) * k);
-        let mut s = format!(
-            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{size}\" height=\"{size}\" \
-             viewBox=\"0 0 {size} {size}\"><rect width=\"100%\" height=\"100%\" fill=\"#fafafa\"/>"
-        );
-        let palette = [
-            "#1f77b4", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf",
-        ];
-        let path = |pts: &[(f64, f64)]| {
-            pts.iter()
-                .map(|&(x, y)| {
-                    let (u, v) = px(x, y);
-                    format!("{u:.1},{v:.1}")
-                })
-                .collect::<Vec<_>>()
-                .join(" ")
-        };
-        for (i, (id, pts)) in self.trails.iter().enumerate() {
-            let target = self.target_ids.contains(id);
-            let color = if target {
-                "#d62728"
-            } else {
-                palette[i % palette.len()]
-            };
-            let width = if target { 2.5 } else { 1.2 };
-            let _ = write!(
-                s,
-                "<polyline fill=\"none\" stroke=\"{color}\" stroke-width=\"{width}\" points=\"{}\"><title>track {id}</title></polyline>",
-                path(pts)
-            );
-        }
-        let _ = write!(
-            s,
-            "<polyline fill=\"none\" stroke=\"#333\" stroke-dasharray=\"4 3\" points=\"{}\"><title>robot</title></polyline>",
-            path(&self.robot_path)
-        );
-        let _ = write!(
-            s,
-            "<text x=\"{pad}\" y=\"14\" font-size=\"12\">{:.1} m across; red: the target's tracks, dashed: the robot</text></svg>",
-            span
-        );
-        s
-    }
-
-    fn html(&self, recording: &Path, frame: &str, counts: TargetStats) -> String {
+    fn html(
+        &mut self,
+        recording: &Path,
+        frame: &str,
+        counts: TargetStats,
+        detector: &mut LegDetector,
+    ) -> String {
         let duration = self.ticks.last().map_or(0.0, |r| r.t_s);
         let locked = self
             .ticks
@@ -236,12 +282,22 @@ impl Summary {
             series: vec![self.series("tracks", "#333", |r| Some(r.tracks as f64))],
             ..Plot::default()
         };
+        let snapshots = std::mem::take(&mut self.snapshots).finish(self.scans_replayed);
+        let start = self.start.unwrap_or(Stamp::ZERO);
         let sections = vec![
-            ("Map".to_string(), self.map_svg()),
+            (
+                "Map".to_string(),
+                overview_svg(&self.trails, &self.robot_path, &self.target_ids, frame),
+            ),
+            (
+                "Snapshots".to_string(),
+                snapshots_html(&snapshots, detector, frame),
+            ),
             (
                 "Target: locks, losses and why".to_string(),
                 self.target.html(counts),
             ),
+            ("Tracks".to_string(), self.track_table.html(start)),
             (
                 "Over time".to_string(),
                 [target, commands, tracks]
@@ -293,7 +349,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let mut pose: Option<Pose2<World, Robot>> =
         (source != PoseSource::Odometry).then_some(Pose2::IDENTITY);
-    let mut summary = Summary::default();
+    let mut summary = Summary::new(pipeline.config().laser.robot_from_laser());
     let stats = recording::read(&args.recording, &topics, &mut |sample| {
         let (tick, world_from_robot) = match sample {
             Sample::Odom {
@@ -315,7 +371,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     summary.waiting_for_odom += 1;
                     return Ok(());
                 };
-                (pipeline.on_scan(&scan, p), p)
+                let tick = pipeline.on_scan(&scan, p);
+                summary.scan(scan, p, &tick);
+                (tick, p)
             }
             Sample::Camera { stamp, image } => {
                 summary.frames += 1;
@@ -327,7 +385,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 (pipeline.on_camera_boxes(stamp, &boxes, p), p)
             }
         };
-        summary.record(&tick, world_from_robot);
+        summary.record(&tick, world_from_robot, pipeline.tracker().tracks());
         if let Some(out) = output.as_mut() {
             out.write_tick(&tick)?;
         }
@@ -368,8 +426,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             })
             .with_context(|| format!("writing {}", path.display()))?;
         let report = path.with_extension("html");
-        std::fs::write(&report, summary.html(&args.recording, frame, target_counts))
-            .with_context(|| format!("writing {}", report.display()))?;
+        let mut detector = leg_detector(pipeline.config())?;
+        let html = summary.html(&args.recording, frame, target_counts, &mut detector);
+        std::fs::write(&report, html).with_context(|| format!("writing {}", report.display()))?;
         tether::outln!(
             "results -> {}, report -> {}",
             path.display(),
