@@ -329,6 +329,50 @@ fn camera_frames_at_30_hz_arrive_without_loss_beside_the_scans() {
     );
 }
 
+#[test]
+fn compressed_camera_frames_arrive_and_are_decoded() {
+    let cascade = Path::new("/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml");
+    if !peer_available()
+        || !skip_unless(
+            cascade.is_file(),
+            "Debian's opencv-data cascades are not installed",
+        )
+        || !skip_unless(
+            runs("python3", &["-c", "import cv2"]),
+            "the Python peer encodes JPEG with OpenCV (`pip install opencv-python-headless`)",
+        )
+    {
+        return;
+    }
+    let dir = scratch("ros2-compressed");
+    let bag = corridor_bag(&dir);
+    let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robot.example.toml");
+    let seen = peer(
+        &bag,
+        &["--seconds", "8", "--images-hz", "15", "--compressed"],
+        &[
+            "--config",
+            config.to_str().unwrap(),
+            "--ros-args",
+            "-p",
+            "image_transport:=compressed",
+        ],
+    );
+    let j = &seen.json;
+    let stderr = j["stderr"].as_str().unwrap();
+    assert_eq!(j["exit_code"], 0, "{stderr}");
+    let sent = j["images_sent"].as_u64().unwrap();
+    assert!(sent >= 100, "{sent} frames sent in 8 s");
+    // JPEG frames of the camera's size, every one received, decoded and run through the
+    // detector or superseded by a newer one, none refused.
+    assert_eq!(count_before(stderr, " frames received"), sent, "{stderr}");
+    assert!(count_before(stderr, " processed") > 0, "{stderr}");
+    assert!(
+        stderr.contains("0 refused for their size, 0 malformed"),
+        "{stderr}"
+    );
+}
+
 /// What a closed loop over DDS left: the simulator's summary, the listener's JSON, and
 /// the two processes' logs.
 struct ClosedLoop {

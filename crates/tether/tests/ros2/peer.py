@@ -361,6 +361,12 @@ def main():
         help="also publish 640x480 rgb8 frames on rt/image_raw at this rate",
     )
     ap.add_argument(
+        "--compressed",
+        action="store_true",
+        help="publish the frames as JPEG sensor_msgs/CompressedImage on "
+        "rt/image_raw/compressed instead (encoded with OpenCV)",
+    )
+    ap.add_argument(
         "--stamped",
         action="store_true",
         help="cmd_vel is TwistStamped (tether -p cmd_vel_stamped:=true): measure the "
@@ -381,9 +387,16 @@ def main():
         dp, Topic(dp, "rt/scan", LaserScan), qos=qos(a.reliable, 5)
     )
     odom_writer = DataWriter(dp, Topic(dp, "rt/odom", Odometry), qos=qos(False, 5))
-    image_writer = DataWriter(
-        dp, Topic(dp, "rt/image_raw", Image), qos=qos(True, 5)
-    )
+    if a.compressed:
+        image_writer = DataWriter(
+            dp,
+            Topic(dp, "rt/image_raw/compressed", CompressedImage),
+            qos=qos(True, 5),
+        )
+    else:
+        image_writer = DataWriter(
+            dp, Topic(dp, "rt/image_raw", Image), qos=qos(True, 5)
+        )
     # A grey gradient, the same every frame (the detector finds nobody in it). Cyclone's
     # Python serialiser takes ~40 ms for 0.9 MB, too slow for 30 Hz: the frame is
     # serialised by it once, and each frame only gets its stamp written into the bytes
@@ -397,6 +410,18 @@ def main():
         step=640 * 3,
         data=bytes((x // 3) % 256 for x in range(640 * 3)) * 480,
     )
+    if a.compressed:
+        import cv2
+        import numpy
+
+        rgb = numpy.frombuffer(frame.data, dtype=numpy.uint8).reshape(480, 640, 3)
+        ok, jpeg = cv2.imencode(".jpg", rgb[:, :, ::-1])
+        assert ok
+        frame = CompressedImage(
+            header=Header(stamp=Time(sec=0, nanosec=0), frame_id="camera"),
+            format="jpeg",
+            data=jpeg.tobytes(),
+        )
     frame_bytes = bytearray(frame.serialize(use_version_2=False))
     cmd_type = TwistStamped if a.stamped else Twist
     cmds = []
