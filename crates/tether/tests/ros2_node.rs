@@ -330,6 +330,66 @@ fn camera_frames_at_30_hz_arrive_without_loss_beside_the_scans() {
 }
 
 #[test]
+fn a_node_renamed_in_a_namespace_on_another_domain_with_a_remapped_scan_follows() {
+    if !peer_available() {
+        return;
+    }
+    let dir = scratch("ros2-names");
+    let bag = corridor_bag(&dir);
+    // Everything in /robot1 on domain 7: the scans on /robot1/front_scan, the mount on
+    // /robot1/tf_static, the commands expected on /robot1/cmd_vel; tether named
+    // `follower`, its spring's loops set by parameters.
+    let seen = peer(
+        &bag,
+        &[
+            "--seconds",
+            "12",
+            "--ns",
+            "/robot1",
+            "--scan-name",
+            "front_scan",
+            "--domain",
+            "7",
+        ],
+        &[
+            "--ros-args",
+            "-r",
+            "__ns:=/robot1",
+            "-r",
+            "__node:=follower",
+            "-r",
+            "scan:=front_scan",
+            "-p",
+            "distance_omega:=3.0",
+            "-p",
+            "bearing_omega:=2.5",
+        ],
+    );
+    let j = &seen.json;
+    let stderr = j["stderr"].as_str().unwrap_or_default();
+    assert_eq!(j["exit_code"], 0, "{stderr}");
+    let nodes = j["nodes"].as_array().unwrap();
+    assert!(
+        nodes
+            .iter()
+            .any(|n| n[0] == "/robot1" && n[1] == "follower"),
+        "the node is /robot1/follower on domain 7: {nodes:?}\n{stderr}"
+    );
+    assert!(
+        stderr.contains("laser mount from /tf_static"),
+        "the mount came from /robot1/tf_static: {stderr}"
+    );
+    let cmds = seen.series("cmd_vel");
+    assert!(
+        cmds.iter().filter(|c| Seen::f(&c[1]) > 0.05).count() > cmds.len() / 3,
+        "the commands on /robot1/cmd_vel drive: {} of them\n{stderr}",
+        cmds.len()
+    );
+    let last = cmds.last().unwrap();
+    assert_eq!((Seen::f(&last[1]), Seen::f(&last[2])), (0.0, 0.0));
+}
+
+#[test]
 fn compressed_camera_frames_arrive_and_are_decoded() {
     let cascade = Path::new("/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml");
     if !peer_available()

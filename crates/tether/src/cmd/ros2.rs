@@ -24,7 +24,10 @@
 //! results), `base_frame` (default `base_link`), `cmd_vel_stamped` (default `false`;
 //! `true`: `geometry_msgs/msg/TwistStamped` in `base_frame`, stamped with the time of
 //! the scan or timer tick that made the command, as Jazzy's diff-drive controller
-//! takes it), `follow_distance` (m, the spring's free length), `use_sim_time` (default
+//! takes it), `follow_distance` (m, the spring's free length), `attach_ahead` (m, where
+//! the spring is attached ahead of the wheel axis), `distance_omega` and `bearing_omega`
+//! (rad/s, the natural frequencies of the distance and bearing loops, from which the
+//! spring's gains follow), `use_sim_time` (default
 //! `false`; `true`: time is the newest `/clock`, `rosgraph_msgs/msg/Clock`, which the
 //! node waits for at the start; `--duration` then counts simulated seconds, and a clock
 //! that stands still for 1 s stops the robot), `image_transport` (`raw`, the default,
@@ -105,7 +108,7 @@ pub struct Args {
 }
 
 /// The parameters `tether ros2` reads.
-const PARAMETERS: [&str; 8] = [
+const PARAMETERS: [&str; 11] = [
     "fixed_frame",
     "base_frame",
     "cmd_vel_stamped",
@@ -113,7 +116,30 @@ const PARAMETERS: [&str; 8] = [
     "camera_input",
     "detection_class",
     "follow_distance",
+    "attach_ahead",
+    "distance_omega",
+    "bearing_omega",
     "use_sim_time",
+];
+
+/// The follower's numeric parameters: name, what it sets, its unit.
+const FOLLOWER_PARAMETERS: [(&str, fn(&mut PipelineConfig) -> &mut f64, &str); 4] = [
+    (
+        "follow_distance",
+        |p| &mut p.follower.follow_distance_m,
+        "m",
+    ),
+    ("attach_ahead", |p| &mut p.follower.attach_ahead_m, "m"),
+    (
+        "distance_omega",
+        |p| &mut p.follower.distance_omega_radps,
+        "rad/s",
+    ),
+    (
+        "bearing_omega",
+        |p| &mut p.follower.bearing_omega_radps,
+        "rad/s",
+    ),
 ];
 
 /// Where the camera's people come from.
@@ -185,11 +211,15 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
             anyhow::anyhow!("parameter cmd_vel_stamped must be true or false, got {v:?}")
         })?,
     };
-    if let Some(v) = ros.params.get("follow_distance") {
-        match v.as_f64() {
-            Some(d) if d.is_finite() && d > 0.0 => pipeline.follower.follow_distance_m = d,
-            _ => {
-                anyhow::bail!("parameter follow_distance must be a positive length in m, got {v:?}")
+    // The spring: its free length, where it is attached, and its gains as the natural
+    // frequencies of the distance and bearing loops (design 6).
+    for (name, field, unit) in FOLLOWER_PARAMETERS {
+        if let Some(v) = ros.params.get(name) {
+            match v.as_f64() {
+                Some(x) if x.is_finite() && x > 0.0 => *field(pipeline) = x,
+                _ => {
+                    anyhow::bail!("parameter {name} must be a positive number in {unit}, got {v:?}")
+                }
             }
         }
     }

@@ -379,23 +379,42 @@ def main():
         help="join rt/tf_static (transient local) S seconds into the scans and report "
         "the transforms received",
     )
+    ap.add_argument(
+        "--ns",
+        default="",
+        help="the namespace tether runs in (its -r __ns:=NS): every topic is NS/topic",
+    )
+    ap.add_argument(
+        "--scan-name",
+        default="scan",
+        help="publish the scans on this topic (tether remaps its scan to it)",
+    )
+    ap.add_argument(
+        "--domain",
+        type=int,
+        default=0,
+        help="the DDS domain of the peer and of tether (ROS_DOMAIN_ID in its environment)",
+    )
     ap.add_argument("tether_args", nargs="*", help="more arguments for tether ros2")
     a = ap.parse_args()
 
-    dp = DomainParticipant(0)
+    def rt(name):
+        return "rt" + a.ns + "/" + name
+
+    dp = DomainParticipant(a.domain)
     scan_writer = DataWriter(
-        dp, Topic(dp, "rt/scan", LaserScan), qos=qos(a.reliable, 5)
+        dp, Topic(dp, rt(a.scan_name), LaserScan), qos=qos(a.reliable, 5)
     )
-    odom_writer = DataWriter(dp, Topic(dp, "rt/odom", Odometry), qos=qos(False, 5))
+    odom_writer = DataWriter(dp, Topic(dp, rt("odom"), Odometry), qos=qos(False, 5))
     if a.compressed:
         image_writer = DataWriter(
             dp,
-            Topic(dp, "rt/image_raw/compressed", CompressedImage),
+            Topic(dp, rt("image_raw/compressed"), CompressedImage),
             qos=qos(True, 5),
         )
     else:
         image_writer = DataWriter(
-            dp, Topic(dp, "rt/image_raw", Image), qos=qos(True, 5)
+            dp, Topic(dp, rt("image_raw"), Image), qos=qos(True, 5)
         )
     # A grey gradient, the same every frame (the detector finds nobody in it). Cyclone's
     # Python serialiser takes ~40 ms for 0.9 MB, too slow for 30 Hz: the frame is
@@ -441,15 +460,15 @@ def main():
 
     cmd_reader = DataReader(
         dp,
-        Topic(dp, "rt/cmd_vel", cmd_type),
+        Topic(dp, rt("cmd_vel"), cmd_type),
         qos=qos(True, 1000),
         listener=CmdListener(),
     )
     state_reader = DataReader(
-        dp, Topic(dp, "rt/tether/target_state", String), qos=qos(True, 1000)
+        dp, Topic(dp, rt("tether/target_state"), String), qos=qos(True, 1000)
     )
     people_reader = DataReader(
-        dp, Topic(dp, "rt/tether/people", PoseArray), qos=qos(True, 1000)
+        dp, Topic(dp, rt("tether/people"), PoseArray), qos=qos(True, 1000)
     )
     discovery_reader = DataReader(
         dp,
@@ -461,7 +480,7 @@ def main():
         x, y, yaw, z = a.mount
         tf_writer = DataWriter(
             dp,
-            Topic(dp, "rt/tf_static", TFMessage),
+            Topic(dp, rt("tf_static"), TFMessage),
             qos=qos(True, 1, transient_local=True),
         )
         _, stamp = stamp_now()
@@ -482,11 +501,15 @@ def main():
             )
         )
 
+    env = dict(os.environ)
+    if a.domain:
+        env["ROS_DOMAIN_ID"] = str(a.domain)
     child = subprocess.Popen(
         [a.tether, "ros2", *a.tether_args],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        env=env,
     )
     # Wait until tether's scan reader has matched ours (up to 10 s).
     started = time.monotonic()
@@ -557,7 +580,7 @@ def main():
         ):
             tf_static_reader = DataReader(
                 dp,
-                Topic(dp, "rt/tf_static", TFMessage),
+                Topic(dp, rt("tf_static"), TFMessage),
                 qos=qos(True, 100, transient_local=True),
             )
         while time.monotonic() - wall0 < offset:
