@@ -122,8 +122,11 @@ const PARAMETERS: [&str; 11] = [
     "use_sim_time",
 ];
 
+/// Where a numeric parameter goes in the pipeline's settings.
+type Field = fn(&mut PipelineConfig) -> &mut f64;
+
 /// The follower's numeric parameters: name, what it sets, its unit.
-const FOLLOWER_PARAMETERS: [(&str, fn(&mut PipelineConfig) -> &mut f64, &str); 4] = [
+const FOLLOWER_PARAMETERS: [(&str, Field, &str); 4] = [
     (
         "follow_distance",
         |p| &mut p.follower.follow_distance_m,
