@@ -279,6 +279,66 @@ fn the_base_s_odometry_is_the_robot_s_pose() {
     );
 }
 
+#[test]
+fn the_base_s_pose_from_tf_is_used_and_the_robot_stops_when_it_stops() {
+    if !peer_available() {
+        return;
+    }
+    let dir = scratch("ros2-tf");
+    let bag = corridor_bag(&dir);
+    // The base's pose only as odom -> base_link on /tf, which stops 14 s in while the
+    // scans go on.
+    let seen = peer(
+        &bag,
+        &[
+            "--seconds",
+            "20",
+            "--odom-topic",
+            "/odom",
+            "--odom-as-tf",
+            "--odom-until",
+            "14",
+        ],
+        &[],
+    );
+    let j = &seen.json;
+    let stderr = j["stderr"].as_str().unwrap();
+    assert_eq!(j["exit_code"], 0, "{stderr}");
+    let sent = j["odom_sent"].as_u64().unwrap();
+    assert!(sent >= 100, "{sent} transforms sent");
+    let from_tf = count_before(stderr, " base poses from /tf");
+    assert!(
+        from_tf * 10 >= sent * 9,
+        "{from_tf} of {sent} transforms used: {stderr}"
+    );
+    assert!(
+        count_before(stderr, " scans skipped on stale odometry") > 0,
+        "{stderr}"
+    );
+    // It drove while the transforms came, and once they stopped (14 s after the first
+    // scan) the commands came to a stop and stayed there.
+    let cmds = seen.series("cmd_vel");
+    let t0 = Seen::f(&cmds[0][0]);
+    assert!(
+        cmds.iter()
+            .any(|c| Seen::f(&c[0]) < t0 + 13.0 && Seen::f(&c[1]) > 0.2),
+        "it drove on /tf's poses"
+    );
+    let after: Vec<f64> = cmds
+        .iter()
+        .filter(|c| Seen::f(&c[0]) > t0 + 16.0)
+        .map(|c| Seen::f(&c[1]).abs() + Seen::f(&c[2]).abs())
+        .collect();
+    assert!(
+        !after.is_empty(),
+        "commands came after the transforms stopped"
+    );
+    assert!(
+        after.iter().all(|&x| x == 0.0),
+        "no motion without the base's pose: {after:?}"
+    );
+}
+
 /// The number before `what` in `text` (`"... 300 frames received ..."`).
 fn count_before(text: &str, what: &str) -> u64 {
     text.split(what)

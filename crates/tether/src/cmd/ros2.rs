@@ -10,6 +10,7 @@
 //! |---|---|---|
 //! | `scan` (in) | `sensor_msgs/msg/LaserScan` | best effort, keep last 5 (matches reliable and best-effort publishers) |
 //! | `odom` (in) | `nav_msgs/msg/Odometry` (the pose of `child_frame_id` in `header.frame_id`) | best effort, keep last 5 |
+//! | `tf` (in) | `tf2_msgs/msg/TFMessage`: `fixed_frame` -> `base_frame`, the base's pose while `odom` is silent | best effort, keep last 5 |
 //! | `clock` (in, with `use_sim_time`) | `rosgraph_msgs/msg/Clock` | best effort, keep last 1 |
 //! | `tf_static` (in) | `tf2_msgs/msg/TFMessage` (the laser's mount below `base_frame`) | reliable, transient local |
 //! | `image_raw` or `image_raw/compressed` (in, when the config has a `[camera]`) | `sensor_msgs/msg/Image` (`mono8`, `rgb8`, `bgr8`) or `sensor_msgs/msg/CompressedImage` (JPEG, PNG) | best effort, keep last 5 |
@@ -62,6 +63,7 @@ use tether::live::config::RobotConfig;
 use tether::live::ros2::{
     CameraCounters, LatestFrame, OutputTopics, RosOutputs, ScanCounters, start_camera_reader,
     start_clock_reader, start_detections_reader, start_odometry_reader, start_scan_reader,
+    start_tf_reader,
 };
 use tether::live::run_loop::{self, Ending, Input, LoopConfig, Recorder};
 use tether::results::TickMessages;
@@ -583,6 +585,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         odometry_stops,
         Arc::clone(&counters),
     )?;
+    // The base's pose from /tf while odom is silent (fixed_frame -> base_frame).
+    let tf_topic = topic("tf");
+    let (stop_tf_poses, tf_pose_stops) = mpsc::channel();
+    let tf_pose_reader = start_tf_reader(
+        &mut node,
+        &tf_topic,
+        &fixed_frame,
+        &base_frame,
+        clock.clone(),
+        tx.clone(),
+        tf_pose_stops,
+        Arc::clone(&counters),
+    )?;
     let camera_counters = Arc::new(CameraCounters::default());
     let latest = Arc::new(LatestFrame::default());
     let mut camera_threads = Vec::new();
@@ -753,6 +768,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     std::thread::sleep(Duration::from_millis(300));
     let _ = stop_reader.send(());
     let _ = stop_odometry.send(());
+    let _ = stop_tf_poses.send(());
     let _ = stop_tf.send(());
     let _ = stop_clock.send(());
     let _ = stop_graph.send(());
@@ -764,7 +780,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let threads = [
         ("scan", reader),
         ("odometry", odometry_reader),
-        ("tf", tf_reader),
+        ("tf", tf_pose_reader),
+        ("tf_static", tf_reader),
     ]
     .into_iter()
     .chain(clock_reader.map(|t| ("clock", t)))
@@ -785,7 +802,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     tracing::info!(
         "{}: {} scans ({} dropped while the loop was behind, {} stamped on arrival, {} \
          malformed samples), {} odometry messages used ({} refused, {} scans skipped on \
-         stale odometry), {} ticks ({} with a target)",
+         stale odometry), {} base poses from {tf_topic}, {} ticks ({} with a target)",
         summary.ending.name(),
         load(&counters.delivered),
         load(&counters.dropped),
@@ -794,6 +811,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.odometry_messages,
         load(&counters.odometry_refused),
         summary.skipped_stale_odometry,
+        load(&counters.tf_poses),
         summary.ticks,
         summary.ticks_with_target,
     );

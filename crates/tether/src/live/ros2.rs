@@ -10,7 +10,7 @@
 
 use std::io;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender};
 use std::thread::JoinHandle;
 
@@ -18,7 +18,7 @@ use ros2_client::dds::Publisher;
 use tether_core::{Pose2, Robot, World};
 use tether_io::mcap::{
     ClockMsg, CompressedImageMsg, Detection2DArrayMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg,
-    OdometryMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg,
+    OdometryMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg, TfMessage,
 };
 use tether_io::mcap::{Header, Ros2Message, TwistMsg, TwistStampedMsg};
 use tether_io::scip::Clock;
@@ -49,6 +49,10 @@ pub struct ScanCounters {
     /// Odometry messages refused: undecodable, a non-finite pose, or a velocity no
     /// ground robot has ([`MAX_ODOMETRY_SPEED_MPS`], [`MAX_ODOMETRY_TURN_RADPS`]).
     pub odometry_refused: AtomicU64,
+    /// When the last odometry message was taken, on the loop's clock, ns (0: never).
+    pub odometry_last_ns: AtomicI64,
+    /// Poses of the base taken from `/tf` (while no odometry message came).
+    pub tf_poses: AtomicU64,
 }
 
 /// Fastest forward speed an odometry message may report, m/s.
@@ -219,6 +223,7 @@ pub fn start_odometry_reader(
                     }
                     return true;
                 }
+                counters.odometry_last_ns.store(now, Ordering::Relaxed);
                 Input::Odometry {
                     stamp: tether_core::Stamp::from_ns(stamp),
                     world_from_robot,
@@ -239,6 +244,107 @@ pub fn start_odometry_reader(
     .map_err(|e| Ros2Error::Join {
         domain,
         message: format!("cannot start the odometry reader thread: {e}"),
+    })
+}
+
+/// A frame name as tf2 compares them: without a leading `/`.
+fn frame_name(id: &str) -> &str {
+    id.strip_prefix('/').unwrap_or(id)
+}
+
+/// How long after the last odometry message `/tf` takes over as the base's pose, ns.
+const TF_AFTER_ODOMETRY_NS: i64 = 500_000_000;
+
+/// The base's velocity between two poses `dt_s` apart: forward speed along the robot's
+/// heading at the start and the turn rate, `v = (R(-yaw_a) (p_b - p_a))_x / dt`,
+/// `w = wrap(yaw_b - yaw_a) / dt`.
+pub fn velocity_between(
+    a: Pose2<World, Robot>,
+    b: Pose2<World, Robot>,
+    dt_s: f64,
+) -> tether_control::Twist {
+    let (sin, cos) = a.yaw.sin_cos();
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    tether_control::Twist {
+        v_mps: (cos * dx + sin * dy) / dt_s,
+        w_radps: tether_core::wrap_angle_rad(b.yaw - a.yaw) / dt_s,
+    }
+}
+
+/// Subscribes to `/tf` (`topic`) and sends the base's pose in the fixed frame (the
+/// transform `fixed_frame` -> `base_frame`, as a diff-drive controller or a robot's
+/// odometry node publishes it) to the loop as odometry, with the velocity between
+/// successive poses, while the `odom` topic is silent (it wins when both publish).
+/// When those transforms stop, the loop's odometry watchdog stops the robot.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the reader's topic, frames, clock, channel and counters"
+)]
+pub fn start_tf_reader(
+    node: &mut RosNode,
+    topic: &str,
+    fixed_frame: &str,
+    base_frame: &str,
+    clock: LiveClock,
+    tx: SyncSender<Input>,
+    stop: Receiver<()>,
+    counters: Arc<ScanCounters>,
+) -> Result<JoinHandle<()>, Ros2Error> {
+    let domain = node.identity().domain_id;
+    let subscription = node.subscribe::<TfMessage>(topic, qos::sensor_data())?;
+    let (fixed, base) = (
+        frame_name(fixed_frame).to_owned(),
+        frame_name(base_frame).to_owned(),
+    );
+    let mut previous: Option<(i64, Pose2<World, Robot>)> = None;
+    let mut dropped = 0;
+    spawn_reader("ros2-tf", subscription, stop, move |received| {
+        let Received::Message { message, .. } = received else {
+            return true;
+        };
+        let now = clock.now_ns();
+        let last_odometry = counters.odometry_last_ns.load(Ordering::Relaxed);
+        if last_odometry > 0 && now.saturating_sub(last_odometry) < TF_AFTER_ODOMETRY_NS {
+            return true;
+        }
+        for t in &message.transforms {
+            if frame_name(&t.header.frame_id) != fixed || frame_name(&t.child_frame_id) != base {
+                continue;
+            }
+            let pose: Pose2<World, Robot> = t.transform.pose2();
+            if !(pose.x.is_finite() && pose.y.is_finite() && pose.yaw.is_finite()) {
+                counters.odometry_refused.fetch_add(1, Ordering::Relaxed);
+                continue;
+            }
+            let stamp = loop_stamp(t.header.stamp.ns(), now).unwrap_or(now);
+            let moving = match previous {
+                Some((at, before)) if stamp > at && stamp - at <= TF_AFTER_ODOMETRY_NS => {
+                    velocity_between(before, pose, (stamp - at) as f64 * 1e-9)
+                }
+                _ => tether_control::Twist::STOP,
+            };
+            previous = Some((stamp, pose));
+            if !(moving.v_mps.abs() <= MAX_ODOMETRY_SPEED_MPS
+                && moving.w_radps.abs() <= MAX_ODOMETRY_TURN_RADPS)
+            {
+                counters.odometry_refused.fetch_add(1, Ordering::Relaxed);
+                continue;
+            }
+            counters.tf_poses.fetch_add(1, Ordering::Relaxed);
+            let input = Input::Odometry {
+                stamp: tether_core::Stamp::from_ns(stamp),
+                world_from_robot: pose,
+                moving,
+            };
+            if !offer(&tx, input, &mut dropped) {
+                return false;
+            }
+        }
+        true
+    })
+    .map_err(|e| Ros2Error::Join {
+        domain,
+        message: format!("cannot start the /tf reader thread: {e}"),
     })
 }
 
@@ -638,6 +744,22 @@ impl CommandSink for RosOutputs {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_velocity_between_two_poses_is_along_the_heading_and_the_turn() {
+        let a = Pose2::<World, Robot>::new(1.0, 2.0, std::f64::consts::FRAC_PI_2);
+        // 0.1 m along the heading (+y in the world) and 0.05 rad left in 0.1 s.
+        let b = Pose2::<World, Robot>::new(1.0, 2.1, std::f64::consts::FRAC_PI_2 + 0.05);
+        let t = velocity_between(a, b, 0.1);
+        assert!((t.v_mps - 1.0).abs() < 1e-9, "{t:?}");
+        assert!((t.w_radps - 0.5).abs() < 1e-9, "{t:?}");
+        // Across +-pi the turn is the short way round.
+        let c = Pose2::<World, Robot>::new(0.0, 0.0, 3.1);
+        let d = Pose2::<World, Robot>::new(0.0, 0.0, -3.1);
+        let t = velocity_between(c, d, 0.1);
+        assert!((t.w_radps - (2.0 * std::f64::consts::PI - 6.2) / 0.1).abs() < 1e-9);
+        assert_eq!(frame_name("/base_link"), "base_link");
+    }
 
     #[test]
     fn detection_boxes_keep_people_inside_the_image() {

@@ -395,6 +395,18 @@ def main():
         default=0,
         help="the DDS domain of the peer and of tether (ROS_DOMAIN_ID in its environment)",
     )
+    ap.add_argument(
+        "--odom-as-tf",
+        action="store_true",
+        help="publish the odometry as the transform odom -> base_link on rt/tf instead "
+        "of on rt/odom (as a diff-drive controller does)",
+    )
+    ap.add_argument(
+        "--odom-until",
+        type=float,
+        metavar="S",
+        help="stop publishing the odometry S seconds into the scans",
+    )
     ap.add_argument("tether_args", nargs="*", help="more arguments for tether ros2")
     a = ap.parse_args()
 
@@ -406,6 +418,11 @@ def main():
         dp, Topic(dp, rt(a.scan_name), LaserScan), qos=qos(a.reliable, 5)
     )
     odom_writer = DataWriter(dp, Topic(dp, rt("odom"), Odometry), qos=qos(False, 5))
+    tf_writer_dyn = (
+        DataWriter(dp, Topic(dp, rt("tf"), TFMessage), qos=qos(True, 100))
+        if a.odom_as_tf
+        else None
+    )
     if a.compressed:
         image_writer = DataWriter(
             dp,
@@ -589,7 +606,26 @@ def main():
             time.sleep(0.002)
         now, stamp = stamp_now()
         if topic != a.scan_topic:
+            if a.odom_until is not None and offset > a.odom_until:
+                continue
             p, q = m.pose.pose.position, m.pose.pose.orientation
+            if tf_writer_dyn is not None:
+                tf_writer_dyn.write(
+                    TFMessage(
+                        transforms=[
+                            TransformStamped(
+                                header=Header(stamp=stamp, frame_id="odom"),
+                                child_frame_id="base_link",
+                                transform=Transform(
+                                    translation=Vector3(x=p.x, y=p.y, z=p.z),
+                                    rotation=Quaternion(x=q.x, y=q.y, z=q.z, w=q.w),
+                                ),
+                            )
+                        ]
+                    )
+                )
+                odom_sent += 1
+                continue
             odom_writer.write(
                 Odometry(
                     header=Header(stamp=stamp, frame_id="odom"),
