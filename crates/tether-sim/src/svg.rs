@@ -1,6 +1,11 @@
 //! Top-down pictures of the world, self-contained SVG (no scripts, no external
 //! resources): [`MapSvg`] draws the walls and furniture and takes paths, poses and
 //! covariance ellipses on top; [`scene_svg`] is the `scene.svg` of a simulation run.
+//!
+//! A map made with [`MapSvg::fitted`] is for a web page: its scale is chosen so that it
+//! fits a given width and height, it shrinks with a narrower page (`max-width: 100%`,
+//! its height following through the `viewBox`), its scale bar is a round length, its
+//! legend runs in columns, and its text labels are placed apart from each other.
 
 use std::fmt::Write as _;
 
@@ -22,6 +27,15 @@ pub struct Track {
 
 const MARGIN_PX: f64 = 40.0;
 const HEADER_PX: f64 = 44.0;
+/// Width of a character of the 11 px labels, px (DejaVu Sans' digits are 0.64 em;
+/// a little more than most characters, so estimates err on the wide side).
+const LABEL_CHAR_PX: f64 = 7.0;
+/// Height of an 11 px label, px.
+const LABEL_H_PX: f64 = 11.0;
+/// Width of a character of the 13 px legend text, px.
+const LEGEND_CHAR_PX: f64 = 8.0;
+/// Longest scale bar of a fitted map, px.
+const SCALE_BAR_MAX_PX: f64 = 160.0;
 
 /// Colours for the people: the target in red, others from a colour-blind-safe set.
 pub fn person_color(index: usize, is_target: bool) -> &'static str {
@@ -48,6 +62,60 @@ pub fn grid_step_m(span_m: f64) -> f64 {
     step
 }
 
+/// The longest "round" length (1, 2 or 5 times a power of ten) of at most `max_m`: a
+/// scale bar's length (1 for a non-positive or non-finite `max_m`).
+pub fn round_length_m(max_m: f64) -> f64 {
+    if !(max_m.is_finite() && max_m > 0.0) {
+        return 1.0;
+    }
+    let mag = 10f64.powf(max_m.log10().floor());
+    let norm = max_m / mag;
+    // A hair of tolerance: 0.3 / 0.1 is 2.9999999999999996.
+    let nice = if norm >= 5.0 - 1e-9 {
+        5.0
+    } else if norm >= 2.0 - 1e-9 {
+        2.0
+    } else {
+        1.0
+    };
+    nice * mag
+}
+
+/// A length for a label: "20 cm", "2 m", "500 m".
+pub fn length_text(m: f64) -> String {
+    if m < 1.0 {
+        let cm = format!("{:.1}", 100.0 * m);
+        format!("{} cm", cm.trim_end_matches('0').trim_end_matches('.'))
+    } else {
+        let v = format!("{m:.2}");
+        format!("{} m", v.trim_end_matches('0').trim_end_matches('.'))
+    }
+}
+
+/// How a legend entry is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LegendMark {
+    /// A line, dashed or not (a path).
+    Line {
+        /// Dashed.
+        dashed: bool,
+    },
+    /// A lightly filled ellipse (a covariance).
+    Ellipse,
+    /// The robot's triangle.
+    Robot,
+    /// A dashed square (a region shown magnified).
+    Square,
+}
+
+/// One entry of a map's legend.
+#[derive(Debug, Clone)]
+struct LegendEntry {
+    label: String,
+    color: String,
+    mark: LegendMark,
+}
+
 /// Escapes text for SVG and HTML.
 pub fn xml_escape(text: &str) -> String {
     text.replace('&', "&amp;")
@@ -67,7 +135,11 @@ pub struct MapSvg {
     title: String,
     subtitle: String,
     body: String,
-    legend: Vec<(String, String, bool)>,
+    legend: Vec<LegendEntry>,
+    /// Made by [`MapSvg::fitted`]: for a web page.
+    fitted: bool,
+    /// Boxes of the labels placed so far (left, top, right, bottom), px in the body.
+    labels: Vec<[f64; 4]>,
 }
 
 impl MapSvg {
@@ -79,6 +151,60 @@ impl MapSvg {
         extent: impl IntoIterator<Item = Point2<World>>,
         px_per_m: f64,
     ) -> Self {
+        let (lo, hi) = Self::bounds(world, extent);
+        Self::with_bounds(scenario, world, lo, hi, px_per_m)
+    }
+
+    /// A map for a web page: like [`MapSvg::new`], at `max_px_per_m` or less, so
+    /// that the whole picture is at most `max_width_px` wide and its map (without
+    /// title and legend) at most `max_map_height_px` high. The SVG scales down with
+    /// a narrower page.
+    pub fn fitted(
+        scenario: &Scenario,
+        world: &StaticWorld,
+        extent: impl IntoIterator<Item = Point2<World>>,
+        max_px_per_m: f64,
+        max_width_px: f64,
+        max_map_height_px: f64,
+    ) -> Self {
+        let (lo, hi) = Self::bounds(world, extent);
+        let px_per_m = Self::fitted_px_per_m(
+            hi[0] - lo[0] + 1.0,
+            hi[1] - lo[1] + 1.0,
+            max_px_per_m,
+            max_width_px,
+            max_map_height_px,
+        );
+        let mut map = Self::with_bounds(scenario, world, lo, hi, px_per_m);
+        map.fitted = true;
+        map
+    }
+
+    /// The scale at which a map `w_m` x `h_m` (margins included) fits: at most
+    /// `max_px_per_m`, the picture at most `max_width_px` wide, the map at most
+    /// `max_map_height_px` high.
+    fn fitted_px_per_m(
+        w_m: f64,
+        h_m: f64,
+        max_px_per_m: f64,
+        max_width_px: f64,
+        max_map_height_px: f64,
+    ) -> f64 {
+        let k = max_px_per_m
+            .min((max_width_px - 2.0 * MARGIN_PX) / w_m)
+            .min(max_map_height_px / h_m);
+        if k.is_finite() && k > 0.0 {
+            k
+        } else {
+            max_px_per_m
+        }
+    }
+
+    /// The box holding the walls, the obstacles and `extent`.
+    fn bounds(
+        world: &StaticWorld,
+        extent: impl IntoIterator<Item = Point2<World>>,
+    ) -> ([f64; 2], [f64; 2]) {
         let mut lo = [f64::INFINITY; 2];
         let mut hi = [f64::NEG_INFINITY; 2];
         let mut grow = |p: Point2<World>| {
@@ -99,6 +225,16 @@ impl MapSvg {
             lo = [0.0, 0.0];
             hi = [1.0, 1.0];
         }
+        (lo, hi)
+    }
+
+    fn with_bounds(
+        scenario: &Scenario,
+        world: &StaticWorld,
+        lo: [f64; 2],
+        hi: [f64; 2],
+        px_per_m: f64,
+    ) -> Self {
         let mut map = MapSvg {
             px_per_m,
             min_x: lo[0] - 0.5,
@@ -109,9 +245,16 @@ impl MapSvg {
             subtitle: scenario.description.clone(),
             body: String::new(),
             legend: Vec::new(),
+            fitted: false,
+            labels: Vec::new(),
         };
         map.draw_world(scenario, world, lo, hi);
         map
+    }
+
+    /// Pixels per metre.
+    pub fn px_per_m(&self) -> f64 {
+        self.px_per_m
     }
 
     /// Pixel x of a world x.
@@ -228,10 +371,25 @@ impl MapSvg {
         self.body.push_str(&s);
     }
 
-    /// Adds a legend entry without drawing anything.
+    /// Adds a legend entry (a line) without drawing anything. Entries without text
+    /// are left out of the legend.
     pub fn legend(&mut self, label: &str, color: &str, dashed: bool) {
-        self.legend
-            .push((label.to_owned(), color.to_owned(), dashed));
+        self.legend_mark(label, color, LegendMark::Line { dashed });
+    }
+
+    /// Adds a legend entry drawn as `mark`, without drawing anything on the map.
+    /// Entries without text are left out of the legend.
+    pub fn legend_mark(&mut self, label: &str, color: &str, mark: LegendMark) {
+        self.legend.push(LegendEntry {
+            label: label.to_owned(),
+            color: color.to_owned(),
+            mark,
+        });
+    }
+
+    /// The legend's labels, in order (entries without text are not drawn).
+    pub fn legend_labels(&self) -> Vec<&str> {
+        self.legend.iter().map(|e| e.label.as_str()).collect()
     }
 
     /// Draws a path, with a dot at its start and a square at its end when `ends`.
@@ -310,13 +468,75 @@ impl MapSvg {
         );
     }
 
-    /// Writes a small label at a point.
+    /// Writes a small label beside a point: above right of it, or at the first of a
+    /// few other places beside it where it overlaps no label written before and
+    /// stays on the picture.
     pub fn label(&mut self, p: Point2<World>, text: &str, color: &str) {
+        let (x, y) = self.place_label(self.x(p.x), self.y(p.y), text);
         let _ = writeln!(
             self.body,
-            r#"<text x="{:.1}" y="{:.1}" font-size="11" fill="{color}">{}</text>"#,
-            self.x(p.x) + 6.0,
-            self.y(p.y) - 6.0,
+            r#"<text class="map-label" x="{x:.1}" y="{y:.1}" font-size="11" fill="{color}">{}</text>"#,
+            xml_escape(text)
+        );
+    }
+
+    /// Where a label's left end and baseline go, beside pixel `(u, v)` of the body;
+    /// its box is remembered.
+    fn place_label(&mut self, u: f64, v: f64, text: &str) -> (f64, f64) {
+        let w = label_width_px(text);
+        let h = LABEL_H_PX;
+        let gap = 6.0;
+        let candidates = [
+            (u + gap, v - gap),
+            (u + gap, v + gap + h),
+            (u - gap - w, v - gap),
+            (u - gap - w, v + gap + h),
+            (u - w / 2.0, v - gap - 4.0),
+            (u - w / 2.0, v + gap + h + 4.0),
+            (u + gap, v - gap - h - 4.0),
+            (u + gap, v + gap + 2.0 * h + 4.0),
+            (u - gap - w, v - gap - h - 4.0),
+            (u - gap - w, v + gap + 2.0 * h + 4.0),
+        ];
+        // The body's area, margins included.
+        let (l, t, r, b) = (
+            -MARGIN_PX + 2.0,
+            0.0,
+            self.map_w + MARGIN_PX - 2.0,
+            self.map_h,
+        );
+        let boxed = |(x, y): (f64, f64)| [x, y - h, x + w, y + 2.0];
+        let fits = |c: &(f64, f64)| {
+            let [x0, y0, x1, y1] = boxed(*c);
+            x0 >= l
+                && x1 <= r
+                && y0 >= t
+                && y1 <= b
+                && !self
+                    .labels
+                    .iter()
+                    .any(|q| x0 < q[2] && q[0] < x1 && y0 < q[3] && q[1] < y1)
+        };
+        let (x, y) = candidates
+            .iter()
+            .copied()
+            .find(|c| fits(c))
+            .unwrap_or(candidates[0]);
+        self.labels.push(boxed((x, y)));
+        (x, y)
+    }
+
+    /// Outlines a square `side_m` across (at least 10 px) around `center`, dashed, and
+    /// writes `text` beside it in bold: where a magnified view is taken.
+    pub fn zoom_box(&mut self, center: Point2<World>, side_m: f64, color: &str, text: &str) {
+        let side = (side_m * self.px_per_m).max(10.0);
+        let (u, v) = (self.x(center.x), self.y(center.y));
+        let (x, y) = self.place_label(u + side / 2.0 - 4.0, v - side / 2.0 + 4.0, text);
+        let _ = writeln!(
+            self.body,
+            r#"<g class="zoom-box"><rect x="{:.1}" y="{:.1}" width="{side:.1}" height="{side:.1}" fill="none" stroke="{color}" stroke-width="1.5" stroke-dasharray="4 2"/><text x="{x:.1}" y="{y:.1}" font-size="11" font-weight="bold" fill="{color}">{}</text></g>"#,
+            u - side / 2.0,
+            v - side / 2.0,
             xml_escape(text)
         );
     }
@@ -324,12 +544,38 @@ impl MapSvg {
     /// The finished SVG document: title, map, legend and scale bar.
     pub fn finish(self) -> String {
         let width = self.map_w + 2.0 * MARGIN_PX;
-        let legend_h = 22.0 * (self.legend.len() + 1) as f64 + 10.0;
+        let entries: Vec<&LegendEntry> = self
+            .legend
+            .iter()
+            .filter(|e| !e.label.trim().is_empty())
+            .collect();
+        // A fitted map's legend runs in as many columns as the widest entry allows.
+        let (columns, column_w) = if self.fitted {
+            let widest = entries
+                .iter()
+                .map(|e| e.label.chars().count())
+                .max()
+                .unwrap_or(0) as f64;
+            let column_w = 38.0 + LEGEND_CHAR_PX * widest + 20.0;
+            (
+                (((width - 2.0 * MARGIN_PX) / column_w).floor() as usize).max(1),
+                column_w,
+            )
+        } else {
+            (1, 0.0)
+        };
+        let rows = entries.len().div_ceil(columns);
+        let legend_h = 22.0 * (rows + 1) as f64 + 10.0;
         let height = HEADER_PX + self.map_h + legend_h + MARGIN_PX;
         let mut s = String::new();
+        let fit = if self.fitted {
+            r#" class="map" style="max-width:100%;height:auto""#
+        } else {
+            ""
+        };
         let _ = writeln!(
             s,
-            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0}" height="{height:.0}" viewBox="0 0 {width:.0} {height:.0}" font-family="sans-serif" font-size="13">"#
+            r#"<svg xmlns="http://www.w3.org/2000/svg"{fit} width="{width:.0}" height="{height:.0}" viewBox="0 0 {width:.0} {height:.0}" font-family="sans-serif" font-size="13">"#
         );
         let _ = writeln!(s, r##"<rect width="100%" height="100%" fill="#ffffff"/>"##);
         let _ = writeln!(
@@ -341,34 +587,89 @@ impl MapSvg {
         let _ = writeln!(s, r#"<g transform="translate({MARGIN_PX} {HEADER_PX})">"#);
         s.push_str(&self.body);
         let _ = writeln!(s, "</g>");
-        let mut y = HEADER_PX + self.map_h + 20.0;
-        for (label, color, dashed) in &self.legend {
-            let dash = if *dashed {
-                r#" stroke-dasharray="7 4""#
+        let top = HEADER_PX + self.map_h + 20.0;
+        for (k, e) in entries.iter().enumerate() {
+            let (x, y) = (
+                MARGIN_PX + (k % columns) as f64 * column_w,
+                top + (k / columns) as f64 * 22.0,
+            );
+            let color = &e.color;
+            // (`scene.svg` keeps its bytes: its legend's left end as it always was.)
+            let x_text = if self.fitted {
+                format!("{x:.1}")
             } else {
-                ""
+                format!("{x}")
+            };
+            let mark = match e.mark {
+                LegendMark::Line { dashed } => format!(
+                    r#"<line x1="{x_text}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="{color}" stroke-width="3"{}/>"#,
+                    x + 30.0,
+                    if dashed {
+                        r#" stroke-dasharray="7 4""#
+                    } else {
+                        ""
+                    }
+                ),
+                LegendMark::Ellipse => format!(
+                    r#"<ellipse cx="{:.1}" cy="{y:.1}" rx="14" ry="6" fill="{color}" fill-opacity="0.15" stroke="{color}" stroke-width="1.5"/>"#,
+                    x + 15.0
+                ),
+                LegendMark::Robot => format!(
+                    r##"<polygon points="{:.1},{y:.1} {:.1},{:.1} {:.1},{:.1}" fill="#222222" fill-opacity="0.5"/>"##,
+                    x + 24.0,
+                    x + 6.0,
+                    y - 7.0,
+                    x + 6.0,
+                    y + 7.0
+                ),
+                LegendMark::Square => format!(
+                    r#"<rect x="{:.1}" y="{:.1}" width="14" height="14" fill="none" stroke="{color}" stroke-width="1.5" stroke-dasharray="4 2"/>"#,
+                    x + 8.0,
+                    y - 7.0
+                ),
             };
             let _ = writeln!(
                 s,
-                r#"<line x1="{MARGIN_PX}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="{color}" stroke-width="3"{dash}/><text x="{:.1}" y="{:.1}">{}</text>"#,
-                MARGIN_PX + 30.0,
-                MARGIN_PX + 38.0,
+                r#"{mark}<text x="{:.1}" y="{:.1}">{}</text>"#,
+                x + 38.0,
                 y + 4.0,
-                xml_escape(label)
+                xml_escape(&e.label)
             );
-            y += 22.0;
         }
+        let y = top + rows as f64 * 22.0;
+        // The scale bar: 1 m, or on a fitted map the longest round length that fits.
+        let bar_m = if self.fitted {
+            round_length_m(SCALE_BAR_MAX_PX / self.px_per_m)
+        } else {
+            1.0
+        };
+        let bar_text = if self.fitted {
+            length_text(bar_m)
+        } else {
+            "1 m".to_owned()
+        };
+        let bar_px = bar_m * self.px_per_m;
         let _ = writeln!(
             s,
-            r##"<line x1="{:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#000" stroke-width="2"/><text x="{:.1}" y="{:.1}">1 m · circle = start, square = end</text>"##,
+            r##"<line{} x1="{:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#000" stroke-width="2"/><text x="{:.1}" y="{:.1}">{bar_text} · circle = start, square = end</text>"##,
+            if self.fitted {
+                r#" class="scale-bar""#
+            } else {
+                ""
+            },
             MARGIN_PX,
-            MARGIN_PX + self.px_per_m,
-            MARGIN_PX + self.px_per_m + 8.0,
+            MARGIN_PX + bar_px,
+            MARGIN_PX + bar_px + 8.0,
             y + 4.0
         );
         let _ = writeln!(s, "</svg>");
         s
     }
+}
+
+/// The estimated width of an 11 px label, px.
+fn label_width_px(text: &str) -> f64 {
+    LABEL_CHAR_PX * text.chars().count() as f64
 }
 
 /// Draws the scene of a simulation run: world, people's and robot's paths, the robot's
@@ -401,6 +702,146 @@ pub fn scene_svg(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The `width` and `height` attributes of the document's `svg` element.
+    fn size(svg: &str) -> (f64, f64) {
+        let attr = |name: &str| -> f64 {
+            let head = svg.split('>').next().unwrap();
+            head.split(&format!(" {name}=\""))
+                .nth(1)
+                .unwrap()
+                .split('"')
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap()
+        };
+        (attr("width"), attr("height"))
+    }
+
+    fn fitted(name: &str) -> MapSvg {
+        let scenario = Scenario::builtin(name).unwrap();
+        let world = StaticWorld::from_scenario(&scenario);
+        let extent: Vec<Point2<World>> = scenario
+            .people
+            .iter()
+            .flat_map(|p| p.path.iter().map(|&[x, y]| Point2::new(x, y)))
+            .collect();
+        MapSvg::fitted(&scenario, &world, extent, 50.0, 1040.0, 720.0)
+    }
+
+    #[test]
+    fn a_fitted_map_fits_the_page_and_shrinks_with_it() {
+        for name in crate::BUILTIN_NAMES {
+            let map = fitted(name);
+            let k = map.px_per_m();
+            let svg = map.finish();
+            let (w, h) = size(&svg);
+            assert!(w <= 1040.0 + 0.5, "{name}: {w} px wide");
+            assert!(k > 0.0 && k <= 50.0, "{name}: {k} px/m");
+            assert!(
+                svg.contains(&format!("viewBox=\"0 0 {w:.0} {h:.0}\"")),
+                "{name}"
+            );
+            assert!(
+                svg.contains("style=\"max-width:100%;height:auto\""),
+                "{name}"
+            );
+            // A round scale bar, at most SCALE_BAR_MAX_PX long.
+            let bar = svg.split("class=\"scale-bar\"").nth(1).unwrap();
+            let x = |a: &str| -> f64 {
+                bar.split(&format!(" {a}=\""))
+                    .nth(1)
+                    .unwrap()
+                    .split('"')
+                    .next()
+                    .unwrap()
+                    .parse()
+                    .unwrap()
+            };
+            assert!(x("x2") - x("x1") <= SCALE_BAR_MAX_PX + 0.1, "{name}");
+        }
+        // The ten-minute park (about 60 m across) is drawn at about 15 px/m, its map
+        // no higher than asked.
+        let park = fitted("outdoor_follow");
+        assert!(
+            park.px_per_m() < 20.0 && park.map_h <= 720.0 + 1e-6,
+            "{}",
+            park.px_per_m()
+        );
+        assert!(park.finish().contains("10 m · circle = start"));
+        // A map made with `new` keeps its scale and size (scene.svg).
+        let scenario = Scenario::builtin("corridor").unwrap();
+        let world = StaticWorld::from_scenario(&scenario);
+        let svg = MapSvg::new(&scenario, &world, Vec::new(), 60.0).finish();
+        assert!(svg.starts_with("<svg xmlns=\"http://www.w3.org/2000/svg\" width="));
+        assert!(svg.contains(">1 m · circle = start"));
+    }
+
+    #[test]
+    fn every_legend_entry_has_text() {
+        let mut map = fitted("office");
+        map.path(
+            &[Point2::new(1.0, 1.0), Point2::new(2.0, 1.0)],
+            "#f00",
+            false,
+            "walker",
+            true,
+        );
+        map.path(
+            &[Point2::new(1.0, 2.0), Point2::new(2.0, 2.0)],
+            "#0f0",
+            false,
+            "",
+            true,
+        );
+        map.legend("", "#00f", true);
+        map.legend_mark("fused (2σ)", "#90f", LegendMark::Ellipse);
+        map.legend_mark("robot", "#222", LegendMark::Robot);
+        map.legend_mark("magnified below (A)", "#444", LegendMark::Square);
+        let svg = map.finish();
+        let legend = svg.split("</g>").last().unwrap();
+        let texts: Vec<&str> = legend
+            .split("<text")
+            .skip(1)
+            .map(|t| t.split('>').nth(1).unwrap().split('<').next().unwrap())
+            .collect();
+        // Four entries with text and the scale bar; the two without text are left out.
+        assert_eq!(texts.len(), 5, "{texts:?}");
+        assert!(texts.iter().all(|t| !t.trim().is_empty()), "{texts:?}");
+        assert_eq!(texts[0], "walker");
+        assert!(legend.contains("<ellipse") && legend.contains("<polygon"));
+    }
+
+    #[test]
+    fn labels_are_placed_apart() {
+        let mut map = fitted("corridor");
+        // Five labels at one point: each goes to a free place beside it.
+        let p = Point2::new(5.0, 0.0);
+        for k in 0..5 {
+            map.label(p, &format!("{k}.0 s"), "#444");
+        }
+        map.zoom_box(p, 0.5, "#444", "A");
+        let boxes = &map.labels;
+        assert_eq!(boxes.len(), 6);
+        for (i, a) in boxes.iter().enumerate() {
+            for b in &boxes[i + 1..] {
+                let overlap = a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
+                assert!(!overlap, "{a:?} and {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn round_lengths() {
+        assert_eq!(round_length_m(3.2), 2.0);
+        assert_eq!(round_length_m(0.3), 0.2);
+        assert_eq!(round_length_m(10.3), 10.0);
+        assert_eq!(round_length_m(0.0), 1.0);
+        assert_eq!(length_text(0.2), "20 cm");
+        assert_eq!(length_text(0.005), "0.5 cm");
+        assert_eq!(length_text(10.0), "10 m");
+    }
 
     #[test]
     fn the_grid_step_keeps_a_large_world_to_a_few_lines() {

@@ -41,6 +41,17 @@ const RIGHT: f64 = 12.0;
 const TOP: f64 = 28.0;
 const BOTTOM: f64 = 34.0;
 
+/// Width of a character of the plots' 11 px text, px: DejaVu Sans' digits are 0.64 em
+/// (7.0 px), wider than most other fonts' (Arial's are 0.56 em), so estimates err on
+/// the wide side.
+pub const CHAR_PX: f64 = 7.0;
+/// Height of the plots' 11 px text, px.
+pub const TEXT_H_PX: f64 = 11.0;
+/// Least gap between two neighbouring tick labels side by side (the time axis), px.
+pub const TICK_GAP_PX: f64 = 8.0;
+/// Least gap between two tick labels one above the other (the y axis), px.
+pub const TICK_GAP_Y_PX: f64 = 4.0;
+
 /// "Nice" tick spacing for a range.
 pub(crate) fn tick_step(span: f64) -> f64 {
     if !(span.is_finite() && span > 0.0) {
@@ -61,7 +72,137 @@ pub(crate) fn tick_step(span: f64) -> f64 {
     nice * mag
 }
 
+/// The round step (1, 2 or 5 times a power of ten) after `step`.
+fn next_step(step: f64) -> f64 {
+    let mag = 10f64.powf(step.log10().floor());
+    let norm = step / mag;
+    if norm < 1.5 {
+        2.0 * mag
+    } else if norm < 3.5 {
+        5.0 * mag
+    } else {
+        10.0 * mag
+    }
+}
+
+/// A tick's label: as many decimals as the step needs, no trailing zeros.
+pub fn tick_label(v: f64, step: f64) -> String {
+    let decimals = if step.is_finite() && step > 0.0 {
+        (-step.log10() + 1e-9).ceil().clamp(0.0, 6.0) as usize
+    } else {
+        2
+    };
+    let s = format!("{v:.decimals$}");
+    let s = if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.')
+    } else {
+        &s
+    };
+    if s == "-0" {
+        "0".to_owned()
+    } else {
+        s.to_owned()
+    }
+}
+
+/// The ticks of an axis from `lo` to `hi` drawn `len_px` long: the multiples of a
+/// round step (1, 2 or 5 times a power of ten), about six of them, or fewer when their
+/// labels would come closer than `gap_px`. `extent_px(label)` is how far a label
+/// reaches along the axis (its width on a horizontal axis, its height on a vertical
+/// one). Returns the step and the ticks with their labels.
+pub fn axis_ticks(
+    lo: f64,
+    hi: f64,
+    len_px: f64,
+    extent_px: impl Fn(&str) -> f64,
+    gap_px: f64,
+) -> (f64, Vec<(f64, String)>) {
+    let span = hi - lo;
+    if !(lo.is_finite() && span.is_finite() && span > 0.0 && len_px > 0.0) {
+        return (1.0, Vec::new());
+    }
+    let mut step = tick_step(span);
+    for _ in 0..64 {
+        let (first, last) = ((lo / step - 1e-9).ceil(), (hi / step + 1e-9).floor());
+        let ticks: Vec<(f64, String)> = if last >= first && last - first < 1e4 {
+            (first as i64..=last as i64)
+                .map(|i| {
+                    let v = i as f64 * step;
+                    (v, tick_label(v, step))
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let apart_px = step / span * len_px;
+        let widest = ticks.iter().map(|(_, t)| extent_px(t)).fold(0.0, f64::max);
+        if ticks.len() <= 1 || apart_px >= widest + gap_px {
+            return (step, ticks);
+        }
+        step = next_step(step);
+    }
+    (step, Vec::new())
+}
+
+/// The estimated width of a line of the plots' 11 px text, px.
+pub fn text_width_px(text: &str) -> f64 {
+    CHAR_PX * text.chars().count() as f64
+}
+
+/// The legend's entries that have a label (entries without text are left out, and
+/// an entry repeated with the same label, colour and mark is shown once), laid out in
+/// rows that wrap at the plot's width: (label, colour, mark, x, row).
+fn legend_layout(
+    entries: Vec<(String, String, &'static str)>,
+) -> Vec<(String, String, &'static str, f64, usize)> {
+    let mut out: Vec<(String, String, &'static str, f64, usize)> = Vec::new();
+    let (mut x, mut row) = (LEFT, 0);
+    for (label, color, kind) in entries {
+        if label.trim().is_empty()
+            || out
+                .iter()
+                .any(|(l, c, k, _, _)| *l == label && *c == color && *k == kind)
+        {
+            continue;
+        }
+        let w = 28.0 + text_width_px(&label) + 24.0;
+        if x + w > W - RIGHT && x > LEFT {
+            x = LEFT;
+            row += 1;
+        }
+        out.push((label, color, kind, x, row));
+        x += w;
+    }
+    out
+}
+
 impl Plot {
+    /// Every legend entry the plot's parts ask for, in order: (label, colour, mark),
+    /// some maybe without a label (which [`Plot::svg`] leaves out).
+    fn legend_entries(&self) -> Vec<(String, String, &'static str)> {
+        self.series
+            .iter()
+            .map(|s| {
+                (
+                    s.label.clone(),
+                    s.color.clone(),
+                    if s.dashed { "dash" } else { "line" },
+                )
+            })
+            .chain(self.bands.iter().map(|b| (b.3.clone(), b.2.clone(), "box")))
+            .chain(
+                self.hlines
+                    .iter()
+                    .map(|h| (h.2.clone(), h.1.clone(), "dash")),
+            )
+            .chain(
+                self.spans
+                    .iter()
+                    .map(|sp| (sp.3.clone(), sp.2.clone(), "box")),
+            )
+            .collect()
+    }
+
     /// Renders the plot.
     pub fn svg(&self) -> String {
         let mut xs = Vec::new();
@@ -104,11 +245,8 @@ impl Plot {
         }
         let pad = 0.05 * (y1 - y0);
         let (y0, y1) = (y0 - pad, y1 + pad);
-        let legend_h = 18.0
-            * ((self.series.len() + self.bands.len() + self.hlines.len() + self.spans.len())
-                as f64
-                / 3.0)
-                .ceil();
+        let legend = legend_layout(self.legend_entries());
+        let legend_h = legend.last().map_or(0.0, |e| 18.0 * (e.4 + 1) as f64);
         let height = H + legend_h;
         let pw = W - LEFT - RIGHT;
         let ph = H - TOP - BOTTOM;
@@ -117,7 +255,7 @@ impl Plot {
         let mut s = String::new();
         let _ = writeln!(
             s,
-            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W:.0}" height="{height:.0}" viewBox="0 0 {W:.0} {height:.0}" font-family="sans-serif" font-size="11">"#
+            r#"<svg xmlns="http://www.w3.org/2000/svg" class="plot" style="max-width:100%;height:auto" width="{W:.0}" height="{height:.0}" viewBox="0 0 {W:.0} {height:.0}" font-family="sans-serif" font-size="11">"#
         );
         let _ = writeln!(s, r##"<rect width="100%" height="100%" fill="#ffffff"/>"##);
         let _ = writeln!(
@@ -162,38 +300,36 @@ impl Plot {
             TOP + ph
         );
         let _ = writeln!(s, "</g>");
-        let xs_step = tick_step(x1 - x0);
-        let mut t = (x0 / xs_step).ceil() * xs_step;
-        while t <= x1 + 1e-9 {
+        // Ticks no closer than their labels allow: on the time axis by the labels'
+        // widths, on the y axis by their height.
+        let (_, x_ticks) = axis_ticks(x0, x1, pw, text_width_px, TICK_GAP_PX);
+        for (t, label) in &x_ticks {
             let _ = writeln!(
                 s,
-                r##"<line x1="{0:.1}" y1="{TOP}" x2="{0:.1}" y2="{1:.1}" stroke="#eeeeee"/><text x="{0:.1}" y="{2:.1}" text-anchor="middle">{3}</text>"##,
-                px(t),
+                r##"<line x1="{0:.1}" y1="{TOP}" x2="{0:.1}" y2="{1:.1}" stroke="#eeeeee"/><text class="tick-x" x="{0:.1}" y="{2:.1}" text-anchor="middle">{3}</text>"##,
+                px(*t),
                 TOP + ph,
                 TOP + ph + 14.0,
-                trim(t)
+                xml_escape(label)
             );
-            t += xs_step;
         }
-        let ys_step = tick_step(y1 - y0);
-        let mut t = (y0 / ys_step).ceil() * ys_step;
-        while t <= y1 + 1e-9 {
+        let (_, y_ticks) = axis_ticks(y0, y1, ph, |_| TEXT_H_PX, TICK_GAP_Y_PX);
+        for (t, label) in &y_ticks {
             let _ = writeln!(
                 s,
-                r##"<line x1="{LEFT}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="#eeeeee"/><text x="{2:.1}" y="{3:.1}" text-anchor="end">{4}</text>"##,
-                py(t),
+                r##"<line x1="{LEFT}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="#eeeeee"/><text class="tick-y" x="{2:.1}" y="{3:.1}" text-anchor="end">{4}</text>"##,
+                py(*t),
                 LEFT + pw,
                 LEFT - 4.0,
-                py(t) + 4.0,
-                trim(t)
+                py(*t) + 4.0,
+                xml_escape(label)
             );
-            t += ys_step;
         }
         let _ = writeln!(
             s,
             r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">time (s)</text>"#,
             LEFT + pw / 2.0,
-            TOP + ph + 28.0
+            TOP + ph + 30.0
         );
         let _ = writeln!(
             s,
@@ -241,32 +377,9 @@ impl Plot {
             flush(&mut run, &mut s);
         }
         let _ = writeln!(s, "</g>");
-        // Legend, three entries a row.
-        let entries: Vec<(String, String, &str)> = self
-            .series
-            .iter()
-            .map(|s| {
-                (
-                    s.label.clone(),
-                    s.color.clone(),
-                    if s.dashed { "dash" } else { "line" },
-                )
-            })
-            .chain(self.bands.iter().map(|b| (b.3.clone(), b.2.clone(), "box")))
-            .chain(
-                self.hlines
-                    .iter()
-                    .map(|h| (h.2.clone(), h.1.clone(), "dash")),
-            )
-            .chain(
-                self.spans
-                    .iter()
-                    .map(|sp| (sp.3.clone(), sp.2.clone(), "box")),
-            )
-            .collect();
-        for (k, (label, color, kind)) in entries.iter().enumerate() {
-            let x = LEFT + (k % 3) as f64 * 230.0;
-            let y = H + 4.0 + (k / 3) as f64 * 18.0;
+        // The legend: the entries with a label, in rows.
+        for (label, color, kind, x, row) in &legend {
+            let (x, y) = (*x, H + 4.0 + *row as f64 * 18.0);
             let mark = match *kind {
                 "box" => format!(
                     r#"<rect x="{x:.1}" y="{:.1}" width="22" height="10" fill="{color}" fill-opacity="0.35"/>"#,
@@ -285,7 +398,7 @@ impl Plot {
             };
             let _ = writeln!(
                 s,
-                r#"{mark}<text x="{:.1}" y="{y:.1}">{}</text>"#,
+                r#"<g class="legend-entry">{mark}<text x="{:.1}" y="{y:.1}">{}</text></g>"#,
                 x + 28.0,
                 xml_escape(label)
             );
@@ -335,6 +448,116 @@ mod tests {
         // The gap splits the line in two polylines.
         assert_eq!(svg.matches("<polyline").count(), 2);
         assert!(svg.contains("comfort band") && svg.contains("target lost"));
+    }
+
+    /// The tick labels of an axis as drawn: (centre px, width px), left to right.
+    fn drawn(lo: f64, hi: f64, len_px: f64) -> Vec<(f64, f64)> {
+        let (_, ticks) = axis_ticks(lo, hi, len_px, text_width_px, TICK_GAP_PX);
+        ticks
+            .iter()
+            .map(|(v, label)| ((v - lo) / (hi - lo) * len_px, text_width_px(label)))
+            .collect()
+    }
+
+    fn assert_apart(labels: &[(f64, f64)], what: &str) {
+        for pair in labels.windows(2) {
+            let ((a, wa), (b, wb)) = (pair[0], pair[1]);
+            assert!(
+                b - a >= (wa + wb) / 2.0 + TICK_GAP_PX - 1e-9,
+                "{what}: labels at {a:.1} and {b:.1} px, {wa} and {wb} px wide"
+            );
+        }
+    }
+
+    #[test]
+    fn tick_labels_of_long_and_short_axes_do_not_overlap() {
+        let pw = W - LEFT - RIGHT;
+        for (lo, hi, len) in [
+            (0.0, 600.0, pw),    // ten minutes
+            (0.0, 26.0, pw),     // the corridor
+            (0.0, 3.0, pw),      // a short run
+            (0.0, 86_400.0, pw), // a day
+            (0.0, 600.0, 120.0), // a narrow axis
+            (0.0, 86_400.0, 90.0),
+            (1e6, 1e6 + 37.0, pw), // long labels
+            (-0.37, 1.71, 60.0),
+        ] {
+            let labels = drawn(lo, hi, len);
+            assert!(!labels.is_empty(), "{lo}..{hi} on {len} px: no ticks");
+            assert_apart(&labels, &format!("{lo}..{hi} on {len} px"));
+        }
+        // As many as fit: ten minutes on the plot's width keep a tick every 100 s.
+        let (step, ticks) = axis_ticks(0.0, 600.0, pw, text_width_px, TICK_GAP_PX);
+        assert_eq!((step, ticks.len()), (100.0, 7));
+        // A short axis takes fewer, rounder ticks rather than crowding them.
+        let (step, _) = axis_ticks(0.0, 600.0, 120.0, text_width_px, TICK_GAP_PX);
+        assert!(step >= 200.0, "{step}");
+        // Labels carry as many decimals as the step needs, no more.
+        let (_, ticks) = axis_ticks(0.0, 0.05, 400.0, text_width_px, TICK_GAP_PX);
+        let labels: Vec<&str> = ticks.iter().map(|(_, t)| t.as_str()).collect();
+        assert_eq!(labels, ["0", "0.01", "0.02", "0.03", "0.04", "0.05"]);
+    }
+
+    /// The x positions and texts of the `tick-x` labels of a rendered plot.
+    fn x_tick_labels(svg: &str) -> Vec<(f64, String)> {
+        svg.split("<text class=\"tick-x\" x=\"")
+            .skip(1)
+            .map(|rest| {
+                let x: f64 = rest.split('"').next().unwrap().parse().unwrap();
+                let text = rest.split('>').nth(1).unwrap().split('<').next().unwrap();
+                (x, text.to_owned())
+            })
+            .collect()
+    }
+
+    fn plot_over(t_end: f64) -> Plot {
+        let points: Vec<(f64, Option<f64>)> = (0..=100)
+            .map(|k| (t_end * k as f64 / 100.0, Some((k as f64 * 0.1).sin())))
+            .collect();
+        Plot {
+            title: "t".into(),
+            y_label: "y".into(),
+            series: vec![Series {
+                label: "y".into(),
+                color: "#000".into(),
+                dashed: false,
+                points,
+            }],
+            bands: Vec::new(),
+            hlines: Vec::new(),
+            // Only the first span is named: the others share its legend entry.
+            spans: vec![
+                (1.0, 2.0, "#bbb".into(), "no locked target".into()),
+                (3.0, 4.0, "#bbb".into(), String::new()),
+                (5.0, 6.0, "#bbb".into(), String::new()),
+            ],
+        }
+    }
+
+    #[test]
+    fn a_rendered_plots_time_labels_do_not_overlap() {
+        for t_end in [3.0, 26.0, 600.0, 3600.0, 86_400.0] {
+            let svg = plot_over(t_end).svg();
+            let labels: Vec<(f64, f64)> = x_tick_labels(&svg)
+                .iter()
+                .map(|(x, t)| (*x, text_width_px(t)))
+                .collect();
+            assert!(labels.len() >= 3, "{t_end}: {labels:?}");
+            assert_apart(&labels, &format!("0..{t_end} s"));
+        }
+    }
+
+    #[test]
+    fn every_legend_entry_has_text() {
+        let svg = plot_over(30.0).svg();
+        let entries: Vec<&str> = svg.split("<g class=\"legend-entry\">").skip(1).collect();
+        // The series and one entry for the three spans.
+        assert_eq!(entries.len(), 2, "{svg}");
+        for e in entries {
+            let text = e.split("<text").nth(1).unwrap();
+            let text = text.split('>').nth(1).unwrap().split('<').next().unwrap();
+            assert!(!text.trim().is_empty(), "{e}");
+        }
     }
 
     #[test]

@@ -2,18 +2,32 @@
 //! per scenario, a top-down map of the true and estimated paths of target and robot,
 //! the laser, vision and fused estimates with their covariance ellipses at a few
 //! instants (the paper's Fig. 14), distance and bearing to the target over time (Fig.
-//! 15) against the comfort band, the commands, and the measures.
+//! 15) against the comfort band, the commands, and the measures; magnified views of
+//! the target's estimates at a few instants show what fusion buys ([`insets`]).
+//!
+//! The pictures fit the page: a map's scale is chosen so that it is at most
+//! [`MAP_MAX_WIDTH_PX`] wide (the page's width) and its map at most
+//! [`MAP_MAX_HEIGHT_PX`] high, and every picture shrinks with a narrower window.
 
 use std::fmt::Write as _;
 
 use tether_core::{Gaussian2, Point2, World, wrap_angle_rad};
 use tether_fusion::TargetState;
-use tether_sim::svg::{MapSvg, person_color, xml_escape};
+use tether_sim::svg::{LegendMark, MapSvg, person_color, xml_escape};
 use tether_sim::{Scenario, StaticWorld};
 
 use crate::closed_loop::{RunLog, StepKind};
 use crate::metrics::{RunMetrics, band_m};
 use crate::plot::{Plot, Series};
+
+pub mod insets;
+
+/// Widest map, px: within the page's 1,100 px.
+pub const MAP_MAX_WIDTH_PX: f64 = 1040.0;
+/// Highest map (without its title and legend), px.
+pub const MAP_MAX_HEIGHT_PX: f64 = 720.0;
+/// A map's largest scale, px per m.
+const MAP_MAX_PX_PER_M: f64 = 50.0;
 
 /// One scenario's material for the report.
 pub struct ScenarioRun<'a> {
@@ -94,9 +108,17 @@ pub fn run_map(scenario: &Scenario, log: &RunLog) -> String {
         .chain(&robot)
         .copied()
         .collect::<Vec<_>>();
-    let mut map = MapSvg::new(scenario, &world, extent, 50.0);
+    let mut map = MapSvg::fitted(
+        scenario,
+        &world,
+        extent,
+        MAP_MAX_PX_PER_M,
+        MAP_MAX_WIDTH_PX,
+        MAP_MAX_HEIGHT_PX,
+    );
     for (k, (path, spec)) in paths.iter().zip(&scenario.people).enumerate() {
-        let label = if spec.target {
+        // ("target (target)" says it once.)
+        let label = if spec.target && !spec.name.contains("target") {
             format!("{} (target), true", spec.name)
         } else {
             format!("{}, true", spec.name)
@@ -121,6 +143,7 @@ pub fn run_map(scenario: &Scenario, log: &RunLog) -> String {
             .filter(|g| g.mean.distance_m(p) < 1.0)
             .copied()
     };
+    let mut instants = 0;
     for k in 0..5 {
         let Some(step) = frames.get(k * frames.len().saturating_sub(1) / 4) else {
             break;
@@ -156,10 +179,36 @@ pub fn run_map(scenario: &Scenario, log: &RunLog) -> String {
             &format!("{:.1} s", step.truth.stamp.secs_f64()),
             "#444444",
         );
+        instants += 1;
     }
-    map.legend("laser estimate (2σ)", LASER, false);
-    map.legend("vision estimate (2σ)", VISION, false);
-    map.legend("fused estimate (2σ)", FUSED, false);
+    // Where the magnified views below the map are taken.
+    let zooms = insets::insets(log);
+    for inset in &zooms {
+        map.zoom_box(
+            inset.view.center,
+            inset.view.side_m(),
+            insets::ZOOM_COLOR,
+            &inset.letter.to_string(),
+        );
+    }
+    if instants > 0 {
+        map.legend_mark("laser estimate (2σ)", LASER, LegendMark::Ellipse);
+        map.legend_mark("vision estimate (2σ)", VISION, LegendMark::Ellipse);
+        map.legend_mark("fused estimate (2σ)", FUSED, LegendMark::Ellipse);
+        map.legend_mark(
+            "robot at the instants labelled with their time",
+            "#222222",
+            LegendMark::Robot,
+        );
+    }
+    if !zooms.is_empty() {
+        let letters: Vec<String> = zooms.iter().map(|z| z.letter.to_string()).collect();
+        map.legend_mark(
+            &format!("magnified below ({})", letters.join(", ")),
+            insets::ZOOM_COLOR,
+            LegendMark::Square,
+        );
+    }
     map.finish()
 }
 
@@ -292,6 +341,7 @@ pub fn scenario_section(run: &ScenarioRun<'_>) -> String {
         "<div class=\"figure\">{}</div>",
         run_map(run.scenario, run.log)
     );
+    s.push_str(&insets::html(&run.scenario.name, &insets::insets(run.log)));
     for plot in run_plots(run.log) {
         let _ = writeln!(s, "<div class=\"figure\">{}</div>", plot.svg());
     }
@@ -360,6 +410,8 @@ fn page_head(title: &str) -> String {
          th, td {{ border: 1px solid #ccc; padding: 3px 7px; text-align: right; }}\n\
          th {{ background: #f3f3f3; }} td:first-child {{ text-align: left; }}\n\
          .figure {{ margin: 10px 0; overflow-x: auto; }} nav a {{ margin-right: 12px; }}\n\
+         .insets {{ display: flex; flex-wrap: wrap; gap: 14px; margin: 10px 0; }}\n\
+         figure.inset {{ margin: 0; max-width: 320px; font-size: 13px; }}\n\
          section {{ border-top: 1px solid #ddd; margin-top: 28px; }}\n</style></head><body>",
         xml_escape(title)
     );

@@ -1,12 +1,18 @@
 //! The demo's `report.html` and `tether replay`'s report render in a real browser:
 //! headless Chromium takes a screenshot of each, and the picture shows the page (not a
 //! blank or an error page); the replay report's DOM, as Chromium parsed it, holds the
-//! snapshots, the scale bars and the track table.
+//! snapshots, the scale bars and the track table. The demo report's DOM holds the
+//! insets of "what fusion buys", and Chromium's own layout of it (measured by a small
+//! script in a copy of the page) has every map, plot and inset within the page, at a
+//! wide and at a narrow window, and no two time labels of a plot or labels of a map
+//! overlapping.
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
 
 use std::path::Path;
 use std::process::{Command, Output};
+
+use serde_json::Value;
 
 fn chromium() -> Option<&'static str> {
     ["chromium", "chromium-browser", "google-chrome"]
@@ -116,7 +122,228 @@ fn report_renders_in_headless_chromium() {
     // Text, tables, plots and the map: some ink, many grey levels; not a blank page.
     assert!(dark > 0.005 && dark < 0.5, "{dark}");
     assert!(distinct > 40, "{distinct}");
+    demo_dom_has_the_insets(browser, &dir, &html);
+    for width in [1400, 820] {
+        demo_layout_fits(browser, &dir, &text, width);
+    }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The value of attribute `name` in the start tag that `tag` begins.
+fn attr<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
+    let head = tag.split('>').next()?;
+    head.split(&format!(" {name}=\"")).nth(1)?.split('"').next()
+}
+
+/// The texts of the `<text>` elements in `svg`.
+fn texts(svg: &str) -> Vec<&str> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| t.split('>').nth(1)?.split('<').next())
+        .collect()
+}
+
+/// The corridor's demo report as Chromium parsed it: the fused run has three insets
+/// (laser-only, vision-only and fused ellipses at one scale, a scale bar, a legend
+/// whose every entry has text, a caption), marked on its map; the laser-only run says
+/// why it has none; every plot's time labels, by their x and a width estimated from
+/// their characters, stand apart.
+fn demo_dom_has_the_insets(browser: &str, dir: &Path, html: &Path) {
+    let dom = headless(browser, dir, html, &["--dump-dom".to_owned()]);
+    let dom = String::from_utf8_lossy(&dom.stdout).into_owned();
+    let figures: Vec<&str> = dom
+        .split("<figure class=\"inset\"")
+        .skip(1)
+        .map(|f| f.split("</figure>").next().unwrap())
+        .collect();
+    println!(
+        "demo DOM: {} bytes, {} insets, {} zoom boxes, {} plots",
+        dom.len(),
+        figures.len(),
+        dom.matches("class=\"zoom-box\"").count(),
+        dom.matches("<svg xmlns=\"http://www.w3.org/2000/svg\" class=\"plot\"")
+            .count()
+    );
+    assert_eq!(figures.len(), 3, "three insets in the fused corridor run");
+    assert_eq!(dom.matches("class=\"zoom-box\"").count(), 3);
+    assert!(dom.contains("magnified below (A, B, C)"));
+    assert_eq!(
+        dom.matches("class=\"no-insets\"").count(),
+        1,
+        "corridor-laser-only"
+    );
+    for (figure, letter) in figures.iter().zip(["A", "B", "C"]) {
+        let svg = figure.split("</svg>").next().unwrap();
+        assert!(svg.contains("class=\"inset-zoom\""), "{figure}");
+        // The laser's, the camera's and the fused ellipse, and one each in the legend.
+        assert_eq!(svg.matches("<ellipse").count(), 6, "{letter}: {svg}");
+        for color in ["#1f77b4", "#2ca02c", "#9467bd"] {
+            assert!(
+                svg.contains(&format!("stroke=\"{color}\"")),
+                "{letter}: {color}"
+            );
+        }
+        assert!(svg.contains("class=\"scale-bar\"") && svg.contains("class=\"truth\""));
+        let legend: Vec<&str> = svg.split("class=\"legend-entry\"").skip(1).collect();
+        assert_eq!(legend.len(), 5, "{letter}");
+        for entry in legend {
+            let text = texts(entry);
+            assert!(
+                text.first().is_some_and(|t| !t.trim().is_empty()),
+                "{letter}: a legend entry without text: {entry}"
+            );
+        }
+        // Each ellipse at least MIN_ELLIPSE_PX (40 px) wide.
+        for e in svg.split("<ellipse").skip(1).take(3) {
+            let rx: f64 = attr(e, "rx").unwrap().parse().unwrap();
+            let ry: f64 = attr(e, "ry").unwrap().parse().unwrap();
+            assert!(2.0 * rx.max(ry) >= 39.9, "{letter}: {rx} x {ry} px");
+        }
+        let caption = figure.split("<figcaption>").nth(1).unwrap();
+        assert!(
+            caption.starts_with(&format!("<b>{letter}</b> · t = ")),
+            "{caption}"
+        );
+        assert!(caption.contains("Half-axes (2σ): laser "), "{caption}");
+    }
+    // Every legend entry of every plot has text.
+    let plots: Vec<&str> = dom
+        .split("class=\"plot\"")
+        .skip(1)
+        .map(|p| p.split("</svg>").next().unwrap())
+        .collect();
+    assert!(plots.len() >= 6, "{}", plots.len());
+    for plot in &plots {
+        for entry in plot.split("class=\"legend-entry\"").skip(1) {
+            assert!(
+                texts(entry).first().is_some_and(|t| !t.trim().is_empty()),
+                "a plot's legend entry without text: {entry}"
+            );
+        }
+        // Time labels: 11 px text, at most 7 px a character, centred on their x.
+        let mut labels: Vec<(f64, f64)> = plot
+            .split("<text class=\"tick-x\"")
+            .skip(1)
+            .map(|t| {
+                let x: f64 = attr(t, "x").unwrap().parse().unwrap();
+                let text = t.split('>').nth(1).unwrap().split('<').next().unwrap();
+                (x, 7.0 * text.chars().count() as f64)
+            })
+            .collect();
+        assert!(labels.len() >= 3, "{plot}");
+        labels.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for pair in labels.windows(2) {
+            let ((a, wa), (b, wb)) = (pair[0], pair[1]);
+            assert!(
+                b - a >= (wa + wb) / 2.0,
+                "time labels at {a} and {b} overlap"
+            );
+        }
+    }
+}
+
+/// What the measuring script finds in Chromium's layout of the page.
+const MEASURE: &str = r#"<script>
+(function () {
+  const body = document.body.getBoundingClientRect();
+  const out = { page: [body.left, body.right], view: document.documentElement.clientWidth,
+                figures: [], overlaps: [] };
+  for (const svg of document.querySelectorAll("svg.map, svg.plot, svg.inset-zoom")) {
+    const r = svg.getBoundingClientRect();
+    const vb = svg.viewBox.baseVal;
+    out.figures.push({ kind: svg.getAttribute("class"), left: r.left, right: r.right,
+                       width: r.width, height: r.height, vb: [vb.width, vb.height] });
+  }
+  const apart = (svg, selector, what) => {
+    const boxes = [...svg.querySelectorAll(selector)].map(t => [t.textContent, t.getBoundingClientRect()]);
+    for (let i = 0; i < boxes.length; i++) {
+      for (let j = i + 1; j < boxes.length; j++) {
+        const [ta, a] = boxes[i], [tb, b] = boxes[j];
+        if (a.left < b.right && b.left < a.right && a.top < b.bottom && b.top < a.bottom) {
+          out.overlaps.push(what + ": " + ta + " / " + tb);
+        }
+      }
+    }
+    return boxes.length;
+  };
+  out.ticks = 0;
+  for (const svg of document.querySelectorAll("svg.plot")) { out.ticks += apart(svg, "text.tick-x", "time labels"); }
+  out.map_labels = 0;
+  for (const svg of document.querySelectorAll("svg.map")) { out.map_labels += apart(svg, "text.map-label", "map labels"); }
+  const pre = document.createElement("pre");
+  pre.id = "layout";
+  pre.textContent = JSON.stringify(out);
+  document.body.appendChild(pre);
+})();
+</script>"#;
+
+/// The page laid out by Chromium in a window `width` px wide: every map, plot and
+/// inset lies within the page's body (shrunk to fit when the window is narrow, its
+/// shape kept), and no two time labels of a plot nor labels of a map overlap.
+fn demo_layout_fits(browser: &str, dir: &Path, html_text: &str, width: u32) {
+    let measured = dir.join(format!("measured-{width}.html"));
+    std::fs::write(
+        &measured,
+        html_text.replace("</body>", &format!("{MEASURE}</body>")),
+    )
+    .unwrap();
+    let dom = headless(
+        browser,
+        dir,
+        &measured,
+        &[
+            format!("--window-size={width},1200"),
+            "--dump-dom".to_owned(),
+        ],
+    );
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    let json = dom
+        .split("<pre id=\"layout\">")
+        .nth(1)
+        .and_then(|t| t.split("</pre>").next())
+        .unwrap_or_else(|| panic!("no layout measured: {dom}"));
+    let layout: Value = serde_json::from_str(&json.replace("&quot;", "\"")).unwrap();
+    let (left, right) = (
+        layout["page"][0].as_f64().unwrap(),
+        layout["page"][1].as_f64().unwrap(),
+    );
+    let figures = layout["figures"].as_array().unwrap();
+    let count = |kind: &str| figures.iter().filter(|f| f["kind"] == kind).count();
+    println!(
+        "layout at {width} px: page {left:.0}..{right:.0}, {} maps, {} plots, {} insets, {} time labels, {} map labels",
+        count("map"),
+        count("plot"),
+        count("inset-zoom"),
+        layout["ticks"],
+        layout["map_labels"]
+    );
+    assert_eq!(count("map"), 2, "the corridor, fused and laser-only");
+    assert_eq!(count("inset-zoom"), 3);
+    assert!(count("plot") >= 6);
+    assert!(right - left <= f64::from(width), "{left}..{right}");
+    for f in figures {
+        let (l, r, w, h) = (
+            f["left"].as_f64().unwrap(),
+            f["right"].as_f64().unwrap(),
+            f["width"].as_f64().unwrap(),
+            f["height"].as_f64().unwrap(),
+        );
+        assert!(
+            l >= left - 0.5 && r <= right + 0.5,
+            "at {width} px a {} lies at {l:.0}..{r:.0}, outside the page {left:.0}..{right:.0}",
+            f["kind"]
+        );
+        // Shrunk, not squeezed: the height follows the width.
+        let (vw, vh) = (f["vb"][0].as_f64().unwrap(), f["vb"][1].as_f64().unwrap());
+        assert!(
+            (h / w - vh / vw).abs() < 0.02 * vh / vw + 0.01,
+            "{}: {w} x {h} px for a viewBox of {vw} x {vh}",
+            f["kind"]
+        );
+    }
+    assert!(layout["ticks"].as_u64().unwrap() > 20);
+    let overlaps = layout["overlaps"].as_array().unwrap();
+    assert!(overlaps.is_empty(), "at {width} px: {overlaps:?}");
 }
 
 /// Runs `tether` with `args`, which must succeed.
