@@ -1,4 +1,4 @@
-//! tether's cascade trainer (SPEC 3.1, issue 8): trains the kind of boosted Haar cascade
+//! tether's cascade trainer (design 3.1, issue 8): trains the kind of boosted Haar cascade
 //! the paper trained for its robot's camera and writes it as OpenCV's current cascade XML,
 //! which OpenCV 4.x's `CascadeClassifier` and [`tether_vision`] load and run alike.
 //!

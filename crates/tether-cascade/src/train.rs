@@ -1,4 +1,4 @@
-//! The cascade trainer (SPEC 3.1; `opencv_traincascade`'s algorithm, Viola and Jones
+//! The cascade trainer (design 3.1; `opencv_traincascade`'s algorithm, Viola and Jones
 //! 2001 with Lienhart and Maydt's features):
 //!
 //! 1. Positives are cut from the annotated images: each labelled box (its top `upper`

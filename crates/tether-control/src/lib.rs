@@ -1,4 +1,4 @@
-//! Following control for tether (SPEC section 6, paper section V corrected).
+//! Following control for tether (design section 6, paper section V corrected).
 //!
 //! - [`spring`]: the virtual spring follower, its gains from the linearised loops, and
 //!   the paper's printed equations as a variant for comparison.

@@ -1,7 +1,7 @@
 //! Speed, turn-rate, wheel-speed and acceleration limits of a differential base.
 //!
 //! Saturation scales `(v, w)` together so that the curvature `w / v` (the path the robot
-//! drives) is kept; only the pace changes. Wheel speeds are `v +- w b / 2` (SPEC 6).
+//! drives) is kept; only the pace changes. Wheel speeds are `v +- w b / 2` (design 6).
 //! Acceleration limits also scale the change of `(v, w)` by one common factor.
 
 use serde::{Deserialize, Serialize};

@@ -1,4 +1,4 @@
-//! The safety layer, always on (SPEC 6): no motion before a target is locked, stop when
+//! The safety layer, always on (design 6): no motion before a target is locked, stop when
 //! the target is lost or the data are stale (watchdog), never drive towards a laser
 //! return closer than a stop distance in the direction of travel.
 

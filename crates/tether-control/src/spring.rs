@@ -1,4 +1,4 @@
-//! The virtual spring follower (SPEC 6, paper section V, corrected).
+//! The virtual spring follower (design 6, paper section V, corrected).
 //!
 //! The robot is pulled by a virtual spring attached at `J = (L, 0)`, `L > 0` ahead of the
 //! wheel axis, towards the person at `p` (robot frame). With `d = |p - J|` and
@@ -11,7 +11,7 @@
 //! I dw/dt = L (max(F1, 0) sin phi + F2 cos phi) - k4 w
 //! ```
 //!
-//! (SPEC 6 has `F1` in the torque; a compressed spring, `F1 < 0`, would turn the robot
+//! (design 6 has `F1` in the torque; a compressed spring, `F1 < 0`, would turn the robot
 //! away from a person who is close and off to the side, which is exactly the corner
 //! case of following. Only a stretched spring turns the robot here; near `phi = 0` the
 //! two forms have the same linearisation.)
@@ -35,7 +35,7 @@ use thiserror::Error;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SpringVariant {
-    /// The corrected model of SPEC 6.
+    /// The corrected model of design 6.
     #[default]
     Corrected,
     /// The equations as printed in the paper: `F1 = k1 d` and both accelerations with

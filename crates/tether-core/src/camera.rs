@@ -1,5 +1,5 @@
 //! The camera's model: pinhole intrinsics and its mounting on the robot (height, upward
-//! tilt, planar pose), SPEC 2.2 and 3.2.
+//! tilt, planar pose), design 2.2 and 3.2.
 //!
 //! Frames: the camera's ground frame ([`Camera`]) has x along the horizontal projection
 //! of the optical axis, y left, z up, origin at the lens. The optical frame (z forward,
@@ -110,7 +110,7 @@ pub struct PixelBox {
 }
 
 impl PixelBox {
-    /// The top-centre reference point of SPEC 2.2, `(x + w/2, y + m h)`, where `m` is
+    /// The top-centre reference point of design 2.2, `(x + w/2, y + m h)`, where `m` is
     /// the fraction of the box above the head.
     pub fn reference_point(&self, margin_frac: f64) -> (f64, f64) {
         (self.x + 0.5 * self.w, self.y + margin_frac * self.h)
@@ -225,7 +225,7 @@ impl CameraModel {
     }
 
     /// The direction of the ray through pixel (u, v) in the camera's ground frame,
-    /// `(forward, left, up)` (SPEC 3.2): with `x_n = (u - cx)/fx`, `y_n = (v - cy)/fy`,
+    /// `(forward, left, up)` (design 3.2): with `x_n = (u - cx)/fx`, `y_n = (v - cy)/fy`,
     /// `(cos t + y_n sin t, -x_n, sin t - y_n cos t)`. Not normalised.
     pub fn pixel_ray(&self, u: f64, v: f64) -> (f64, f64, f64) {
         let i = &self.intrinsics;

@@ -2,7 +2,7 @@
 //!
 //! A [`Point2<F>`](crate::Point2) lives in frame `F`; a
 //! [`Pose2<To, From>`](crate::Pose2) maps points of `From` into `To`. Names read right
-//! to left, as in SPEC section 1: `point_in_robot = robot_from_laser * point_in_laser`.
+//! to left, as in design section 1: `point_in_robot = robot_from_laser * point_in_laser`.
 //! All frames follow REP 103: x forward, y left, z up, angles counter-clockwise.
 
 /// A coordinate frame known at compile time.

@@ -1,5 +1,5 @@
 //! Two-dimensional Gaussian estimates: a mean and a symmetric positive-definite
-//! covariance (SPEC section 1).
+//! covariance (design section 1).
 //!
 //! [`Cov2`] can only hold a matrix that is finite, symmetric and positive definite; the
 //! constructors check it, so gating, fusion and tracking never meet a singular or NaN

@@ -1,6 +1,6 @@
 //! Planar geometry tagged with frames: points, displacement vectors and rigid poses.
 //!
-//! All lengths are metres and all angles radians (SPEC section 1); the types carry the
+//! All lengths are metres and all angles radians (design section 1); the types carry the
 //! frame, so a point in the laser frame cannot be mixed with one in the world frame
 //! without passing through a named transform.
 

@@ -1,5 +1,5 @@
 //! The laser range finder's model: Hokuyo URG-04LX geometry, range limits, the range
-//! noise model bias(r) / sigma(r), and where the scanner sits on the robot (SPEC 2.1).
+//! noise model bias(r) / sigma(r), and where the scanner sits on the robot (design 2.1).
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -129,7 +129,7 @@ impl Polynomial {
     }
 }
 
-/// Range error model of the scanner (SPEC 2.1, the paper's Fig. 9):
+/// Range error model of the scanner (design 2.1, the paper's Fig. 9):
 /// `measured = r + bias(r) + N(0, sigma(r)^2)`.
 ///
 /// Without calibration: `bias = 0`, `sigma(r) = max(0.01 m, 0.01 r)` (the datasheet's

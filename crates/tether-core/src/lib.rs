@@ -1,7 +1,7 @@
 //! Shared types of tether, the person-following robot.
 //!
 //! Everything later in the pipeline speaks these types, so they encode the conventions
-//! of the design (SPEC section 1) in the type system where that is cheap:
+//! of the design (design section 1) in the type system where that is cheap:
 //!
 //! - Frames follow REP 103 (x forward, y left, z up, angles counter-clockwise, radians).
 //!   Points and poses carry their frame as a type parameter ([`frame`]), so

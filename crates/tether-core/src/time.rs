@@ -1,6 +1,6 @@
 //! Time stamps: signed nanoseconds on a clock that the caller chooses.
 //!
-//! tether never reads a clock inside an algorithm (SPEC section 1): the simulator, a
+//! tether never reads a clock inside an algorithm (design section 1): the simulator, a
 //! replayed log or the live driver passes stamps in, so the same input gives the same
 //! output.
 

@@ -1,5 +1,5 @@
 //! Covariance Intersection and independent (Kalman) fusion of two estimates
-//! (SPEC 5, paper eq. 5-7; Julier and Uhlmann 1997).
+//! (design 5, paper eq. 5-7; Julier and Uhlmann 1997).
 //!
 //! Covariance Intersection fuses `(mu_a, P_a)` and `(mu_b, P_b)` whose cross-correlation
 //! is unknown:

@@ -1,4 +1,4 @@
-//! Mahalanobis gating of two independent estimates (SPEC 5, paper section IV):
+//! Mahalanobis gating of two independent estimates (design 5, paper section IV):
 //! `D^2 = (mu_a - mu_b)^T S^-1 (mu_a - mu_b)` with `S = P_a + P_b`, accepted when
 //! `D^2 < T` for a chi-square quantile `T` with 2 degrees of freedom.
 

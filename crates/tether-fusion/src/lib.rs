@@ -1,4 +1,4 @@
-//! Fusion and tracking for tether (SPEC section 5, paper section IV).
+//! Fusion and tracking for tether (design section 5, paper section IV).
 //!
 //! - [`gate`]: Mahalanobis gating with `S = P_l + P_v` and chi-square thresholds.
 //! - [`ci`]: Covariance Intersection with the exact 2x2 closed form (determinant or

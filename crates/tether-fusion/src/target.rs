@@ -1,4 +1,4 @@
-//! The target of interest: the one person the robot follows (SPEC 5, 11).
+//! The target of interest: the one person the robot follows (design 5, 11).
 //!
 //! States: `Searching` (no target yet), `Locked` (following a track), `Lost` (the
 //! target's track went silent or was dropped; re-acquisition is possible). The lock is
@@ -685,7 +685,7 @@ impl TargetSelector {
     /// estimate after that whole-person update. A coasting target's track may
     /// take a phantom return, the edge of a pillar or a bystander's leg that its wide
     /// reach covers, and run off after them; where the person can be is bounded from
-    /// where they were last seen whole, never from that runaway (SPEC 5; issue 14).
+    /// where they were last seen whole, never from that runaway (design 5; issue 14).
     fn good_anchor(&self, t: &Track) -> crate::tracker::Anchor {
         let last = t.anchor;
         let Some(p) = t.pair_anchor else {

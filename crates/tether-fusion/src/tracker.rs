@@ -9,7 +9,7 @@
 //! that cannot be used is rejected and counted, never allowed to corrupt a track:
 //! batches older than the tracker's clock, non-finite or absurd observations.
 //!
-//! Motion is bounded by what people do (SPEC 11, [`MotionBounds`]): an observation that
+//! Motion is bounded by what people do (design 11, [`MotionBounds`]): an observation that
 //! a track could only explain by an impossible jump does not update it, and the region
 //! a coasting track may take observations from stops growing. A track's estimated
 //! speed never exceeds the bound. Weak observations (leg candidates the classifier
@@ -108,7 +108,7 @@ impl Observation {
     }
 }
 
-/// What people can do (SPEC 11): walking up to about 2 m/s, accelerations of a few
+/// What people can do (design 11): walking up to about 2 m/s, accelerations of a few
 /// m/s^2. Used to refuse observations a track could only reach by an impossible jump
 /// and to bound where a lost person can be.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

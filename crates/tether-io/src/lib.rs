@@ -4,7 +4,7 @@
 //!   chunk info and index records; chunks uncompressed, bz2 or lz4) that yields the
 //!   messages of chosen topics in the order they were recorded, with decoders of
 //!   `sensor_msgs/LaserScan` into [`tether_core::LaserScan`] and of
-//!   `geometry_msgs/PoseArray` (SPEC section 9).
+//!   `geometry_msgs/PoseArray` (design section 9).
 //! - [`mcap`]: MCAP files of ROS 2 CDR messages (profile `ros2`), read and written:
 //!   `LaserScan`, `Image`, `CompressedImage`, `Twist`, `PoseArray`,
 //!   `PoseWithCovarianceStamped`, `Odometry`, with conversions to tether's types; files

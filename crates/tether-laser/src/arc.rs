@@ -1,4 +1,4 @@
-//! The paper's leg test (Luo et al., section III.B; SPEC 4.3): a segment is a leg
+//! The paper's leg test (Luo et al., section III.B; design 4.3): a segment is a leg
 //! candidate when it is an arc of leg size whose centre lies behind it.
 //!
 //! On a circle the perpendicular bisector of every chord passes through the centre,

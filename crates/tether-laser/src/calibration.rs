@@ -1,4 +1,4 @@
-//! Range calibration (the paper's Fig. 9, SPEC 2.1): from ranges measured at known
+//! Range calibration (the paper's Fig. 9, design 2.1): from ranges measured at known
 //! distances, fit the bias `bias(r)` and the noise `sigma(r)` of the scanner as
 //! low-order polynomials, the [`RangeNoiseModel`] that pre-processing and every
 //! covariance use.
@@ -270,7 +270,7 @@ pub fn fit_range_noise(
 
 /// Simulated calibration measurements: `per_range` samples at each true range `r` of
 /// `measured = r + bias(r) + sigma(r) z`, `z ~ N(0, 1)`, from `model` (the range error
-/// model of SPEC 2.1) and the caller's seeded generator.
+/// model of design 2.1) and the caller's seeded generator.
 pub fn simulate_samples<R: Rng + ?Sized>(
     model: &RangeNoiseModel,
     true_ranges_m: &[f64],

@@ -1,4 +1,4 @@
-//! The learned leg classifier (SPEC 4.6): discrete AdaBoost over small decision trees
+//! The learned leg classifier (design 4.6): discrete AdaBoost over small decision trees
 //! on segment features, after Arras, Mozos and Burgard (ICRA 2007), who boosted
 //! stumps (trees of depth 1).
 //!
@@ -1092,5 +1092,104 @@ mod tests {
             }],
         };
         assert_eq!(t.vote(&[0.0; N_FEATURES]), 0.0);
+    }
+
+    /// What a model that loads must give: JSON that reads back equal, a margin in
+    /// [-1, 1], and the compiled layout's decision.
+    fn check_loaded(model: &LegClassifier) -> Result<(), proptest::test_runner::TestCaseError> {
+        use proptest::prelude::*;
+        prop_assert_eq!(&LegClassifier::from_json(&model.to_json()).unwrap(), model);
+        let compiled = CompiledClassifier::new(model);
+        for x in [[0.0; N_FEATURES], [0.5; N_FEATURES], [f64::NAN; N_FEATURES]] {
+            let margin = model.margin(&x);
+            prop_assert!(
+                margin.is_finite() && margin.abs() <= 1.0 + 1e-9,
+                "{}",
+                margin
+            );
+            prop_assert_eq!(compiled.margin_if_leg(&x).is_some(), model.is_leg(&x));
+        }
+        Ok(())
+    }
+
+    /// Small models as JSON values, valid or not: trees of random nodes (splits with
+    /// any feature, threshold and children; leaves with any vote) and random weights.
+    fn model_like_json() -> impl proptest::strategy::Strategy<Value = String> {
+        use proptest::prelude::*;
+        let number = prop_oneof![
+            -2.0..2.0f64,
+            Just(0.0),
+            Just(1e308),
+            Just(-1e308),
+            Just(f64::MIN_POSITIVE),
+        ];
+        let node = prop_oneof![
+            (-2i64..3).prop_map(|v| format!("{{\"vote\": {v}}}")),
+            (0usize..30, number.clone(), 0usize..12, 0usize..12).prop_map(|(f, t, b, a)| {
+                format!(
+                    "{{\"feature\": {f}, \"threshold\": {t:?}, \"below\": {b}, \"above\": {a}}}"
+                )
+            }),
+        ];
+        let tree =
+            (number.clone(), proptest::collection::vec(node, 0..10)).prop_map(|(alpha, nodes)| {
+                format!(
+                    "{{\"alpha\": {alpha:?}, \"nodes\": [{}]}}",
+                    nodes.join(", ")
+                )
+            });
+        (number, proptest::collection::vec(tree, 0..6)).prop_map(|(margin, trees)| {
+            let names: Vec<String> = FEATURE_NAMES.iter().map(|n| format!("{n:?}")).collect();
+            format!(
+                "{{\"format\": {MODEL_FORMAT:?}, \"features\": [{}], \"decision_margin\": {margin:?}, \"trees\": [{}]}}",
+                names.join(", "),
+                trees.join(", ")
+            )
+        })
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(512))]
+
+        /// Arbitrary text is refused or read, never a panic.
+        #[test]
+        fn arbitrary_text_is_refused_or_read_without_a_panic(text in "\\PC{0,200}") {
+            if let Ok(model) = LegClassifier::from_json(&text) {
+                check_loaded(&model)?;
+            }
+        }
+
+        /// Models with random trees: refused with a reason, or they classify.
+        #[test]
+        fn random_models_are_refused_or_classify(text in model_like_json()) {
+            if let Ok(model) = LegClassifier::from_json(&text) {
+                check_loaded(&model)?;
+            }
+        }
+
+        /// The default model with bytes changed, inserted or removed.
+        #[test]
+        fn a_damaged_default_model_is_refused_or_classifies(
+            edits in proptest::collection::vec(
+                (proptest::prelude::any::<proptest::sample::Index>(), 0x20u8..0x7f, 0u8..3),
+                1..6,
+            ),
+        ) {
+            let mut bytes = DEFAULT_MODEL_JSON.as_bytes().to_vec();
+            for (at, byte, op) in edits {
+                let i = at.index(bytes.len());
+                match op {
+                    0 => bytes[i] = byte,
+                    1 => bytes.insert(i, byte),
+                    _ => {
+                        bytes.remove(i);
+                    }
+                }
+            }
+            let text = String::from_utf8_lossy(&bytes);
+            if let Ok(model) = LegClassifier::from_json(&text) {
+                check_loaded(&model)?;
+            }
+        }
     }
 }

@@ -78,11 +78,11 @@ pub const FEATURE_NAMES: [&str; N_FEATURES] = [
 pub const SURFACE_RADII_M: [f64; 3] = [0.3, 0.5, 1.0];
 
 /// Widest first-to-last extent of a segment that can be one leg, m: the widest leg
-/// cross-section (0.20 m, SPEC 4.3) plus range noise.
+/// cross-section (0.20 m, design 4.3) plus range noise.
 pub const LEG_SIZED_MAX_WIDTH_M: f64 = 0.25;
 
 /// The stride radius of the context features, m: the default largest separation of
-/// two legs of one person (SPEC 4.4).
+/// two legs of one person (design 4.4).
 pub const STRIDE_M: f64 = 0.6;
 
 /// A segment that may be a leg, with its features.

@@ -1,4 +1,4 @@
-//! Laser person detection for tether (SPEC section 4): from a 2-D scan to person
+//! Laser person detection for tether (design section 4): from a 2-D scan to person
 //! observations with honest covariances.
 //!
 //! The pipeline, one call per scan ([`LegDetector::detect`]):

@@ -1,4 +1,4 @@
-//! From legs to people (SPEC 4.4, 4.5): pair leg candidates into person observations,
+//! From legs to people (design 4.4, 4.5): pair leg candidates into person observations,
 //! keep lone legs as weaker hypotheses, and give each observation a covariance.
 
 use serde::{Deserialize, Serialize};
@@ -106,7 +106,7 @@ pub struct PersonObservation {
 /// the polar noise `diag(sigma_r^2, sigma_theta^2)` propagated through
 /// `J = d(x, y)/d(r, theta) = [[cos, -r sin], [sin, r cos]]`, i.e.
 /// `R(theta) diag(sigma_r^2, r^2 sigma_theta^2) R(theta)^T`, with `sigma_r(r)` from the
-/// noise model and `sigma_theta` half the angular resolution (SPEC 4.5).
+/// noise model and `sigma_theta` half the angular resolution (design 4.5).
 fn polar_cov(p: Point2<Laser>, noise: &RangeNoiseModel, sigma_theta_rad: f64) -> (f64, f64, f64) {
     let r = p.range_m();
     let (s, c) = p.bearing_rad().sin_cos();
@@ -137,12 +137,12 @@ pub struct PairScratch {
     used: Vec<bool>,
 }
 
-/// Pairs legs into people (SPEC 4.4): every two legs within `max_separation_m` are a
+/// Pairs legs into people (design 4.4): every two legs within `max_separation_m` are a
 /// candidate pair; pairs are taken greedily from the closest, each leg in at most one
 /// person, and the person is at the pair's midpoint. Lone legs become one-leg
 /// hypotheses when `single_leg_people` is set.
 ///
-/// Covariance (SPEC 4.5), for a pair with legs at `a` and `b`:
+/// Covariance (design 4.5), for a pair with legs at `a` and `b`:
 /// `P = (P_a + P_b) / 4 + R(phi) diag(g_along^2, g_across^2) R(phi)^T` with `P_a`, `P_b`
 /// the polar noise of each leg centre, `phi` the direction from `a` to `b`; for a lone
 /// leg at `a`: `P = P_a + s^2 I` with `s = single_leg_sigma_m`.
@@ -215,7 +215,7 @@ pub fn pair_legs(
     }
 }
 
-/// The person hypothesis of a lone leg at `a` (SPEC 4.5): `P = P_a + s^2 I` with `P_a`
+/// The person hypothesis of a lone leg at `a` (design 4.5): `P = P_a + s^2 I` with `P_a`
 /// the polar noise of the leg centre and `s = single_leg_sigma_m`.
 pub fn lone_leg_estimate(
     leg: &Leg,

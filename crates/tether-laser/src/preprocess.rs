@@ -1,4 +1,4 @@
-//! Pre-processing (SPEC 4.1): keep the beams with a return and remove the range bias.
+//! Pre-processing (design 4.1): keep the beams with a return and remove the range bias.
 
 use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
 
@@ -53,7 +53,7 @@ pub struct PreprocessStats {
 }
 
 /// Turns the returns of `scan` into points with the range calibration applied:
-/// `r_corrected = r - bias(r)` (SPEC 2.1, 4.1). Beams with no return are dropped (the
+/// `r_corrected = r - bias(r)` (design 2.1, 4.1). Beams with no return are dropped (the
 /// scan already maps error codes, NaN and out-of-range values to "no return").
 /// `table` must have been updated for `scan` ([`BeamTable::update`]).
 pub fn preprocess_into(

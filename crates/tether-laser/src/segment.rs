@@ -1,4 +1,4 @@
-//! Segmentation (SPEC 4.2): split the returns of a scan into segments where two
+//! Segmentation (design 4.2): split the returns of a scan into segments where two
 //! consecutive returns are too far apart to lie on one surface.
 
 use serde::{Deserialize, Serialize};
@@ -26,7 +26,7 @@ pub enum Breakpoint {
         /// `lambda`, rad. Borges and Aldon use 10 deg.
         lambda_rad: f64,
     },
-    /// A fixed jump: split where `|p[n] - p[n-1]| > jump_m` (SPEC: 0.1-0.2 m; the
+    /// A fixed jump: split where `|p[n] - p[n-1]| > jump_m` (design 4.2: 0.1-0.2 m; the
     /// leg_tracker clustering uses 0.13 m).
     FixedJump {
         /// The largest gap inside a segment, m.

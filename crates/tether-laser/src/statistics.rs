@@ -1,4 +1,4 @@
-//! The statistics of a leg detector that matter for tracking (issue 14, SPEC 11), measured
+//! The statistics of a leg detector that matter for tracking (issue 14, design 11), measured
 //! the same way on real recordings and on simulated runs, so that the simulator can be
 //! made to fail like the real sensor.
 //!
@@ -12,7 +12,7 @@
 //!   `P(miss | miss) = #(miss then miss) / #(miss then any)` over consecutive scans of a
 //!   stretch.
 //! - **Merged legs**: the share of labelled clusters wider than [`MERGED_WIDTH_M`]: a
-//!   leg at the URG-04LX's height gives a 9-16 cm cluster (SPEC 4), two legs seen as one
+//!   leg at the URG-04LX's height gives a 9-16 cm cluster (design 4), two legs seen as one
 //!   cluster give a wider one.
 //! - **False positives** on scans of people-free scenes (or detections away from every
 //!   person in a simulation): leg detections per scan, and how long a false positive
@@ -44,7 +44,7 @@ pub const PERSIST_RADIUS_M: f64 = 0.3;
 /// A jump of the stamps longer than this starts a new stretch, s (issue 14).
 pub const STRETCH_GAP_S: f64 = 0.5;
 /// A labelled cluster wider than this is two legs merged into one, m. Single legs give
-/// 9-16 cm clusters at the URG-04LX's height (SPEC 4); two legs side by side (each
+/// 9-16 cm clusters at the URG-04LX's height (design 4); two legs side by side (each
 /// 10-13 cm wide, 15-30 cm apart) give 22 cm and more.
 pub const MERGED_WIDTH_M: f64 = 0.2;
 /// Upper bounds (inclusive) of the miss-run histogram bins, scans; the last bin is open.

@@ -206,7 +206,7 @@ fn precision_and_recall_on_the_test_split() {
         "learned: {l:?}"
     );
     assert!(a.recall() >= 0.30 && a.precision() >= 0.14, "arc: {a:?}");
-    // SPEC 4.6: furniture fools the arc test; the classifier is the cure.
+    // design 4.6: furniture fools the arc test; the classifier is the cure.
     assert!(learned.negative_false_positives * 5 < arc.negative_false_positives);
     assert!(l.precision() > 4.0 * a.precision());
 }

@@ -1,5 +1,5 @@
 //! The camera's people for the pipeline: the monocular model of
-//! [`tether_vision::monocular::locate`] (the paper's eq. 1-3 as SPEC 3.2 restates them,
+//! [`tether_vision::monocular::locate`] (the paper's eq. 1-3 as design 3.2 restates them,
 //! covariance through the Jacobian), fed with pixel noise that grows with the box (a
 //! cascade's boxes jitter with the pyramid's scale steps), plus what the tracker needs:
 //! the bearing as a measurement of its own, and each person's own head height learned

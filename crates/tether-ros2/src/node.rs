@@ -16,7 +16,7 @@ use tether_io::mcap::Ros2Message;
 use crate::graph;
 use crate::wire::{Wire, type_name};
 
-/// Quality of service as ROS 2's profiles name it (SPEC 12).
+/// Quality of service as ROS 2's profiles name it (design 12).
 pub mod qos {
     use super::*;
 

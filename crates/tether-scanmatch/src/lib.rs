@@ -1,4 +1,4 @@
-//! Ego-motion from laser scans, for robots and recordings without odometry (SPEC 11;
+//! Ego-motion from laser scans, for robots and recordings without odometry (design 11;
 //! issue 14).
 //!
 //! - [`ScanPoints`]: the returns of one scan in the robot frame, with their beam

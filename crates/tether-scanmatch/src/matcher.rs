@@ -371,7 +371,7 @@ struct State {
     trusted: Option<((f64, f64, f64), Stamp)>,
 }
 
-/// Estimates the robot's motion from consecutive scans (SPEC 11: ego-motion without
+/// Estimates the robot's motion from consecutive scans (design 11: ego-motion without
 /// odometry).
 ///
 /// Each scan is matched by point-to-line ICP ([`match_scan`]) against a keyframe, not

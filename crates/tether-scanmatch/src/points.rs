@@ -137,7 +137,7 @@ impl ScanPoints {
     }
 
     /// Like [`ScanPoints::fill_from_scan`], with the calibrated range bias removed from
-    /// every return first (`r - bias(r)`, SPEC 2.1), as tether-laser's pre-processing
+    /// every return first (`r - bias(r)`, design 2.1), as tether-laser's pre-processing
     /// does; a corrected range that is not positive is dropped and counted.
     pub fn fill_from_scan_corrected(
         &mut self,

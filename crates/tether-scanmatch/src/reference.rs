@@ -66,7 +66,7 @@ pub struct Line {
 ///
 /// PL-ICP (Censi, ICRA 2008) matches a point to the segment between its two nearest
 /// reference returns. With the URG-04LX that segment is noise near the scanner: beams
-/// are 6 mm apart at 1 m and ranges scatter by about 1 cm (SPEC 2.1), so the line
+/// are 6 mm apart at 1 m and ranges scatter by about 1 cm (design 2.1), so the line
 /// through two neighbours points anywhere. Here the line at return `k` is fitted (total
 /// least squares: the principal axis of the points' covariance) to the returns of the
 /// same surface within [`LineFit::half_span_m`] of it on either side — the same

@@ -1,5 +1,5 @@
 //! Synthetic scenes for tests, examples and benchmarks: walls and posts ray-cast with the
-//! URG-04LX geometry (SPEC 2.1), with seeded Gaussian range noise. Not a simulator
+//! URG-04LX geometry (design 2.1), with seeded Gaussian range noise. Not a simulator
 //! (`tether-sim` is); just enough to know the true motion between two scans.
 
 use tether_core::{Laser, LaserModel, Point2, Pose2, World};

@@ -5,7 +5,7 @@
 //! office scenario and in any long outdoor scenario.
 //!
 //! People are excluded as a tracker would give them: a zone around each true leg seen
-//! by the laser (SPEC 11: the match is on the static part of the scene).
+//! by the laser (design 11: the match is on the static part of the scene).
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
 

@@ -1,5 +1,5 @@
 //! The simulated camera, modelled at the level of the upper-body detector's output
-//! (SPEC 7): for each person, the box from the head top to the middle of the torso and
+//! (design 7): for each person, the box from the head top to the middle of the torso and
 //! as wide as the shoulders' silhouette, projected through the pinhole model, with pixel
 //! noise; misses that grow with distance, partial occlusion and truncation at the image
 //! border; false positives at a configurable rate.

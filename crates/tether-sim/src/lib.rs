@@ -1,6 +1,6 @@
 //! tether's simulated world: the test bed and the demo of the person follower.
 //!
-//! It simulates the paper's setting (SPEC section 7): rooms with walls, pillars, tables
+//! It simulates the paper's setting (design section 7): rooms with walls, pillars, tables
 //! and chairs whose legs look like human legs to a laser; people walking along waypoint
 //! paths with a human gait (the stance leg fixed while the other swings); a
 //! differential-drive robot carrying a Hokuyo URG-04LX and a camera whose upper-body

@@ -1,6 +1,6 @@
 //! A walking person: a body that follows a waypoint path with a speed profile
 //! (accelerating, cruising, braking for pauses and the path's end), and two legs that
-//! step with a gait (SPEC 7).
+//! step with a gait (design 7).
 //!
 //! Gait model. Steps alternate between the feet at a cadence of 1.7-2.0 steps/s (faster
 //! when walking faster). During a step the stance foot stays fixed on the floor while

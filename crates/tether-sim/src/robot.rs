@@ -26,7 +26,7 @@ impl Command {
 
 /// A differential-drive base.
 ///
-/// Wheel speeds from a command: `v_r = v + w b / 2`, `v_l = v - w b / 2` (SPEC 6, track
+/// Wheel speeds from a command: `v_r = v + w b / 2`, `v_l = v - w b / 2` (design 6, track
 /// width `b`). Both are scaled down together when one exceeds the top speed (which
 /// keeps the curvature), then both wheels approach their targets by the same fraction,
 /// limited so that neither accelerates faster than the limit.

@@ -410,7 +410,7 @@ impl LaserSimSpec {
     }
 }
 
-/// The upper-body detector as the simulator models it (SPEC 7): true boxes plus noise,
+/// The upper-body detector as the simulator models it (design 7): true boxes plus noise,
 /// misses and false positives.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

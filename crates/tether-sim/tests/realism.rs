@@ -1,4 +1,4 @@
-//! The simulated URG-04LX sees walking legs the way the real one does (SPEC 4):
+//! The simulated URG-04LX sees walking legs the way the real one does (design 4):
 //! leg clusters 9-16 cm wide (median ~12.7 cm), ~13 points at 1.7 m, leg centres
 //! 0.2-0.35 m apart most of the time and never much more than 0.58 m.
 

@@ -1,4 +1,4 @@
-//! A boosted cascade of Haar-feature classifiers, loaded from OpenCV's XML files (SPEC 3.1).
+//! A boosted cascade of Haar-feature classifiers, loaded from OpenCV's XML files (design 3.1).
 //!
 //! Two file layouts exist and both are read:
 //!

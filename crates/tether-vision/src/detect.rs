@@ -1,6 +1,6 @@
 //! Multi-scale detection with a Haar cascade, window for window as OpenCV 4.x's
 //! `CascadeClassifier::detectMultiScale` (module objdetect, `cascadedetect.cpp`) does it
-//! on the CPU, so that tether and OpenCV report the same boxes (SPEC 3.1).
+//! on the CPU, so that tether and OpenCV report the same boxes (design 3.1).
 //!
 //! # What OpenCV does, and this module repeats
 //!

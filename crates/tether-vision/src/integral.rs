@@ -1,5 +1,5 @@
 //! Integral images as OpenCV's `cv::integral(src, sum, sqsum, tilted, CV_32S, CV_32S)`
-//! computes them for the cascade detector (SPEC 3.1).
+//! computes them for the cascade detector (design 3.1).
 //!
 //! For a `W x H` image `I` each output has `(W + 1) x (H + 1)` entries (a zero first row
 //! and column), row-major with a caller-chosen stride:

@@ -1,4 +1,4 @@
-//! tether's vision (SPEC section 3).
+//! tether's vision (design section 3).
 //!
 //! - [`cascade`]: OpenCV Haar cascade XML files, both layouts, as OpenCV 4.x reads them.
 //! - [`detect`]: multi-scale detection that returns exactly OpenCV's boxes: the image
@@ -8,7 +8,7 @@
 //!   cv2.IMREAD_GRAYSCALE)` gives them; [`jpeg`]: tether's JPEG decoder, which
 //!   reproduces libjpeg-turbo's grey output bit for bit.
 //! - [`monocular`]: a person's position and covariance in the robot frame from an
-//!   upper-body box (the paper's eq. 1-3, SPEC 3.2), and [`calibrate`]: the camera
+//!   upper-body box (the paper's eq. 1-3, design 3.2), and [`calibrate`]: the camera
 //!   tilt and box margin from boxes of a person at known distances.
 //!
 //! The crate does no I/O besides reading the files it is asked to read, and reads no

@@ -1,12 +1,12 @@
 //! A person's position on the floor plane from an upper-body box: monocular range and
-//! bearing, the paper's eq. 1-3 as SPEC 3.2 restates them, with the covariance
+//! bearing, the paper's eq. 1-3 as design 3.2 restates them, with the covariance
 //! propagated from the pixel noise, the spread of people's heights and the uncertainty of
 //! the camera tilt.
 //!
 //! # The model
 //!
 //! The box's reference point is its top centre, `(u, v) = (x + w/2, y + m h)`, where `m`
-//! is the fraction of the box above the head (SPEC 2.2). With normalised coordinates
+//! is the fraction of the box above the head (design 2.2). With normalised coordinates
 //! `x_n = (u - cx) / fx`, `y_n = (v - cy) / fy` and the camera pitched up by `t`, the
 //! pixel's ray in the camera's ground frame (forward, left, up) is
 //!
@@ -58,7 +58,7 @@ pub struct MonocularParams {
     pub head_height_m: f64,
     /// Spread of head heights among people, m. Default 0.07.
     pub head_height_sigma_m: f64,
-    /// Fraction of the box above the head (`m` of SPEC 2.2). Default 0.
+    /// Fraction of the box above the head (`m` of design 2.2). Default 0.
     pub margin_frac: f64,
     /// Noise of the reference point's column, px. Default 2.
     pub sigma_u_px: f64,
@@ -226,7 +226,7 @@ fn ray_hit(
     })
 }
 
-/// Locates a person from an upper-body box (SPEC 3.2, eq. 1-3), with the covariance of
+/// Locates a person from an upper-body box (design 3.2, eq. 1-3), with the covariance of
 /// the module documentation, in the robot frame.
 pub fn locate(
     camera: &CameraModel,
@@ -380,7 +380,7 @@ mod tests {
         }
     }
 
-    /// SPEC 3.2's sensitivities at 3 m: one pixel of row ~2 cm, one degree of tilt
+    /// design 3.2's sensitivities at 3 m: one pixel of row ~2 cm, one degree of tilt
     /// ~15 cm, 7 cm of head height ~18 cm.
     #[test]
     fn sensitivities_at_three_metres() {
@@ -415,7 +415,7 @@ mod tests {
         })
     }
 
-    /// SPEC 3.2: range error grows with distance (roughly with its square, since a row
+    /// design 3.2: range error grows with distance (roughly with its square, since a row
     /// spans more floor far away), and the propagated covariance predicts the spread of
     /// ranges computed from noisy boxes.
     #[test]

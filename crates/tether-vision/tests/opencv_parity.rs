@@ -1,4 +1,4 @@
-//! Parity with OpenCV 4.x `CascadeClassifier::detectMultiScale` (issue 4, SPEC 3.1).
+//! Parity with OpenCV 4.x `CascadeClassifier::detectMultiScale` (issue 4, design 3.1).
 //!
 //! For every cascade of [`CASCADES`] (Debian's `opencv-data`, one of them in the old
 //! haartraining layout), every image under `../shared/data/images/` and `minNeighbors`

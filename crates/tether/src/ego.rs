@@ -1,5 +1,5 @@
 //! The robot's motion when nothing else tells it: odometry from the scans themselves
-//! (issue 14; SPEC section 11). Each scan is matched against a keyframe of the static
+//! (issue 14; design section 11). Each scan is matched against a keyframe of the static
 //! scene by point-to-line ICP (`tether-scanmatch`), leaving out the returns around the
 //! people being tracked, so that tracks live in one consistent frame while the robot
 //! drives even when a recording or a robot gives no odometry.

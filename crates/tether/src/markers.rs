@@ -11,7 +11,7 @@
 //!
 //! Shapes carry a lifetime (0.5 s for tracks, 0.3 s for observations), so a track that
 //! ends leaves the view by itself. Ellipse half-axes are `sqrt(chi2_2(0.95) * lambda)`
-//! for the covariance's eigenvalues `lambda` (SPEC section 6's gate at 95 %).
+//! for the covariance's eigenvalues `lambda` (design 5.1's gate at 95 %).
 
 use tether_core::{Gaussian2, World};
 use tether_io::mcap::{ColorRgba, Header, MarkerArrayMsg, MarkerMsg, Pose3};

@@ -1,4 +1,4 @@
-//! The measures of a closed-loop run (SPEC 8): estimation (RMSE, NEES), tracking
+//! The measures of a closed-loop run (design 8): estimation (RMSE, NEES), tracking
 //! (CLEAR MOT, target swaps) and following (distance error, minimum distance, time in
 //! the comfort band, time without a target, collisions, jerk).
 //!
@@ -13,10 +13,10 @@ use tether_pipeline::Tick;
 
 use crate::closed_loop::{RunLog, StepKind};
 
-/// Comfort band of the follow distance for a follow distance of 1 m, m (SPEC 8).
+/// Comfort band of the follow distance for a follow distance of 1 m, m (design 8).
 pub const BAND_M: (f64, f64) = (0.8, 1.5);
 
-/// The comfort band around a scenario's follow distance `d0`: SPEC 8's [0.8, 1.5] m
+/// The comfort band around a scenario's follow distance `d0`: design 8's [0.8, 1.5] m
 /// for d0 = 1 m, moved with d0 (`[d0 - 0.2, d0 + 0.5]`: 0.2 m nearer, 0.5 m farther),
 /// so that `occlusion`'s d0 = 2 m is measured against [1.8, 2.5] m.
 pub fn band_m(d0_m: f64) -> (f64, f64) {
@@ -61,8 +61,8 @@ pub struct RunMetrics {
     pub rms_distance_error_m: Option<f64>,
     /// Smallest d over the run, m.
     pub min_distance_m: f64,
-    /// Share of time after the first lock with d in the comfort band [`band_m`] (SPEC
-    /// 8's [0.8, 1.5] m for d0 = 1 m).
+    /// Share of time after the first lock with d in the comfort band [`band_m`]
+    /// (design 8's [0.8, 1.5] m for d0 = 1 m).
     pub time_in_band_frac: Option<f64>,
     /// Time after the first lock without a locked target, s.
     pub target_lost_s: f64,

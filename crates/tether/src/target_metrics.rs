@@ -1,7 +1,7 @@
 //! How well a simulated run's target lock held, against the ground truth: whether the
 //! locked track is the true person while the laser can see them, whether it is ever a
 //! bystander, and how soon the person is taken up again after being hidden (issue 14's
-//! measures; SPEC section 10).
+//! measures; design 8 and 11.10).
 
 use serde::Serialize;
 use tether_core::{Point2, World};

@@ -1,5 +1,5 @@
 //! The loop of `tether track` and `tether eval-track`: a recording's samples through
-//! the pipeline in log order (SPEC 4, 5), with the robot's pose from odometry when a
+//! the pipeline in log order (design 4, 5), with the robot's pose from odometry when a
 //! topic gives it, else taken as still (the scan's frame is then the robot's and the
 //! world's).
 //!

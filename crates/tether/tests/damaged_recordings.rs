@@ -1,5 +1,5 @@
 //! Recordings that are cut short, of the wrong type or unreadable, through the release
-//! binary as a user meets them (issue 16, "Nothing is lost"; SPEC section 13):
+//! binary as a user meets them (issue 16, "Nothing is lost"; design section 13):
 //!
 //! - a ROS 1 bag cut short is read chunk by chunk up to the cut, with one warning saying
 //!   where it stopped and how many messages it read; one with nothing readable is an

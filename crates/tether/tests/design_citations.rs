@@ -7,10 +7,9 @@
 //! `docs/design.md, 5`). A section exists when the document has a heading that starts
 //! with its number (`## 3. Vision`, `### 3.2 Monocular range and bearing`).
 //!
-//! Citations of the old design notes, which live outside the repository, are listed by a
-//! second test, ignored until those citations have been replaced; meanwhile a third test
-//! checks that each section number they cite exists in `docs/design.md`, so that the
-//! replacement can be made mechanically.
+//! Citations of the old design notes, which live outside the repository, must not come
+//! back: a second test fails on any (a third checks that each section such a citation
+//! would name exists in `docs/design.md`, which held while they were being replaced).
 
 use std::collections::BTreeSet;
 use std::fs;
@@ -277,7 +276,7 @@ fn every_section_the_old_notes_are_cited_for_exists_in_the_document() {
 }
 
 #[test]
-#[ignore = "until the SPEC citations are replaced"]
+
 fn no_citation_points_outside_the_repository() {
     let mut outside = Vec::new();
     for (path, text) in sources() {

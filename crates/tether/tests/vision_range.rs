@@ -1,5 +1,5 @@
 //! Fed with the simulator's camera model, the vision-only range error grows with
-//! distance as SPEC 3.2 predicts (issue 4), and the covariance the monocular model gives
+//! distance as design 3.2 predicts (issue 4), and the covariance the monocular model gives
 //! predicts it.
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]

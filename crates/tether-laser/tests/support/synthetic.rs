@@ -42,7 +42,7 @@ fn hit_room(c: f64, s: f64, room: [f64; 4]) -> f64 {
 
 /// A full URG-04LX scan (682 beams, -2.0862 .. 2.0923 rad) of a 7 m x 5 m room with
 /// the sensor at (1.5, 2.5) facing +x and the given circles, with normal range noise
-/// of `sigma_m` (real URG-04LX beams spread by 6-7 mm, SPEC 2.1) and 2 % of beams
+/// of `sigma_m` (real URG-04LX beams spread by 6-7 mm, design 2.1) and 2 % of beams
 /// dropped; ranges beyond 5.6 m read as no return.
 pub fn urg_scan(circles: &[Circle], sigma_m: f64, seed: u64) -> LaserScan {
     let model = LaserModel::urg_04lx();

@@ -1,6 +1,6 @@
 //! `tether calibrate camera`: estimate the camera tilt (and the box's head margin) from
 //! detections of a person standing at known distances, so that the paper's eq. 1
-//! (SPEC 3.2) gives the right range, and report the residuals.
+//! (design 3.2) gives the right range, and report the residuals.
 //!
 //! The samples are a CSV file with a header, one row per observation, either
 //!

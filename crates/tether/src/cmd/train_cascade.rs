@@ -1,4 +1,4 @@
-//! `tether train-cascade`: train a boosted Haar cascade (SPEC 3.1, issue 8) from an
+//! `tether train-cascade`: train a boosted Haar cascade (design 3.1, issue 8) from an
 //! OpenCV `info.dat` annotation file and write OpenCV's cascade XML.
 
 use std::path::{Path, PathBuf};
