@@ -1,4 +1,4 @@
-//! PNG and tether's own JPEG decoder (`tether_vision::imread::decode_gray`, what
+//! PNG and tether's own JPEG decoder (`tether_image::imread::decode_gray`, what
 //! `tether detect`, the camera folder of `tether run` and CompressedImage frames go
 //! through) on arbitrary bytes: never a panic, and never more memory than the picture
 //! the header claims can justify. The header is capped before decoding
@@ -13,7 +13,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use libfuzzer_sys::fuzz_target;
-use tether_vision::imread::{
+use tether_image::imread::{
     MAX_DECODE_PIXELS, PLAUSIBILITY_FROM_PIXELS, decode_gray_warned, dimensions,
     min_plausible_bytes,
 };

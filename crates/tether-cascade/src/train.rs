@@ -24,8 +24,9 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use tether_core::GrayImage;
+use tether_image::{ImreadError, imread_gray};
+use tether_vision::Rect;
 use tether_vision::resize::resize_linear;
-use tether_vision::{ImreadError, Rect, imread_gray};
 use thiserror::Error;
 
 use crate::boost::{BoostType, MAX_SAMPLES, SortedValues, StageParams, train_stage};

@@ -18,7 +18,8 @@ use std::process::Command;
 use serde_json::Value;
 use tether_cascade::train::{Silent, TrainConfig, TrainingData, train};
 use tether_cascade::xml::to_xml;
-use tether_vision::{Cascade, DetectParams, Detector, Rect, imread_gray};
+use tether_image::imread_gray;
+use tether_vision::{Cascade, DetectParams, Detector, Rect};
 
 fn shared_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared")

@@ -5,10 +5,10 @@
 //! this run: tether on 1 and 2 threads (AVX2 when the CPU has it), tether on one thread
 //! with the portable SSE2 scan, and OpenCV 4.x single-threaded (through
 //! `../shared/tools/opencv_reference.py --time-runs`), best of several runs each, and the
-//! ratio; then divan's own statistics for tether, including reading the two JPEG files
-//! (`imread_jpeg_640x480`: tether's own decoder, `tether_vision::jpeg`). Set
-//! `TETHER_BENCH_NO_OPENCV=1` to skip OpenCV. Needs `../shared/data/images` and Debian's
-//! `opencv-data`; without them it says so and measures nothing.
+//! ratio; then divan's own statistics for tether (reading the images is measured by
+//! `tether-image`'s `decode` bench). Set `TETHER_BENCH_NO_OPENCV=1` to skip OpenCV. Needs
+//! `../shared/data/images` and Debian's `opencv-data`; without them it says so and
+//! measures nothing.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -16,7 +16,8 @@ use std::sync::LazyLock;
 use std::time::Instant;
 
 use tether_core::GrayImage;
-use tether_vision::{Cascade, DetectParams, Detector, imread_gray};
+use tether_image::imread_gray;
+use tether_vision::{Cascade, DetectParams, Detector};
 
 const CASCADE: &str = "/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml";
 /// The 640x480 images of `../shared/data/images`.
@@ -210,15 +211,6 @@ fn detect_640x480<const THREADS: usize>(bencher: divan::Bencher, name: &str) {
         .1;
     let p = params();
     bencher.bench(|| detector.detect(image, &p).expect("detect"));
-}
-
-/// Reading a 640x480 JPEG file's bytes to grey (`imread` without the file system).
-#[divan::bench(args = ["no_people/aero3.jpg", "no_people/board.jpg"], sample_count = 50)]
-fn imread_jpeg_640x480(bencher: divan::Bencher, name: &str) {
-    let Ok(bytes) = std::fs::read(shared().join("data/images").join(name)) else {
-        return;
-    };
-    bencher.bench(|| tether_vision::imread::decode_gray(&bytes).expect("decode"));
 }
 
 /// The image pyramid alone: every level's resize of a 640x480 image.

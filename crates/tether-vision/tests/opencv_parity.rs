@@ -24,8 +24,9 @@ use std::process::Command;
 
 use serde::Deserialize;
 use tether_core::GrayImage;
+use tether_image::imread_gray;
 use tether_vision::detect::group_and_clip;
-use tether_vision::{Cascade, DetectParams, Detector, Rect, imread_gray};
+use tether_vision::{Cascade, DetectParams, Detector, Rect};
 
 /// The cascades of the issue, plus the one old-layout cascade Debian ships.
 const CASCADES: [&str; 9] = [

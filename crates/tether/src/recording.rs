@@ -22,9 +22,9 @@ use std::path::Path;
 
 use anyhow::Context;
 use tether_core::{GrayImage, Laser, LaserScan, Point2, Pose2, Robot, Stamp, World};
+use tether_image::imread::decode_gray;
 use tether_io::mcap::{self, CompressedImageMsg, ImageMsg, McapFile, OdometryMsg, Ros2Message};
 use tether_io::rosbag::{self, Bag, RosMessage};
-use tether_vision::imread::decode_gray;
 
 /// The topics to read; `None` leaves a stream out.
 #[derive(Debug, Clone, Default)]

@@ -105,7 +105,7 @@ fn report_renders_in_headless_chromium() {
         "no screenshot: {}",
         String::from_utf8_lossy(&shot.stderr)
     );
-    let img = tether_vision::imread::imread_gray(&png).unwrap();
+    let img = tether_image::imread_gray(&png).unwrap();
     let pixels = img.pixels();
     let dark = pixels.iter().filter(|p| **p < 128).count() as f64 / pixels.len() as f64;
     let distinct = {
@@ -442,7 +442,7 @@ fn replay_report_renders_in_headless_chromium() {
         "no screenshot: {}",
         String::from_utf8_lossy(&shot.stderr)
     );
-    let img = tether_vision::imread::imread_gray(&png).unwrap();
+    let img = tether_image::imread_gray(&png).unwrap();
     assert_eq!((img.width(), img.height()), (1400, 4000));
     let pixels = img.pixels();
     let at = |x: usize, y: usize| pixels[y * img.width() + x];

@@ -6,7 +6,7 @@
 //! OpenCV: the variance normalisation in `f64` (`A Q - S^2`, `1 / sqrt`, rounded to
 //! `f32`), each feature's `f32` value (`LaneStump::value`: wrapping 32-bit corner sums,
 //! `cvtdq2ps`, products and sums in the same order, no fused multiply-add), and the quick
-//! certified stage sum of [`super::Approx`] with its verdict; a lane that the quick sum
+//! certified stage sum of [`super::plan::Approx`] with its verdict; a lane that the quick sum
 //! cannot decide is decided by the caller's exact `f64` sum. The property tests of
 //! `detect` compare this path with the plain reference and with the SSE2 path.
 //!
@@ -29,7 +29,9 @@ use std::arch::x86_64::{
     _mm256_set1_ps, _mm256_sqrt_pd, _mm256_sub_epi32, _mm256_sub_pd, _mm256_sub_ps,
 };
 
-use super::{KINDS, Kind, LaneStump, PAD, StagePlan, VIEW};
+use super::lanes::LaneStump;
+use super::level::{PAD, VIEW};
+use super::plan::{KINDS, Kind, StagePlan, for_each_kind};
 
 /// Windows evaluated together on this path.
 pub(super) const LANES8: usize = 8;
@@ -38,7 +40,7 @@ pub(super) const LANES8: usize = 8;
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Avx2(());
 
-/// A stage as this path evaluates it (an exact stage, see [`super::StagePlan`]).
+/// A stage as this path evaluates it (an exact stage, see [`super::plan::StagePlan`]).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Stage8 {
     first: usize,

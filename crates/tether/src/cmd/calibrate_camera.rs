@@ -16,9 +16,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use tether_core::{CameraModel, PixelBox};
+use tether_image::imread_gray;
 use tether_vision::calibrate::{CalibrationSample, calibrate_camera};
 use tether_vision::monocular::MonocularParams;
-use tether_vision::{Cascade, Detector, imread_gray};
+use tether_vision::{Cascade, Detector};
 
 use super::detect::resolve_cascade;
 

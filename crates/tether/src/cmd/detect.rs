@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use serde_json::json;
-use tether_vision::imread::imread_gray_warned;
+use tether_image::imread::imread_gray_warned;
 use tether_vision::{Cascade, DetectParams, Detector};
 
 /// Where Debian's `opencv-data` installs the pretrained cascades.

@@ -9,7 +9,8 @@ use rayon::prelude::*;
 use serde_json::json;
 use tether_cascade::eval::{MATCH_IOU, evaluate};
 use tether_cascade::info::{read_info, upper_part};
-use tether_vision::{Cascade, Detector, imread_gray};
+use tether_image::imread_gray;
+use tether_vision::{Cascade, Detector};
 
 /// Options of `tether eval-cascade`.
 #[derive(Debug, clap::Args)]

@@ -1,6 +1,6 @@
 //! Crafted files: a minimal baseline writer, then cases whose expected pixels are worked
 //! out by hand or were taken from `cv2.imread(..., cv2.IMREAD_GRAYSCALE)` (OpenCV 4.14)
-//! on the same bytes (`cargo test -p tether-vision jpeg::tests::dump -- --ignored`
+//! on the same bytes (`cargo test -p tether-image jpeg::tests::dump -- --ignored`
 //! writes them to `$TETHER_JPEG_DUMP`).
 
 use super::huffman::NATURAL_ORDER;

@@ -6,13 +6,14 @@
 //! The files are written here (seeded pseudo-random content), read by tether and by
 //! Python's OpenCV, and compared pixel for pixel. Needs Python with OpenCV 4.x
 //! (`pip install opencv-python-headless==4.14.0.94 numpy`); without it the test prints
-//! why and passes without checking. The JPEG decoder is measured by `opencv_parity`.
+//! why and passes without checking. The JPEG decoder is measured by `jpeg_parity` (and
+//! by tether-vision's `opencv_parity`).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use png::{BitDepth, ColorType, ScaledFloat, SrgbRenderingIntent};
-use tether_vision::imread_gray;
+use tether_image::imread_gray;
 
 fn python_cv2() -> Option<String> {
     let out = Command::new("python3")
@@ -120,7 +121,7 @@ fn write(variant: &Variant, dir: &Path, seed: u64) -> PathBuf {
         *b = next();
     }
     // Every fifth pixel grey, except in 16-bit files with a gamma, the one case where
-    // tether's grey pixels can be a level off (see `tether_vision::imread`).
+    // tether's grey pixels can be a level off (see `tether_image::imread`).
     let grey_pixels = !(bits == 16 && (variant.gamma.is_some() || variant.srgb));
     if bits >= 8 && grey_pixels && matches!(variant.color, ColorType::Rgb | ColorType::Rgba) {
         let bytes = bits / 8;
@@ -171,7 +172,7 @@ fn png_grey_equals_opencv() {
         );
         return;
     };
-    let dir = std::env::temp_dir().join(format!("tether-vision-imread-{}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("tether-image-imread-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let files: Vec<(String, PathBuf)> = variants()
         .iter()

@@ -12,8 +12,8 @@
 use std::path::{Path, PathBuf};
 
 use proptest::prelude::*;
-use tether_vision::imread::{apply_orientation, decode_gray as imread_decode};
-use tether_vision::jpeg::{Warning, decode_gray};
+use tether_image::imread::{apply_orientation, decode_gray as imread_decode};
+use tether_image::jpeg::{Warning, decode_gray};
 
 fn data_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/jpeg")

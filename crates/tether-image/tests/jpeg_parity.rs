@@ -23,12 +23,12 @@
 //! `FF FF 00` as a marker, then redoes the MCU with its exact path, and the coefficients
 //! the first attempt wrote stay behind; which MCUs take the fast path depends on where
 //! the 4096-byte `fread` buffer boundaries fall. tether decodes such an MCU as the exact
-//! path does (see `tether_vision::jpeg`).
+//! path does (see `tether_image::jpeg`).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use tether_vision::imread_gray;
+use tether_image::imread_gray;
 
 fn shared_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared")
