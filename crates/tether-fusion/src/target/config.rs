@@ -81,7 +81,7 @@ pub struct TargetConfig {
     /// ...and the other track is within this normalised distance of the prediction.
     pub handover_within_sigma: f64,
     /// A target's track that has coasted this long while exactly one other track takes
-    /// up the target hands it over ([`TargetSelector`]'s coasting handover), s.
+    /// up the target hands it over ([`super::TargetSelector`]'s coasting handover), s.
     pub handover_coast_s: f64,
     /// The target's track that stays within `led_off_distance_m` of somebody else's
     /// track for `led_off_after_s` has been led off onto that person: the target is

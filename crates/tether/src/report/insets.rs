@@ -39,7 +39,7 @@ pub const INSET_PX: f64 = 300.0;
 /// is at least what makes every one of its ellipses this wide.
 pub const MIN_ELLIPSE_PX: f64 = 40.0;
 /// Free space between the widest reach of the ellipses and the view's edge, px.
-const EDGE_PX: f64 = 12.0;
+pub const EDGE_PX: f64 = 12.0;
 /// Largest scale of an inset, px per m (1 mm = 20 px), for degenerate covariances.
 const MAX_PX_PER_M: f64 = 20_000.0;
 /// Frames at most this long after the laser's scan are preferred, s.
