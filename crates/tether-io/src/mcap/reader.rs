@@ -1395,4 +1395,114 @@ mod tests {
         ));
         assert!(McapFile::from_bytes(Vec::new()).is_err());
     }
+
+    /// Opens `bytes` and, if they open, walks every message and decodes every topic as
+    /// a scan: an error or a result, never a panic; a walk gives at most one error, as
+    /// its last item (what the `mcap_file` fuzz target checks).
+    fn open_and_walk(bytes: Vec<u8>) -> Result<usize, McapError> {
+        let file = McapFile::from_bytes(bytes)?;
+        let _ = (file.salvaged(), file.profile(), file.library());
+        let topics: Vec<String> = file.topics().iter().map(|t| t.to_string()).collect();
+        let mut n = 0;
+        let mut messages = file.messages();
+        let mut last_error = None;
+        for m in &mut messages {
+            assert!(
+                last_error.is_none(),
+                "a message after the error {last_error:?}"
+            );
+            match m {
+                Ok(_) => n += 1,
+                Err(e) => last_error = Some(e),
+            }
+        }
+        if let Some(c) = messages.cut() {
+            let _ = c.to_string();
+        }
+        let names: Vec<&str> = topics.iter().map(String::as_str).collect();
+        let mut scans = file.decoded::<crate::mcap::LaserScanMsg>(&names);
+        for m in &mut scans {
+            let _ = m.map(|m| m.message);
+        }
+        let _ = (scans.bad_count(), scans.skipped().len());
+        match last_error {
+            Some(e) => Err(e),
+            None => Ok(n),
+        }
+    }
+
+    /// Records that look like MCAP's: a known or random opcode, a length that is the
+    /// body's, or random, or far too large, and a random body (small).
+    fn mcap_like_records() -> impl proptest::strategy::Strategy<Value = Vec<u8>> {
+        use proptest::prelude::*;
+        let record = (
+            prop_oneof![0x01u8..=0x0F, any::<u8>()],
+            prop_oneof![
+                Just(None),
+                any::<u64>().prop_map(Some),
+                (0u64..64).prop_map(Some)
+            ],
+            proptest::collection::vec(any::<u8>(), 0..96),
+        )
+            .prop_map(|(op, len, body)| {
+                let mut out = vec![op];
+                out.extend(len.unwrap_or(body.len() as u64).to_le_bytes());
+                out.extend(body);
+                out
+            });
+        (proptest::collection::vec(record, 0..12), any::<bool>()).prop_map(|(records, end)| {
+            let mut out = MAGIC.to_vec();
+            out.extend(records.concat());
+            if end {
+                out.extend(MAGIC);
+            }
+            out
+        })
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+
+        /// Random bytes, alone and after the magic, and MCAP-like records: an error or
+        /// a file whose walk ends, never a panic.
+        #[test]
+        fn random_bytes_give_an_error_or_a_result_never_a_panic(
+            bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..2000),
+            after_magic in proptest::prelude::any::<bool>(),
+        ) {
+            let mut input = if after_magic { MAGIC.to_vec() } else { Vec::new() };
+            input.extend(&bytes);
+            let _ = open_and_walk(input);
+        }
+
+        #[test]
+        fn mcap_like_records_give_an_error_or_a_result_never_a_panic(
+            bytes in mcap_like_records(),
+        ) {
+            let _ = open_and_walk(bytes);
+        }
+
+        /// A valid recording with bytes changed, inserted or removed anywhere.
+        #[test]
+        fn a_damaged_recording_gives_an_error_or_a_result_never_a_panic(
+            edits in proptest::collection::vec(
+                (proptest::prelude::any::<proptest::sample::Index>(), proptest::prelude::any::<u8>(), 0u8..3),
+                1..8,
+            ),
+        ) {
+            static RECORDING: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+            let mut bytes = RECORDING.get_or_init(recording).clone();
+            for (at, byte, op) in edits {
+                let i = at.index(bytes.len());
+                match op {
+                    0 => bytes[i] = byte,
+                    1 => bytes.insert(i, byte),
+                    _ => {
+                        bytes.remove(i);
+                    }
+                }
+            }
+            let _ = open_and_walk(bytes);
+        }
+    }
 }

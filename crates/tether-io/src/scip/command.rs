@@ -440,4 +440,83 @@ mod tests {
         assert_eq!(ScanRequest { cluster: 3, ..r }.value_count(), 228);
         assert_eq!(ScanRequest { cluster: 0, ..r }.value_count(), 682);
     }
+
+    /// Checks what the emulator relies on for a host line: no panic; an accepted
+    /// command that encodes parses back to itself; a refusal maps to a two-digit status.
+    fn parse_checked(line: &[u8]) -> Result<(), TestCaseError> {
+        match parse_request(line) {
+            Ok(request) => {
+                if let Ok(encoded) = request.encode() {
+                    prop_assert_eq!(encoded.last(), Some(&b'\n'));
+                    let again = parse_request(&encoded[..encoded.len() - 1]);
+                    prop_assert_eq!(again, Ok(request));
+                }
+            }
+            Err(e) => {
+                let status = e.status();
+                prop_assert!(status.iter().all(u8::is_ascii_alphanumeric), "{:?}", status);
+            }
+        }
+        Ok(())
+    }
+
+    /// Lines that look like host commands: symbols, digits, `;` and tags, and a few
+    /// random bytes.
+    fn scip_like_line() -> impl Strategy<Value = Vec<u8>> {
+        let piece = prop_oneof![
+            prop::sample::select(vec![
+                "MD", "MS", "GD", "GS", "VV", "PP", "II", "BM", "QT", "RS", "TM", "SCIP2.0",
+                "SCIP", ";", ";tag", "0044", "0725", "01", "000", "9999", "0", "1", "2", "99",
+            ])
+            .prop_map(|s| s.as_bytes().to_vec()),
+            proptest::collection::vec(b'0'..=b'9', 1..14),
+            proptest::collection::vec(any::<u8>(), 1..4),
+        ];
+        proptest::collection::vec(piece, 0..8).prop_map(|v| v.concat())
+    }
+
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+
+        /// Random bytes never panic the parser.
+        #[test]
+        fn random_lines_never_panic(line in proptest::collection::vec(any::<u8>(), 0..64)) {
+            parse_checked(&line)?;
+        }
+
+        /// Command-like lines never panic it, and what it accepts round-trips.
+        #[test]
+        fn scip_like_lines_never_panic_and_round_trip(line in scip_like_line()) {
+            parse_checked(&line)?;
+        }
+
+        /// Every valid range request with a tag parses to itself.
+        #[test]
+        fn valid_scan_requests_round_trip(
+            start in 0u16..=9999,
+            len in 0u16..=9999,
+            cluster in 0u8..=99,
+            continuous in proptest::option::of((0u8..=9, 0u8..=99)),
+            two in any::<bool>(),
+            tag in proptest::option::of("[A-Za-z0-9 ._+@]{0,16}"),
+        ) {
+            let request = Request {
+                command: Command::Scan(ScanRequest {
+                    encoding: if two { Encoding::Two } else { Encoding::Three },
+                    start_step: start,
+                    end_step: start.saturating_add(len).min(9999),
+                    cluster,
+                    kind: match continuous {
+                        Some((interval, count)) => ScanKind::Continuous { interval, count },
+                        None => ScanKind::Single,
+                    },
+                }),
+                tag,
+            };
+            let line = request.encode().unwrap();
+            prop_assert_eq!(parse_request(&line[..line.len() - 1]), Ok(request));
+        }
+    }
 }
