@@ -367,6 +367,53 @@ fn ctrl_c_ends_the_run_with_a_final_stop() {
 }
 
 #[test]
+fn sigterm_on_a_driving_run_ends_it_with_a_final_stop() {
+    // What a service manager (systemd, docker stop) sends: the same clean end as
+    // Ctrl-C, while the robot drives.
+    let dir = scratch("live-sigterm");
+    let (mut emu, pty) = emulator(&dir);
+    let feed = emu.child.stdin.take().unwrap();
+    let config = config(&dir, &pty);
+    let (mut run, lines) = run(&dir, &config, &[], feed);
+    let started = Instant::now();
+    loop {
+        let driving = lines
+            .lock()
+            .unwrap()
+            .iter()
+            .rev()
+            .take(5)
+            .any(|l| json(l)["v_mps"].as_f64().unwrap_or(0.0) > 0.1);
+        if driving {
+            break;
+        }
+        if let Some(status) = run.child.try_wait().unwrap() {
+            panic!("tether run exited early ({status}):\n{}", run.stderr());
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "the robot did not drive within 60 s; stderr:\n{}",
+            run.stderr()
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    run.signal("-TERM");
+    let status = run.wait_for(Duration::from_secs(20)).unwrap_or_else(|| {
+        panic!(
+            "tether run ignored SIGTERM for 20 s; stderr:\n{}",
+            run.stderr()
+        )
+    });
+    let stderr = run.stderr();
+    assert!(status.success(), "{status}:\n{stderr}");
+    assert_final_stop(&lines, "interrupted", &stderr);
+    // The base got the stop too (then the guard's own).
+    let wheels = std::fs::read_to_string(dir.join("wheels.txt")).unwrap();
+    assert!(wheels.ends_with("0.000 0.000\n0.000 0.000\n"), "{wheels}");
+    assert!(!stderr.contains("without its final stop"), "{stderr}");
+}
+
+#[test]
 fn a_stdout_nobody_reads_holds_up_neither_the_base_nor_ctrl_c() {
     // stdout is piped and never read: once the pipe's buffer is full (about 7 s of
     // lines), a blocking write would freeze the loop, the base's commands and Ctrl-C.
