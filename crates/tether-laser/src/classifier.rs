@@ -276,8 +276,22 @@ impl LegClassifier {
                 why: "the model has no trees".into(),
             });
         }
+        // Each weight is finite, and so must be their sum, the margin's denominator
+        // (two weights of 1e308 made every margin NaN: no segment was ever a leg).
+        let mut total = 0.0;
         for (tree, t) in self.trees.iter().enumerate() {
             t.validate().map_err(|why| ModelError::Tree { tree, why })?;
+            total += t.alpha;
+            if !total.is_finite() {
+                return Err(ModelError::Tree {
+                    tree,
+                    why: format!(
+                        "alpha {} takes the sum of the weights past {:e}",
+                        t.alpha,
+                        f64::MAX
+                    ),
+                });
+            }
         }
         Ok(())
     }
@@ -1078,6 +1092,22 @@ mod tests {
             LegClassifier::from_json(&model.to_json()),
             Err(ModelError::Tree { tree: 0, why }) if why.contains("9 splits deep")
         ));
+    }
+
+    #[test]
+    fn weights_whose_sum_overflows_are_refused() {
+        // Each weight is finite, their sum is not: every margin was inf / inf = NaN.
+        let mut model = LegClassifier::default_model().unwrap();
+        model.trees.truncate(3);
+        model.trees[0].alpha = 1e308;
+        model.trees[2].alpha = 1e308;
+        assert!(matches!(
+            LegClassifier::from_json(&model.to_json()),
+            Err(ModelError::Tree { tree: 2, why }) if why.contains("sum of the weights")
+        ));
+        model.trees[2].alpha = 1.0;
+        let ok = LegClassifier::from_json(&model.to_json()).unwrap();
+        assert!(ok.margin(&[0.0; N_FEATURES]).is_finite());
     }
 
     #[test]

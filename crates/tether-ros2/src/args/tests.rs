@@ -679,4 +679,36 @@ proptest! {
         let _ = param_blocks(&text);
         let _ = command_line_value(&text);
     }
+
+    /// A real parameter file with characters changed, inserted or removed anywhere
+    /// (indentation, `:`, brackets, tags): read or refused, and what is read resolves
+    /// for any node (wildcard blocks) without a panic.
+    #[test]
+    fn a_damaged_file_is_read_or_refused_without_a_panic(
+        edits in prop::collection::vec(
+            (any::<prop::sample::Index>(), prop::sample::select(
+                vec![' ', '\n', ':', '-', '[', ']', '{', '}', ',', '*', '/', '!', '&', '\'', '"', '#', 'a', '1', '.'],
+            ), 0u8..3),
+            1..6,
+        )
+    ) {
+        let mut text: Vec<char> = FILE.chars().collect();
+        for (at, c, op) in edits {
+            let i = at.index(text.len());
+            match op {
+                0 => text[i] = c,
+                1 => text.insert(i, c),
+                _ => {
+                    text.remove(i);
+                }
+            }
+        }
+        let text: String = text.into_iter().collect();
+        if let Ok(blocks) = param_blocks(&text) {
+            let ros = RosArgs { param_blocks: blocks, ..RosArgs::default() };
+            for (node, namespace) in [("tether", "/"), ("other", "/robot1"), ("x", "")] {
+                let _ = ros.params_for(node, namespace);
+            }
+        }
+    }
 }

@@ -356,3 +356,89 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// [`load_config`] of `text` written to a file of its own.
+    fn load_text(text: &str) -> anyhow::Result<PipelineConfig> {
+        static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let path = std::env::temp_dir().join(format!(
+            "tether-track-config-{}-{n}.toml",
+            std::process::id()
+        ));
+        std::fs::write(&path, text).unwrap();
+        let config = load_config(Some(&path));
+        let _ = std::fs::remove_file(&path);
+        config
+    }
+
+    /// A config that loads makes a pipeline or an error naming the part, never a panic.
+    fn check(text: &str) {
+        if let Ok(config) = load_text(text) {
+            match Pipeline::new(config, None) {
+                Ok(_) => {}
+                Err(e) => assert!(e.to_string().starts_with("invalid "), "{e}"),
+            }
+        }
+    }
+
+    /// `tether config defaults` with the comments out: every table and key, shorter.
+    fn defaults() -> &'static str {
+        static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+        TEXT.get_or_init(|| {
+            let (text, _) = tether::config_docs::annotated_defaults().unwrap();
+            text.lines()
+                .filter(|l| !l.starts_with('#') && !l.is_empty())
+                .map(|l| format!("{l}\n"))
+                .collect()
+        })
+    }
+
+    #[test]
+    fn the_defaults_load_and_make_a_pipeline() {
+        let config = load_text(defaults()).unwrap();
+        assert_eq!(config, PipelineConfig::default());
+        assert!(Pipeline::new(config, None).is_ok());
+        assert!(load_text("[limits]\nmax_speed_mps = \"fast\"\n").is_err());
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        /// Arbitrary text, and TOML-like lines of the pipeline's tables and keys.
+        #[test]
+        fn arbitrary_text_is_refused_or_read_without_a_panic(
+            text in "\\PC{0,160}|(\\[(robot|laser|legs|tracker|limits|safety|target|fusion)\\]\n([a-z_]{1,12} = (-?[0-9.e]{1,8}|true|\"[a-z]{0,6}\"|inf|nan)\n){0,4}){0,4}",
+        ) {
+            check(&text);
+        }
+
+        /// The defaults with characters changed, inserted or removed anywhere.
+        #[test]
+        fn damaged_defaults_are_refused_or_make_a_pipeline(
+            edits in proptest::collection::vec(
+                (any::<prop::sample::Index>(), prop::sample::select(
+                    vec![' ', '\n', '=', '[', ']', '.', '"', '-', '0', '9', 'e', 'x', '#'],
+                ), 0u8..3),
+                1..6,
+            ),
+        ) {
+            let mut text: Vec<char> = defaults().chars().collect();
+            for (at, c, op) in edits {
+                let i = at.index(text.len());
+                match op {
+                    0 => text[i] = c,
+                    1 => text.insert(i, c),
+                    _ => {
+                        text.remove(i);
+                    }
+                }
+            }
+            check(&text.into_iter().collect::<String>());
+        }
+    }
+}
