@@ -13,7 +13,7 @@
 use tether_control::Twist;
 use tether_core::{LaserScan, Pose2, Robot, Stamp, World};
 
-use crate::live::odometry::DeadReckoning;
+use tether_live::odometry::DeadReckoning;
 use tether_pipeline::{Pipeline, PipelineConfig, PipelineError, Tick};
 use tether_sim::{Command, Event, Scenario, SensorData, SimError, Simulation, Truth};
 

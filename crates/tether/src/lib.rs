@@ -1,20 +1,23 @@
 //! The `tether` application: the closed loop in the simulator, its measures and the
-//! report, shared by the command line, the tests and the benchmarks.
+//! report, shared by the command line, the tests and the benchmarks. The live runtime
+//! (`run`, `ros2`) is the `tether-live` crate, re-exported here as [`live`].
 
 pub mod closed_loop;
 pub mod config_docs;
-pub mod ego;
-pub mod live;
+pub mod ego_motion;
 pub mod logs;
-pub mod markers;
 pub mod metrics;
 pub mod output;
 pub mod plot;
 pub mod recording;
 pub mod replay_report;
 pub mod report;
-pub mod results;
-pub mod target_log;
 pub mod target_metrics;
 pub mod track_eval;
 pub mod tracking;
+
+/// The live runtime (`tether::live::config`, `tether::live::run_loop`, ...), where these
+/// paths lived before it became a crate of its own.
+pub use tether_live as live;
+/// Modules that moved to `tether-live` with the runtime, at their old paths.
+pub use tether_live::{ego, markers, results, target_log};

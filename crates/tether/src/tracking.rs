@@ -8,9 +8,9 @@
 //! the world frame) and the scan's labels (in the laser frame) in one frame:
 //! `world_from_laser = world_from_robot * robot_from_laser`.
 
-use crate::ego::ScanOdometry;
 use std::cell::RefCell;
 use std::path::Path;
+use tether_live::ego::ScanOdometry;
 use tether_scanmatch::MotionPrior;
 
 use tether_core::{GrayImage, Laser, LaserScan, PixelBox, Pose2, Robot, World};
@@ -105,7 +105,7 @@ pub fn run_recording(
             }
             Sample::Scan(scan) => {
                 if let Some(odometry) = scan_odometry.as_deref_mut() {
-                    let people = crate::ego::moving_people(pipeline.tracker().tracks());
+                    let people = tether_live::ego::moving_people(pipeline.tracker().tracks());
                     pose = Some(odometry.update(&scan, MotionPrior::ConstantVelocity, people));
                 }
                 let Some(world_from_robot) = pose else {

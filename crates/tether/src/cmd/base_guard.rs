@@ -1,12 +1,12 @@
 //! `tether base-guard`: the process `tether run` starts beside itself to stop the base
-//! when tether dies or hangs (see `tether::live::guard`). Not for direct use.
+//! when tether dies or hangs (see `tether_live::guard`). Not for direct use.
 
 use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::Context;
-use tether::live::config::WheelFormat;
-use tether::live::guard::{GuardSpec, GuardedBase, watch};
+use tether_live::config::WheelFormat;
+use tether_live::guard::{GuardSpec, GuardedBase, watch};
 
 /// Options of `tether base-guard` (written by `tether run`).
 #[derive(Debug, clap::Args)]

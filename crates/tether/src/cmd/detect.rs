@@ -10,12 +10,6 @@ use serde_json::json;
 use tether_image::imread::imread_gray_warned;
 use tether_vision::{Cascade, DetectParams, Detector};
 
-/// Where Debian's `opencv-data` installs the pretrained cascades.
-pub const DEBIAN_CASCADE_DIR: &str = "/usr/share/opencv4/haarcascades";
-
-/// The cascade used without `--cascade`.
-pub const DEFAULT_CASCADE: &str = "haarcascade_upperbody.xml";
-
 /// Options of `tether detect`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -45,19 +39,10 @@ pub struct Args {
     pub images: Vec<PathBuf>,
 }
 
-/// The cascade to use: the given file, or Debian's upper-body cascade.
+/// The cascade to use: the given file, or Debian's upper-body cascade
+/// (`tether_live::sources::camera::DEFAULT_CASCADE` in `DEBIAN_CASCADE_DIR`).
 pub fn resolve_cascade(cascade: Option<&Path>) -> anyhow::Result<PathBuf> {
-    if let Some(path) = cascade {
-        return Ok(path.to_path_buf());
-    }
-    let default = Path::new(DEBIAN_CASCADE_DIR).join(DEFAULT_CASCADE);
-    anyhow::ensure!(
-        default.is_file(),
-        "no --cascade given and {} is missing: install OpenCV's pretrained cascades \
-         (Debian/Ubuntu: `sudo apt-get install opencv-data`) or pass --cascade FILE",
-        default.display()
-    );
-    Ok(default)
+    Ok(tether_live::sources::camera::resolve_cascade(cascade)?)
 }
 
 /// `[W, H]` from a two-value option.

@@ -28,8 +28,8 @@ pub struct Args {
     /// Where the robot's motion comes from when no odometry topic is given: `auto` or
     /// `scans` (matching each scan against the static scene, the people being tracked
     /// left out), `none` (the sensor is taken as still).
-    #[arg(long, value_enum, default_value_t = tether::ego::EgoMotion::Auto)]
-    pub ego_motion: tether::ego::EgoMotion,
+    #[arg(long, value_enum, default_value_t = tether::ego_motion::EgoMotion::Auto)]
+    pub ego_motion: tether::ego_motion::EgoMotion,
     /// The labelled person the robot should follow (default: the only label id, when
     /// the labels have one).
     #[arg(long, value_name = "ID")]
@@ -77,8 +77,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .ego_motion
         .resolve(args.odom_topic.is_some())
         .map_err(anyhow::Error::msg)?;
-    let mut scan_odometry = (source == tether::ego::PoseSource::Scans).then(|| {
-        tether::ego::ScanOdometry::new(
+    let mut scan_odometry = (source == tether::ego_motion::PoseSource::Scans).then(|| {
+        tether_live::ego::ScanOdometry::new(
             tether_scanmatch::ScanMatcherConfig::default(),
             config.laser.robot_from_laser(),
         )

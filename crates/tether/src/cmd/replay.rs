@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use tether::ego::{EgoMotion, PoseSource, ScanOdometry};
+use tether::ego_motion::{EgoMotion, PoseSource};
 use tether::plot::{Plot, Series};
 use tether::recording::{self, Sample, Topics};
 use tether::replay_report::{
@@ -15,17 +15,18 @@ use tether::replay_report::{
     snapshots_html,
 };
 use tether::report::simple_page;
-use tether::results::ResultWriter;
-use tether::target_log::TargetLog;
 use tether_core::{Gaussian2, Laser, LaserScan, Pose2, Robot, Stamp, World};
 use tether_fusion::tracker::Track;
 use tether_fusion::{TargetState, TargetStats};
 use tether_laser::LegDetector;
+use tether_live::ego::ScanOdometry;
+use tether_live::results::ResultWriter;
+use tether_live::target_log::TargetLog;
 use tether_pipeline::{Pipeline, Tick};
 use tether_scanmatch::{MotionPrior, ScanMatcherConfig};
 use tether_sim::svg::xml_escape;
 
-use super::track::{Camera, CameraArgs};
+use super::track::CameraArgs;
 
 /// Options of `tether replay`.
 #[derive(Debug, clap::Args)]
@@ -295,7 +296,7 @@ impl Summary {
             ),
             (
                 "Target: locks, losses and why".to_string(),
-                self.target.html(counts),
+                tether::report::target_html(&self.target, counts),
             ),
             ("Tracks".to_string(), self.track_table.html(start)),
             (
@@ -314,7 +315,7 @@ impl Summary {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = super::track::load_config(args.config.as_ref())?;
     let mut camera = match &args.image_topic {
-        Some(_) => Some(Camera::new(&args.detector)?),
+        Some(_) => Some(super::track::camera(&args.detector)?),
         None => None,
     };
     let mut config = config;
@@ -364,7 +365,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Sample::Scan(scan) => {
                 summary.scans += 1;
                 if let Some(odometry) = scan_odometry.as_mut() {
-                    let people = tether::ego::moving_people(pipeline.tracker().tracks());
+                    let people = tether_live::ego::moving_people(pipeline.tracker().tracks());
                     pose = Some(odometry.update(&scan, MotionPrior::ConstantVelocity, people));
                 }
                 let Some(p) = pose else {

@@ -7,12 +7,12 @@ use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use tether::closed_loop::{self, RunError};
 use tether::metrics::measure;
-use tether::results::ResultWriter;
 use tether_core::Stamp;
 use tether_io::mcap::{Header, LaserScanMsg, McapError, OdometryMsg};
 use tether_io::rosbag::{
     self, BagWriteError, BagWriter, ConnectionId, PersonArrayMsg, PersonMsg, Pose3,
 };
+use tether_live::results::ResultWriter;
 use tether_pipeline::Tick;
 use tether_sim::record::RunRecorder;
 use tether_sim::{Event, Scenario, SensorData, Simulation, StaticWorld, run_to_dir};
@@ -49,7 +49,7 @@ pub struct Args {
     /// Also record the run (tether driving) as ROS 2 messages in an MCAP file, for
     /// `tether replay` and Foxglove: `/scan` (LaserScan), `/odom` (Odometry, perfect),
     /// `/truth/people` (PoseArray), the pipeline's `/tether/...` topics (tracks,
-    /// observations, target, commands; see `tether::results`).
+    /// observations, target, commands; see `tether_live::results`).
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
     /// The camera off: the simulated camera is not run and tether's laser-only

@@ -7,12 +7,12 @@ use std::path::PathBuf;
 use anyhow::Context;
 use serde::Serialize;
 use tether::recording::Topics;
-use tether::results::TargetStateLine;
-use tether::target_log::TargetLog;
 use tether::tracking::{CameraBoxes, ScanStep, Step, run_recording};
-use tether_core::{CameraIntrinsics, GrayImage, PixelBox};
+use tether_core::GrayImage;
+use tether_live::results::TargetStateLine;
+use tether_live::target_log::TargetLog;
 use tether_pipeline::{Pipeline, PipelineConfig};
-use tether_vision::{Cascade, DetectParams, Detector};
+use tether_vision::Cascade;
 
 /// Options of `tether track`.
 #[derive(Debug, clap::Args)]
@@ -45,8 +45,8 @@ pub struct Args {
     /// Where the robot's motion comes from when no odometry topic is given: `auto` or
     /// `scans` (matching each scan against the static scene, the people being tracked
     /// left out), `none` (the sensor is taken as still).
-    #[arg(long, value_enum, default_value_t = tether::ego::EgoMotion::Auto)]
-    pub ego_motion: tether::ego::EgoMotion,
+    #[arg(long, value_enum, default_value_t = tether::ego_motion::EgoMotion::Auto)]
+    pub ego_motion: tether::ego_motion::EgoMotion,
     /// Where to write one JSON line per scan message (`-`: standard output).
     #[arg(long, value_name = "FILE.jsonl")]
     pub out: PathBuf,
@@ -113,7 +113,7 @@ pub fn load_config(path: Option<&PathBuf>) -> anyhow::Result<PipelineConfig> {
         .map(|t| t.contains_key("robot"))
         .unwrap_or(false);
     if is_robot {
-        let robot = tether::live::config::RobotConfig::load_for_recordings(path)?;
+        let robot = tether_live::config::RobotConfig::load_for_recordings(path)?;
         let table: toml::Table = toml::from_str(&text)?;
         let unused: Vec<String> = ["base", "output"]
             .iter()
@@ -149,62 +149,14 @@ pub fn load_config(path: Option<&PathBuf>) -> anyhow::Result<PipelineConfig> {
 }
 
 /// The camera side of a run: the detector and what it saw.
-pub struct Camera {
-    detector: Detector,
-    params: DetectParams,
-    /// Frames searched.
-    pub frames: usize,
-    /// People boxes found.
-    pub boxes: usize,
-    size_warned: bool,
-}
+pub use tether_live::sources::camera::BoxDetector as Camera;
 
-impl Camera {
-    /// The detector the options ask for.
-    pub fn new(args: &CameraArgs) -> anyhow::Result<Self> {
-        let cascade_path = super::detect::resolve_cascade(args.cascade.as_deref())?;
-        let cascade = Cascade::load(&cascade_path)?;
-        let params = args.search.params()?;
-        Ok(Camera {
-            detector: Detector::new(cascade).with_threads(args.threads)?,
-            params,
-            frames: 0,
-            boxes: 0,
-            size_warned: false,
-        })
-    }
-
-    /// The people boxes of one frame; warns once when the frame's size is not the
-    /// camera model's.
-    pub fn boxes(
-        &mut self,
-        image: &GrayImage,
-        intrinsics: &CameraIntrinsics,
-    ) -> anyhow::Result<Vec<PixelBox>> {
-        if !self.size_warned
-            && (image.width() as u32, image.height() as u32)
-                != (intrinsics.width_px, intrinsics.height_px)
-        {
-            self.size_warned = true;
-            tracing::warn!(
-                "camera frames are {}x{} but the camera model is {}x{}: set [camera] in \
-                 --config to this camera's intrinsics, or the vision ranges are wrong",
-                image.width(),
-                image.height(),
-                intrinsics.width_px,
-                intrinsics.height_px
-            );
-        }
-        let boxes: Vec<PixelBox> = self
-            .detector
-            .detect(image, &self.params)?
-            .into_iter()
-            .map(PixelBox::from)
-            .collect();
-        self.frames += 1;
-        self.boxes += boxes.len();
-        Ok(boxes)
-    }
+/// The detector the options ask for.
+pub fn camera(args: &CameraArgs) -> anyhow::Result<Camera> {
+    let cascade_path = super::detect::resolve_cascade(args.cascade.as_deref())?;
+    let cascade = Cascade::load(&cascade_path)?;
+    let params = args.search.params()?;
+    Ok(Camera::new(cascade, params, args.threads)?)
 }
 
 /// Runs the pipeline over the recording's scans (and camera frames, with
@@ -220,7 +172,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         config.laser.mount.yaw_rad = 0.0;
     }
     let mut camera = match &args.image_topic {
-        Some(_) => Some(Camera::new(&args.detector)?),
+        Some(_) => Some(camera(&args.detector)?),
         None => None,
     };
     config.fusion.use_vision = camera.is_some();
@@ -229,8 +181,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .ego_motion
         .resolve(args.odom_topic.is_some())
         .map_err(anyhow::Error::msg)?;
-    let mut scan_odometry = (source == tether::ego::PoseSource::Scans).then(|| {
-        tether::ego::ScanOdometry::new(
+    let mut scan_odometry = (source == tether::ego_motion::PoseSource::Scans).then(|| {
+        tether_live::ego::ScanOdometry::new(
             tether_scanmatch::ScanMatcherConfig::default(),
             config.laser.robot_from_laser(),
         )
@@ -251,7 +203,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut target_log = TargetLog::new();
     let mut boxes = camera
         .as_mut()
-        .map(|c| move |image: &GrayImage| c.boxes(image, &intrinsics));
+        .map(|c| move |image: &GrayImage| Ok(c.boxes(image, &intrinsics)?));
     let counts = run_recording(
         &args.bag,
         &topics,

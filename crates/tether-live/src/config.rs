@@ -38,8 +38,10 @@
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
-use tether_control::SpringGains;
-use tether_core::{CameraIntrinsics, CameraModel, CameraMount, LaserMount};
+use tether_control::{LimitsError, SafetyConfigError, SpringConfigError, SpringGains};
+use tether_core::{
+    CameraIntrinsics, CameraModel, CameraModelError, CameraMount, LaserModelError, LaserMount,
+};
 use tether_pipeline::PipelineConfig;
 
 /// Why a configuration is refused.
@@ -71,6 +73,27 @@ pub enum ConfigError {
         /// What is wrong and what is expected.
         message: String,
     },
+}
+
+/// Why the pipeline's settings that a config makes ([`RobotConfig::pipeline_config`])
+/// are refused: the part, and what is wrong with it.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineConfigError {
+    /// The laser's model (its mount).
+    #[error("laser: {0}")]
+    Laser(LaserModelError),
+    /// The camera's model (its intrinsics and mount).
+    #[error("camera: {0}")]
+    Camera(CameraModelError),
+    /// The base's limits.
+    #[error("limits: {0}")]
+    Limits(LimitsError),
+    /// The safety layer (the robot's radius).
+    #[error("safety: {0}")]
+    Safety(SafetyConfigError),
+    /// The follower.
+    #[error("follower: {0}")]
+    Follower(SpringConfigError),
 }
 
 impl ConfigError {
@@ -300,7 +323,7 @@ pub struct BaseSection {
     pub format: Option<WheelFormat>,
     /// Run the base guard (default true): a small process that holds its own handle
     /// on the device and stops the base when tether dies or hangs
-    /// ([`crate::live::guard`]).
+    /// ([`crate::guard`]).
     #[serde(default)]
     pub guard: Option<bool>,
     /// The guard's patience: the base is stopped after this long without a command,
@@ -447,13 +470,11 @@ impl RobotConfig {
                 field,
                 message,
             })?;
-        config
-            .pipeline_config()
-            .map_err(|message| ConfigError::Invalid {
-                path: path.to_path_buf(),
-                field: "pipeline".into(),
-                message,
-            })?;
+        config.pipeline_config().map_err(|e| ConfigError::Invalid {
+            path: path.to_path_buf(),
+            field: "pipeline".into(),
+            message: e.to_string(),
+        })?;
         Ok(config)
     }
 
@@ -666,7 +687,7 @@ impl RobotConfig {
     /// The pipeline's configuration: `[pipeline]` with the robot's geometry, the
     /// sensors' poses and the follower's settings put in; the laser only without a
     /// camera.
-    pub fn pipeline_config(&self) -> Result<PipelineConfig, String> {
+    pub fn pipeline_config(&self) -> Result<PipelineConfig, PipelineConfigError> {
         let mut p = self.pipeline.clone();
         let r = &self.robot;
         p.limits.track_width_m = r.track_width_m;
@@ -711,13 +732,13 @@ impl RobotConfig {
             }
             None => p.fusion.use_vision = false,
         }
-        p.laser.validate().map_err(|e| format!("laser: {e}"))?;
-        p.camera.validate().map_err(|e| format!("camera: {e}"))?;
-        p.limits.validate().map_err(|e| format!("limits: {e}"))?;
-        p.safety.validate().map_err(|e| format!("safety: {e}"))?;
+        p.laser.validate().map_err(PipelineConfigError::Laser)?;
+        p.camera.validate().map_err(PipelineConfigError::Camera)?;
+        p.limits.validate().map_err(PipelineConfigError::Limits)?;
+        p.safety.validate().map_err(PipelineConfigError::Safety)?;
         p.follower
             .validate()
-            .map_err(|e| format!("follower: {e}"))?;
+            .map_err(PipelineConfigError::Follower)?;
         Ok(p)
     }
 }
@@ -925,7 +946,7 @@ stdout = true
 
     #[test]
     fn the_example_config_parses() {
-        let c = parse(include_str!("../../../../configs/robot.example.toml")).unwrap();
+        let c = parse(include_str!("../../../configs/robot.example.toml")).unwrap();
         assert_eq!(c.base.kind, BaseKind::Create);
         assert_eq!(c.base.baud, Some(115_200));
         assert_eq!(

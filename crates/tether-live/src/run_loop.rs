@@ -14,65 +14,26 @@
 //! such data are processed at the last tick's time (the clamp is counted), while the
 //! robot's pose is still looked up at the data's own stamp.
 
-use super::camera::EncodedFrame;
-use super::monitor::FollowMonitor;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::Duration;
 
 use tether_control::Twist;
 use tether_core::{LaserScan, PixelBox, Pose2, Robot, Stamp, World};
-use tether_io::mcap::{CompressedImageMsg, Header, LaserScanMsg, McapError, OdometryMsg, TwistMsg};
-use tether_io::scip::Clock;
+use tether_io::mcap::McapError;
+use tether_io::scip::{Clock, ScipError};
 use tether_pipeline::{Pipeline, Tick, TickInput};
-
-use super::base::{CommandLine, CommandSink, TargetLine};
-use super::odometry::DeadReckoning;
-use crate::ego::ScanOdometry;
-use crate::results::{ResultWriter, TargetStateLine};
-use crate::target_log::TargetLog;
 use tether_scanmatch::{MotionPrior, ScanMatcherConfig};
 
-/// What the sensor threads send.
-#[derive(Debug)]
-pub enum Input {
-    /// A laser scan, stamped in host time.
-    Scan(LaserScan),
-    /// Something the laser driver met and recovered from.
-    LaserFault(String),
-    /// The laser failed for good (unplugged, not answering).
-    LaserFailed(String),
-    /// The people boxes of a camera frame, stamped when the frame arrived.
-    Camera {
-        /// Arrival time of the frame.
-        stamp: Stamp,
-        /// Upper-body boxes.
-        boxes: Vec<PixelBox>,
-        /// The frame itself, compressed, when the run records.
-        frame: Option<EncodedFrame>,
-    },
-    /// The camera stopped: `None` at the end of a folder, the error otherwise. The run
-    /// goes on with the laser alone.
-    CameraEnded(Option<String>),
-    /// A camera frame that could not be used (undecodable, the wrong size): skipped
-    /// and counted; the camera goes on.
-    CameraFrameBad(String),
-    /// The base's own odometry (ROS 2 `odom`): the robot's pose in the odometry frame,
-    /// stamped in host time. Once it arrives it is the robot's pose for every datum (see
-    /// [`LoopConfig::odometry_input`]).
-    Odometry {
-        /// When the pose held.
-        stamp: Stamp,
-        /// The pose.
-        world_from_robot: Pose2<World, Robot>,
-        /// The base's velocity then (forward, turn rate), to carry the pose to a
-        /// datum's stamp.
-        moving: Twist,
-    },
-    /// The simulated clock moved on (`/clock`, `use_sim_time`): nothing to process,
-    /// but the control timer may be due.
-    ClockAdvanced,
-}
+use crate::base::{CommandLine, CommandSink, TargetLine};
+use crate::ego::ScanOdometry;
+use crate::monitor::FollowMonitor;
+use crate::odometry::DeadReckoning;
+use crate::recorder::Recorder;
+use crate::results::TargetStateLine;
+pub use crate::sources::Input;
+use crate::sources::frames::EncodedFrame;
+use crate::target_log::TargetLog;
 
 /// A clock that stands still this long in wall time (a simulator that stopped
 /// publishing `/clock`) gets the robot a stop: the timer, and with it the watchdog,
@@ -106,14 +67,14 @@ pub struct LoopConfig {
 pub const ODOMETRY_TIMEOUT_NS: i64 = 500_000_000;
 
 /// Why the run ended.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug)]
 pub enum Ending {
     /// The duration passed.
     Duration,
     /// Ctrl-C (or the stop flag).
     Interrupted,
     /// The laser failed.
-    LaserFailed(String),
+    LaserFailed(ScipError),
     /// Every sensor thread is gone.
     InputsClosed,
     /// An output could not be written.
@@ -121,9 +82,23 @@ pub enum Ending {
         /// Which output.
         output: String,
         /// What went wrong.
-        error: String,
+        error: OutputError,
     },
-    /// The loop panicked (a bug): the final stop still goes out.
+    /// The loop panicked (a bug): the final stop still goes out. The panic's message.
+    Panicked(String),
+}
+
+/// Why an output (a [`CommandSink`] or the recording) failed.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// Writing or publishing failed.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    /// Writing the recording failed.
+    #[error(transparent)]
+    Recording(#[from] McapError),
+    /// The output panicked (a bug in it); the panic's message.
+    #[error("it panicked: {0}")]
     Panicked(String),
 }
 
@@ -147,7 +122,7 @@ impl Ending {
 }
 
 /// What a run did.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct RunSummary {
     /// Why it ended.
     pub ending: Ending,
@@ -166,7 +141,7 @@ pub struct RunSummary {
     /// Ticks with a locked target.
     pub ticks_with_target: u64,
     /// Outputs whose final stop failed, with the error.
-    pub final_stop_failures: Vec<(String, String)>,
+    pub final_stop_failures: Vec<(String, OutputError)>,
     /// Distance driven by dead reckoning, m.
     pub distance_m: f64,
     /// The target's locks, losses (with reasons) and refusals.
@@ -180,78 +155,6 @@ pub struct RunSummary {
     /// Warnings that the robot could not keep up (the target pulling away at the
     /// speed limit; [`FollowMonitor`]).
     pub cannot_keep_up: u64,
-}
-
-/// Where a live run records its camera frames (`sensor_msgs/msg/CompressedImage`):
-/// `tether replay run.mcap --image-topic /camera/image_raw/compressed` runs the
-/// cascade on them again.
-pub const CAMERA_TOPIC: &str = "/camera/image_raw/compressed";
-
-/// The MCAP recording of a live run: the scans (`/scan`), the camera frames
-/// ([`CAMERA_TOPIC`]), the dead-reckoned odometry (`/odom`, `odom` -> `base_link`) and
-/// the pipeline's ticks (see [`ResultWriter`]).
-///
-/// It writes its messages unchunked through a buffered file flushed at least once a
-/// second of log time ([`tether_io::mcap::McapWriter::streaming`]): a run that is
-/// killed leaves a recording readable up to its last second or so, and a run of hours
-/// keeps no index that grows in memory.
-pub struct Recorder<W: std::io::Write + std::io::Seek> {
-    writer: ResultWriter<W>,
-}
-
-impl Recorder<std::io::BufWriter<std::fs::File>> {
-    /// A recording at `path`.
-    pub fn create(path: &std::path::Path) -> Result<Self, McapError> {
-        Ok(Recorder {
-            writer: ResultWriter::create_streaming(path, "odom")?,
-        })
-    }
-}
-
-impl<W: std::io::Write + std::io::Seek> Recorder<W> {
-    /// A recording into `writer` (its frame should be `odom`).
-    pub fn new(writer: ResultWriter<W>) -> Self {
-        Recorder { writer }
-    }
-
-    fn scan(&mut self, scan: &LaserScan, period_s: f64) -> Result<(), McapError> {
-        let beams = scan.len().max(1) as f64;
-        let msg = LaserScanMsg::new(scan.clone(), period_s / beams, period_s);
-        self.writer.mcap().write("/scan", scan.stamp, &msg)
-    }
-
-    fn tick(
-        &mut self,
-        tick: &Tick,
-        pose: Pose2<World, Robot>,
-        moving: Twist,
-    ) -> Result<(), McapError> {
-        let odom = OdometryMsg::planar(
-            Header::new(tick.stamp, self.writer.frame()),
-            "base_link",
-            pose,
-            moving.v_mps,
-            moving.w_radps,
-        );
-        self.writer.mcap().write("/odom", tick.stamp, &odom)?;
-        self.writer.write_tick(tick)
-    }
-
-    /// A camera frame as it arrived, on [`CAMERA_TOPIC`] (frame `camera`).
-    fn camera(&mut self, stamp: Stamp, frame: EncodedFrame) -> Result<(), McapError> {
-        let msg = CompressedImageMsg::new(Header::new(stamp, "camera"), frame.format, frame.bytes);
-        self.writer.mcap().write(CAMERA_TOPIC, stamp, &msg)
-    }
-
-    fn final_stop(&mut self, stamp: Stamp) -> Result<(), McapError> {
-        let cmd = TwistMsg::unicycle(0.0, 0.0);
-        self.writer.mcap().write("/tether/cmd_vel", stamp, &cmd)
-    }
-
-    /// Writes the summary and closes the file.
-    pub fn finish(self) -> Result<W, McapError> {
-        self.writer.finish()
-    }
 }
 
 /// The loop's state.
@@ -311,7 +214,7 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
         // Between odometry messages (20-50 Hz on most bases) the base keeps moving:
         // the pose at the datum's stamp, along the arc of the last velocity.
         let dt_s = (stamp.ns_since(at) as f64 * 1e-9).clamp(0.0, ODOMETRY_EXTRAPOLATION_S);
-        Some(Some(super::odometry::integrate(pose, moving, dt_s)))
+        Some(Some(crate::odometry::integrate(pose, moving, dt_s)))
     }
 
     fn scan(&mut self, mut scan: LaserScan) -> Result<(), Ending> {
@@ -382,7 +285,7 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
         let pose = match self.odometry_pose {
             Some((at, pose, moving)) => {
                 let dt_s = (stamp.ns_since(at) as f64 * 1e-9).clamp(0.0, ODOMETRY_EXTRAPOLATION_S);
-                super::odometry::integrate(pose, moving, dt_s)
+                crate::odometry::integrate(pose, moving, dt_s)
             }
             None => self.correction * self.odometry.pose_at(stamp),
         };
@@ -447,7 +350,7 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
                 .and_then(|()| sink.send(&line))
                 .map_err(|e| Ending::OutputFailed {
                     output: sink.name().to_owned(),
-                    error: e.to_string(),
+                    error: e.into(),
                 })?;
         }
         Ok(())
@@ -468,7 +371,7 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
         for sink in self.sinks.iter_mut() {
             sink.send(&line).map_err(|e| Ending::OutputFailed {
                 output: sink.name().to_owned(),
-                error: e.to_string(),
+                error: e.into(),
             })?;
         }
         Ok(())
@@ -591,8 +494,8 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
                 std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sink.finish(&line)));
             let failure = match sent {
                 Ok(Ok(())) => None,
-                Ok(Err(e)) => Some(e.to_string()),
-                Err(payload) => Some(format!("it panicked: {}", panic_text(payload.as_ref()))),
+                Ok(Err(e)) => Some(OutputError::Io(e)),
+                Err(payload) => Some(OutputError::Panicked(panic_text(payload.as_ref()))),
             };
             if let Some(failure) = failure {
                 self.summary
@@ -605,7 +508,7 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
         {
             self.summary
                 .final_stop_failures
-                .push(("recording".into(), e.to_string()));
+                .push(("recording".into(), e.into()));
         }
         let here = self.odometry.pose_at(stamp).translation();
         self.summary.distance_m += self.travelled_to.distance_m(here);
@@ -625,7 +528,7 @@ fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
 fn recording_failed(e: McapError) -> Ending {
     Ending::OutputFailed {
         output: "recording".into(),
-        error: e.to_string(),
+        error: e.into(),
     }
 }
 
@@ -711,6 +614,7 @@ mod tests {
     use tether_pipeline::PipelineConfig;
 
     use super::*;
+    use crate::results::ResultWriter;
 
     /// Keeps what it is sent; fails after `fail_after` commands if set.
     struct Keep {
@@ -798,7 +702,7 @@ mod tests {
         let (sink, lines) = keep(None);
         let mut sinks = vec![sink];
         let (summary, _) = go(&rx, &mut sinks, None, &config(Some(400)));
-        assert_eq!(summary.ending, Ending::Duration);
+        assert!(matches!(summary.ending, Ending::Duration), "{summary:?}");
         let lines = lines.lock().unwrap();
         // 400 ms at 20 Hz: about 8 ticks (a stalled machine runs fewer, never a burst).
         assert!((2..=9).contains(&summary.ticks), "{} ticks", summary.ticks);
@@ -825,7 +729,7 @@ mod tests {
                 let stamp = now().saturating_add_ns(-80_000_000);
                 tx.send(Input::Scan(scan(stamp))).unwrap();
             }
-            tx.send(Input::LaserFailed("unplugged".into())).unwrap();
+            tx.send(Input::LaserFailed(ScipError::Closed)).unwrap();
         });
         let (sink, lines) = keep(None);
         let mut sinks = vec![sink];
@@ -833,7 +737,10 @@ mod tests {
         let mut recorder = Recorder::new(writer);
         let (summary, pipeline) = go(&rx, &mut sinks, Some(&mut recorder), &config(None));
         feeder.join().unwrap();
-        assert_eq!(summary.ending, Ending::LaserFailed("unplugged".into()));
+        assert!(
+            matches!(summary.ending, Ending::LaserFailed(ScipError::Closed)),
+            "{summary:?}"
+        );
         assert_eq!(summary.scans, 5);
         assert!(summary.clamped_stamps >= 1, "{summary:?}");
         assert_eq!(pipeline.stats().out_of_order_ticks, 0);
@@ -851,12 +758,13 @@ mod tests {
         let (bad, _) = keep(Some(3));
         let mut sinks = vec![good, bad];
         let (summary, _) = go(&rx, &mut sinks, None, &config(Some(5_000)));
-        assert_eq!(
-            summary.ending,
-            Ending::OutputFailed {
-                output: "keep".into(),
-                error: "unplugged".into()
-            }
+        assert!(
+            matches!(
+                &summary.ending,
+                Ending::OutputFailed { output, error: OutputError::Io(e) }
+                    if output == "keep" && e.to_string() == "unplugged"
+            ),
+            "{summary:?}"
         );
         let good_lines = good_lines.lock().unwrap();
         assert_eq!(good_lines.len(), 5, "4 commands, then the final stop");
@@ -887,9 +795,9 @@ mod tests {
         let (base, base_lines) = keep(None);
         let mut sinks: Vec<Box<dyn CommandSink>> = vec![base, Box::new(Panics { at: 3, sent: 0 })];
         let (summary, _) = go(&rx, &mut sinks, None, &config(Some(5_000)));
-        assert_eq!(
-            summary.ending,
-            Ending::Panicked("a bug in an output".into())
+        assert!(
+            matches!(&summary.ending, Ending::Panicked(why) if why == "a bug in an output"),
+            "{summary:?}"
         );
         let lines = base_lines.lock().unwrap();
         assert_eq!(lines.last().unwrap().input, "final");
@@ -900,7 +808,16 @@ mod tests {
         );
         // The output that panicked again on its final stop is reported, not fatal.
         assert_eq!(summary.final_stop_failures.len(), 1, "{summary:?}");
-        assert!(summary.final_stop_failures[0].1.contains("panicked"));
+        assert!(matches!(
+            &summary.final_stop_failures[0].1,
+            OutputError::Panicked(why) if why == "a bug in an output"
+        ));
+        assert!(
+            summary.final_stop_failures[0]
+                .1
+                .to_string()
+                .contains("panicked")
+        );
     }
 
     #[test]
@@ -922,7 +839,7 @@ mod tests {
             tx.send(Input::Scan(scan(stale_from.saturating_add_ns(600_000_000))))
                 .unwrap();
             std::thread::sleep(Duration::from_millis(20));
-            tx.send(Input::LaserFailed("done".into())).unwrap();
+            tx.send(Input::LaserFailed(ScipError::Closed)).unwrap();
         });
         let (sink, _) = keep(None);
         let mut sinks = vec![sink];
@@ -941,7 +858,10 @@ mod tests {
         let (sink, lines) = keep(None);
         let mut sinks = vec![sink];
         let (summary, _) = go(&rx, &mut sinks, None, &config(Some(5_000)));
-        assert_eq!(summary.ending, Ending::InputsClosed);
+        assert!(
+            matches!(summary.ending, Ending::InputsClosed),
+            "{summary:?}"
+        );
         assert!(!summary.ending.is_clean());
         assert_eq!(lines.lock().unwrap().last().unwrap().input, "final");
     }

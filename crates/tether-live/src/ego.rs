@@ -33,57 +33,6 @@ pub fn moving_people(
         .map(|t| t.position().mean)
 }
 
-/// How a run learns the robot's motion.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum EgoMotion {
-    /// Odometry when the recording or robot gives it, scan matching otherwise.
-    #[default]
-    Auto,
-    /// The odometry topic (or, for `run`, dead reckoning of the commands).
-    Odom,
-    /// Scan matching, even when odometry is given.
-    Scans,
-    /// None: the robot is taken to stand still.
-    None,
-}
-
-/// Where a run's poses come from, once [`EgoMotion`] is resolved.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PoseSource {
-    /// Odometry messages (a recording) or dead reckoning (the live robot).
-    Odometry,
-    /// Scan matching.
-    Scans,
-    /// None: the robot stands still.
-    Still,
-}
-
-impl PoseSource {
-    /// The frame name positions are given in.
-    pub fn frame(self) -> &'static str {
-        match self {
-            PoseSource::Odometry => "odom",
-            PoseSource::Scans => "scan_odom",
-            PoseSource::Still => "base_link",
-        }
-    }
-}
-
-impl EgoMotion {
-    /// Resolves the choice for a run that has (`have_odometry`) or lacks odometry.
-    pub fn resolve(self, have_odometry: bool) -> Result<PoseSource, String> {
-        match (self, have_odometry) {
-            (EgoMotion::Auto, true) | (EgoMotion::Odom, true) => Ok(PoseSource::Odometry),
-            (EgoMotion::Auto, false) | (EgoMotion::Scans, _) => Ok(PoseSource::Scans),
-            (EgoMotion::Odom, false) => Err(
-                "--ego-motion odom needs odometry: give --odom-topic, or use scans or none".into(),
-            ),
-            (EgoMotion::None, _) => Ok(PoseSource::Still),
-        }
-    }
-}
-
 /// Odometry from consecutive scans.
 #[derive(Debug)]
 pub struct ScanOdometry {
@@ -207,15 +156,6 @@ mod tests {
             ranges,
         )
         .unwrap()
-    }
-
-    #[test]
-    fn choices_resolve_as_documented() {
-        assert_eq!(EgoMotion::Auto.resolve(true), Ok(PoseSource::Odometry));
-        assert_eq!(EgoMotion::Auto.resolve(false), Ok(PoseSource::Scans));
-        assert_eq!(EgoMotion::Scans.resolve(true), Ok(PoseSource::Scans));
-        assert_eq!(EgoMotion::None.resolve(true), Ok(PoseSource::Still));
-        assert!(EgoMotion::Odom.resolve(false).is_err());
     }
 
     #[test]

@@ -1,12 +1,13 @@
 //! Camera frames for the live robot: a folder of images served at a frame rate, or a
 //! V4L2 device (cargo feature `v4l2`). Frames come out as 8-bit grey, what the cascade
-//! detector reads; the caller stamps each frame when it arrives.
+//! detector reads; the caller ([`super::camera`]) stamps each frame when it arrives.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use tether_io::mcap::CompressedFormat;
 
-use tether_core::GrayImage;
+use tether_core::{GrayImage, ImageError};
+use tether_image::ImreadError;
 
 /// Why a frame source cannot go on.
 #[derive(Debug, thiserror::Error)]
@@ -176,7 +177,7 @@ impl FrameSource for FolderFrames {
         let bytes = std::fs::read(path).map_err(|e| bad(format!("cannot read it: {e}")))?;
         // The header's size is before any EXIF rotation, which may swap the two.
         if let (Some((expected_w, expected_h)), Some((w, h))) =
-            (self.size, tether_vision::imread::dimensions(&bytes))
+            (self.size, tether_image::imread::dimensions(&bytes))
             && (w, h) != (expected_w, expected_h)
             && (h, w) != (expected_w, expected_h)
         {
@@ -184,7 +185,7 @@ impl FrameSource for FolderFrames {
                 "the image is {w}x{h} pixels, not the camera's {expected_w}x{expected_h}"
             )));
         }
-        let image = tether_vision::imread::decode_gray(&bytes).map_err(|e| bad(e.to_string()))?;
+        let image = tether_image::imread::decode_gray(&bytes).map_err(|e| bad(e.to_string()))?;
         let format = if bytes.starts_with(&[0xff, 0xd8]) {
             CompressedFormat::Jpeg
         } else {
@@ -208,6 +209,42 @@ impl FrameSource for FolderFrames {
     }
 }
 
+/// Why a raw frame has no grey levels.
+#[derive(Debug, thiserror::Error)]
+pub enum RawFrameError {
+    /// A compressed frame that does not decode.
+    #[error("{fourcc} frame: {source}")]
+    Decode {
+        /// The pixel format.
+        fourcc: String,
+        /// What the decoder met.
+        source: ImreadError,
+    },
+    /// A pixel format tether does not read.
+    #[error("pixel format {fourcc} is not supported (use GREY, YUYV or MJPG)")]
+    Unsupported {
+        /// The pixel format.
+        fourcc: String,
+    },
+    /// Fewer bytes than the frame's size needs.
+    #[error("{fourcc} frame of {len} bytes is too short for {width}x{height} (stride {stride})")]
+    TooShort {
+        /// The pixel format.
+        fourcc: String,
+        /// Bytes given.
+        len: usize,
+        /// Frame width, px.
+        width: usize,
+        /// Frame height, px.
+        height: usize,
+        /// Bytes per line.
+        stride: usize,
+    },
+    /// The size itself is invalid (zero).
+    #[error(transparent)]
+    Image(#[from] ImageError),
+}
+
 /// Grey levels of a raw frame in a V4L2 pixel format: `GREY`, `YUYV` (the luma of every
 /// other byte), `MJPG`/`JPEG` (decoded). `stride` is the bytes per line (0: packed).
 pub fn grey_from_raw(
@@ -216,20 +253,20 @@ pub fn grey_from_raw(
     height: usize,
     stride: usize,
     bytes: &[u8],
-) -> Result<GrayImage, String> {
+) -> Result<GrayImage, RawFrameError> {
     let name = String::from_utf8_lossy(&fourcc).into_owned();
     let per_pixel = match &fourcc {
         b"GREY" => 1,
         b"YUYV" => 2,
         b"MJPG" | b"JPEG" => {
-            return tether_vision::imread::decode_gray(bytes)
-                .map_err(|e| format!("{name} frame: {e}"));
+            return tether_image::imread::decode_gray(bytes).map_err(|source| {
+                RawFrameError::Decode {
+                    fourcc: name,
+                    source,
+                }
+            });
         }
-        _ => {
-            return Err(format!(
-                "pixel format {name} is not supported (use GREY, YUYV or MJPG)"
-            ));
-        }
+        _ => return Err(RawFrameError::Unsupported { fourcc: name }),
     };
     let line = if stride == 0 {
         width * per_pixel
@@ -238,17 +275,20 @@ pub fn grey_from_raw(
     };
     if line < width * per_pixel || bytes.len() < line * height.saturating_sub(1) + width * per_pixel
     {
-        return Err(format!(
-            "{name} frame of {} bytes is too short for {width}x{height} (stride {line})",
-            bytes.len()
-        ));
+        return Err(RawFrameError::TooShort {
+            fourcc: name,
+            len: bytes.len(),
+            width,
+            height,
+            stride: line,
+        });
     }
     let mut pixels = Vec::with_capacity(width * height);
     for y in 0..height {
         let row = &bytes[y * line..y * line + width * per_pixel];
         pixels.extend(row.iter().step_by(per_pixel));
     }
-    GrayImage::from_raw(width, height, pixels).map_err(|e| e.to_string())
+    Ok(GrayImage::from_raw(width, height, pixels)?)
 }
 
 #[cfg(feature = "v4l2")]
@@ -318,9 +358,9 @@ mod v4l2 {
             // end of the device.
             grey_from_raw(self.fourcc, self.width, self.height, self.stride, bytes)
                 .map(Some)
-                .map_err(|message| CameraError::Frame {
+                .map_err(|e| CameraError::Frame {
                     path: std::path::PathBuf::from(&self.device),
-                    message,
+                    message: e.to_string(),
                 })
         }
 
@@ -351,7 +391,7 @@ mod tests {
         let image = GrayImage::from_raw(64, 48, pixels).unwrap();
         let frame = png_of(&image);
         assert_eq!(frame.format, CompressedFormat::Png);
-        let back = tether_vision::imread::decode_gray(&frame.bytes).unwrap();
+        let back = tether_image::imread::decode_gray(&frame.bytes).unwrap();
         assert_eq!(back, image);
     }
 
@@ -367,6 +407,7 @@ mod tests {
         assert!(
             grey_from_raw(*b"RGB3", 2, 2, 0, &[0; 12])
                 .unwrap_err()
+                .to_string()
                 .contains("RGB3")
         );
         assert!(grey_from_raw(*b"MJPG", 2, 2, 0, b"not a jpeg").is_err());
@@ -451,11 +492,11 @@ mod tests {
         let e = frames.next_frame().unwrap_err().to_string();
         assert!(e.contains("32768x32768"), "{e}");
         // Unsized (as `tether detect` reads files), the pixel cap refuses it.
-        let e = tether_vision::imread_gray(dir.join("huge.jpg")).unwrap_err();
+        let e = tether_image::imread_gray(dir.join("huge.jpg")).unwrap_err();
         assert!(
             matches!(
                 e,
-                tether_vision::ImreadError::TooLarge {
+                ImreadError::TooLarge {
                     width: 32768,
                     height: 32768
                 }

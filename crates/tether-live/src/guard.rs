@@ -27,8 +27,8 @@ use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use super::base::{CommandLine, CommandSink, WheelLines, drive_direct};
-use super::config::{BaseKind, BaseSection, WheelFormat};
+use crate::base::{CommandLine, CommandSink, WheelLines, drive_direct};
+use crate::config::{BaseKind, BaseSection, WheelFormat};
 
 /// The Open Interface's `Start`: back to Passive mode, where the Create does not drive.
 const OI_START: u8 = 128;

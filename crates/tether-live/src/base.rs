@@ -421,7 +421,8 @@ impl<W: Write> CommandSink for CreateBase<W> {
 }
 
 /// Format of [`WheelLines`].
-pub use super::config::WheelFormat;
+pub use crate::config::WheelFormat;
+use crate::config::{BaseKind, BaseSection};
 
 /// Left and right wheel speeds as lines.
 pub struct WheelLines<W: Write> {
@@ -479,6 +480,87 @@ impl<W: Write> CommandSink for WheelLines<W> {
             WheelFormat::Text => writeln!(self.out, "{left:.3} {right:.3}")?,
         }
         self.out.flush()
+    }
+}
+
+/// Why the base of `[base]` cannot be opened.
+#[derive(Debug, thiserror::Error)]
+pub enum BaseError {
+    /// The serial port cannot be opened.
+    #[error("cannot open the base's serial port {port} at {baud} baud")]
+    Serial {
+        /// The port.
+        port: String,
+        /// The baud rate.
+        baud: u32,
+        /// What the system said.
+        source: serialport::Error,
+    },
+    /// A Create needs a baud rate.
+    #[error("base.baud is missing")]
+    NoBaud,
+    /// The Create did not take `Start` and `Safe`.
+    #[error("starting the Create's Open Interface on {port}")]
+    Create {
+        /// The port.
+        port: String,
+        /// What the system said.
+        source: io::Error,
+    },
+    /// The file or FIFO of the wheel speeds cannot be opened.
+    #[error("cannot open {path} for the wheel speeds")]
+    WheelFile {
+        /// The file.
+        path: String,
+        /// What the system said.
+        source: io::Error,
+    },
+}
+
+/// Opens the base adapter of `[base]`: `None` without a device or with `kind = "none"`.
+pub fn open_base(base: &BaseSection) -> Result<Option<Box<dyn CommandSink>>, BaseError> {
+    let Some(device) = &base.device else {
+        return Ok(None);
+    };
+    let shown = device.display().to_string();
+    let serial = |baud: u32| {
+        serialport::new(shown.clone(), baud)
+            .timeout(std::time::Duration::from_millis(200))
+            .open()
+            .map_err(|source| BaseError::Serial {
+                port: shown.clone(),
+                baud,
+                source,
+            })
+    };
+    match base.kind {
+        BaseKind::None => Ok(None),
+        BaseKind::Create => {
+            let baud = base.baud.ok_or(BaseError::NoBaud)?;
+            let port = serial(baud)?;
+            let create = CreateBase::start(format!("create {shown}"), port).map_err(|source| {
+                BaseError::Create {
+                    port: shown.clone(),
+                    source,
+                }
+            })?;
+            Ok(Some(Box::new(create)))
+        }
+        BaseKind::Wheels => {
+            let format = base.format.unwrap_or_default();
+            let name = format!("wheels {shown}");
+            Ok(Some(match base.baud {
+                Some(baud) => Box::new(WheelLines::new(name, format, serial(baud)?)),
+                None => {
+                    let file =
+                        std::fs::File::create(device).map_err(|source| BaseError::WheelFile {
+                            path: shown.clone(),
+                            source,
+                        })?;
+                    Box::new(WheelLines::new(name, format, file))
+                }
+            }))
+        }
     }
 }
 

@@ -1,34 +1,31 @@
-//! The ROS 2 side of the live loop (`tether ros2`): scans from a topic as the loop's
-//! [`Input`]s, and the commands and results as topics, an output like any other
-//! ([`CommandSink`]), so that `run` and `ros2` share one loop and one safety path.
+//! The ROS 2 topics as the loop's sources: scans, odometry, the base's pose on `/tf`,
+//! `/clock`, camera frames and detections, each read on a thread of its own
+//! (`tether_ros2::spawn_reader`) and sent to the loop as [`Input`]s without ever
+//! blocking DDS (a full queue drops, counted).
 //!
-//! Time: the loop runs on the host's clock ([`super::clock::MonotonicClock`], wall time
+//! Time: the loop runs on the host's clock ([`crate::clock::MonotonicClock`], wall time
 //! that never jumps) or, with `use_sim_time`, on `/clock` ([`SimClock`]). A scan keeps
 //! its header stamp when that is plausible on this clock (at most 1 s old and not in the
 //! future); otherwise (a publisher with a skewed clock or zero stamps) it is stamped on
 //! arrival, and that is counted and reported once.
 
-use std::io;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender};
 use std::thread::JoinHandle;
 
-use ros2_client::dds::Publisher;
 use tether_core::{Pose2, Robot, World};
+use tether_image::ImreadError;
 use tether_io::mcap::{
-    ClockMsg, CompressedImageMsg, Detection2DArrayMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg,
-    OdometryMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg, TfMessage,
+    ClockMsg, CompressedImageMsg, Detection2DArrayMsg, ImageMsg, ImageMsgError, LaserScanMsg,
+    OdometryMsg, TfMessage,
 };
-use tether_io::mcap::{Header, Ros2Message, TwistMsg, TwistStampedMsg};
 use tether_io::scip::Clock;
-use tether_pipeline::Tick;
-use tether_ros2::{Received, Ros2Error, RosNode, Wire, offer, qos, spawn_reader};
+use tether_ros2::{Received, Ros2Error, RosNode, offer, qos, spawn_reader};
+use tether_vision::DetectError;
 
-use super::base::{CommandLine, CommandSink};
-use super::clock::{LiveClock, SimClock};
-use super::run_loop::Input;
-use crate::results::TickMessages;
+use crate::clock::{LiveClock, SimClock};
+use crate::sources::{Input, LaserFault};
 
 /// How far a scan's header stamp may lag the host clock and still be used, ns.
 const MAX_SCAN_AGE_NS: i64 = 1_000_000_000;
@@ -110,7 +107,10 @@ pub fn start_scan_reader(
                         "{topic_name}: a sample skipped: {why} (further ones are counted)"
                     );
                 }
-                Input::LaserFault(format!("{topic_name}: a sample skipped: {why}"))
+                Input::LaserFault(LaserFault::Sample {
+                    topic: topic_name.clone(),
+                    why,
+                })
             }
         };
         let before = dropped;
@@ -472,12 +472,26 @@ pub enum Frame {
     Compressed(CompressedImageMsg),
 }
 
+/// Why a camera frame from a topic was skipped.
+#[derive(Debug, thiserror::Error)]
+pub enum FrameError {
+    /// A raw image that is not a grey, RGB or BGR image of its stated size.
+    #[error(transparent)]
+    Raw(#[from] ImageMsgError),
+    /// A compressed image that does not decode.
+    #[error(transparent)]
+    Compressed(#[from] ImreadError),
+    /// The detector refused it.
+    #[error(transparent)]
+    Detect(#[from] DetectError),
+}
+
 impl Frame {
     /// The frame as 8-bit grey.
-    pub fn gray(&self) -> anyhow::Result<tether_core::GrayImage> {
+    pub fn gray(&self) -> Result<tether_core::GrayImage, FrameError> {
         match self {
             Frame::Raw(m) => Ok(m.to_gray()?),
-            Frame::Compressed(m) => Ok(tether_vision::imread::decode_gray(&m.data)?),
+            Frame::Compressed(m) => Ok(tether_image::imread::decode_gray(&m.data)?),
         }
     }
 }
@@ -623,127 +637,10 @@ pub fn start_camera_reader(
     })
 }
 
-/// A publisher of `M`.
-fn publisher<M: Ros2Message>(
-    node: &mut RosNode,
-    topic: &str,
-    depth: usize,
-) -> Result<Publisher<Wire<M>>, Ros2Error> {
-    node.publisher::<M>(topic, qos::reliable(depth))
-}
-
-/// The commands on `/cmd_vel` and the results on `/tether/...`, as the MCAP results
-/// name them (`tether::results`).
-pub struct RosOutputs {
-    name: String,
-    frame: String,
-    cmd_vel: CmdVel,
-    people: Publisher<Wire<PoseArrayMsg>>,
-    laser_people: Publisher<Wire<PoseArrayMsg>>,
-    vision_people: Publisher<Wire<PoseArrayMsg>>,
-    target: Publisher<Wire<PoseWithCovarianceStampedMsg>>,
-    target_state: Publisher<Wire<StringMsg>>,
-    markers: Publisher<Wire<MarkerArrayMsg>>,
-}
-
-/// The commands' publisher: `Twist`, or `TwistStamped` in the base's frame.
-enum CmdVel {
-    Plain(Publisher<Wire<TwistMsg>>),
-    Stamped {
-        publisher: Publisher<Wire<TwistStampedMsg>>,
-        base_frame: String,
-    },
-}
-
-/// The topic names of the outputs, resolved by the caller (namespace, remapping).
-#[derive(Debug, Clone)]
-pub struct OutputTopics {
-    /// The commands.
-    pub cmd_vel: String,
-    /// `Some(base_frame)`: the commands as `geometry_msgs/msg/TwistStamped` in that frame,
-    /// stamped with the time of the data that made them; `None`: `Twist`.
-    pub cmd_vel_stamped: Option<String>,
-    /// `/tether/people` and the others, in the order of [`TickMessages`]'s constants:
-    /// people, laser people, vision people, target, target state, markers.
-    pub results: [String; 6],
-}
-
-impl RosOutputs {
-    /// The publishers; positions are stamped in `frame` (the fixed frame).
-    pub fn new(node: &mut RosNode, topics: &OutputTopics, frame: &str) -> Result<Self, Ros2Error> {
-        let [people, laser, vision, target, state, markers] = &topics.results;
-        Ok(RosOutputs {
-            name: topics.cmd_vel.clone(),
-            frame: frame.to_owned(),
-            cmd_vel: match &topics.cmd_vel_stamped {
-                None => CmdVel::Plain(publisher(node, &topics.cmd_vel, 10)?),
-                Some(base_frame) => CmdVel::Stamped {
-                    publisher: publisher(node, &topics.cmd_vel, 10)?,
-                    base_frame: base_frame.clone(),
-                },
-            },
-            people: publisher(node, people, 10)?,
-            laser_people: publisher(node, laser, 10)?,
-            vision_people: publisher(node, vision, 10)?,
-            target: publisher(node, target, 10)?,
-            target_state: publisher(node, state, 10)?,
-            markers: publisher(node, markers, 10)?,
-        })
-    }
-}
-
-fn published<E: std::fmt::Debug>(topic: &str, result: Result<(), E>) -> io::Result<()> {
-    result.map_err(|e| io::Error::other(format!("publishing on {topic}: {e:?}")))
-}
-
-impl CommandSink for RosOutputs {
-    fn name(&self) -> &str {
-        &self.name
-    }
-
-    fn tick(&mut self, tick: &Tick) -> io::Result<()> {
-        let m = TickMessages::of(tick, &self.frame);
-        published("people", self.people.publish(Wire(m.people)))?;
-        if let Some((topic, observed)) = m.observed {
-            let publisher = if topic == TickMessages::VISION_PEOPLE {
-                &self.vision_people
-            } else {
-                &self.laser_people
-            };
-            published(topic, publisher.publish(Wire(observed)))?;
-        }
-        if let Some(target) = m.target {
-            published("target", self.target.publish(Wire(target)))?;
-        }
-        published(
-            "target_state",
-            self.target_state.publish(Wire(m.target_state)),
-        )?;
-        published("markers", self.markers.publish(Wire(m.markers)))
-    }
-
-    fn send(&mut self, command: &CommandLine) -> io::Result<()> {
-        let twist = TwistMsg::unicycle(command.v_mps, command.w_radps);
-        match &self.cmd_vel {
-            CmdVel::Plain(p) => published(&self.name, p.publish(Wire(twist))),
-            CmdVel::Stamped {
-                publisher,
-                base_frame,
-            } => {
-                let stamp = tether_core::Stamp::from_ns(command.stamp_ns);
-                let msg = TwistStampedMsg {
-                    header: Header::new(stamp, base_frame.as_str()),
-                    twist,
-                };
-                published(&self.name, publisher.publish(Wire(msg)))
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tether_io::mcap::Header;
 
     #[test]
     fn the_velocity_between_two_poses_is_along_the_heading_and_the_turn() {

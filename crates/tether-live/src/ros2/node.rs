@@ -1,0 +1,652 @@
+//! `tether ros2`'s runtime: the node's sources and sinks around the live loop.
+//!
+//! It joins the graph, subscribes to the scans (and the odometry, `/tf`, `/tf_static`,
+//! `/clock` with sim time, the camera's images or detections), takes the laser's mount
+//! from `/tf_static`, runs the same loop as `tether run` ([`run_loop::run`]: the
+//! pipeline on every scan and on a 20 Hz timer, its watchdogs, a final stop on every
+//! exit), and publishes the commands and the results ([`RosOutputs`]). Topic names are
+//! resolved as the node's `--ros-args` say (namespace, remapping).
+//!
+//! The graph: every second the node compares its topics with the publishers and
+//! subscribers discovery has found on them, and warns once about each that DDS will not
+//! connect (another message type, a QoS that does not match), saying what to change.
+
+use std::io;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use ros2_client::dds::Publisher;
+use tether_core::LaserMount;
+use tether_io::mcap::{Header, Pose3, TfMessage, TransformStampedMsg};
+use tether_io::scip::Clock;
+use tether_pipeline::{Pipeline, PipelineConfig, PipelineError};
+use tether_ros2::{
+    GraphWatcher, NodeIdentity, Received, Ros2Error, RosArgs, RosNode, StaticTransforms, Wire, qos,
+    spawn_reader,
+};
+use tether_scanmatch::ScanMatcherConfig;
+
+use super::inputs::{
+    CameraCounters, FrameError, LatestFrame, ScanCounters, start_camera_reader, start_clock_reader,
+    start_detections_reader, start_odometry_reader, start_scan_reader, start_tf_reader,
+};
+use super::outputs::{OutputTopics, RosOutputs};
+use crate::base::CommandSink;
+use crate::clock::{LiveClock, MonotonicClock, SimClock};
+use crate::config::CameraSection;
+use crate::recorder::Recorder;
+use crate::results::TickMessages;
+use crate::run_loop::{self, LoopConfig, RunSummary};
+use crate::sources::camera::{BoxDetector, DetectorError};
+use crate::sources::{CHANNEL_DEPTH, Input};
+
+/// Where the camera's people come from.
+#[derive(Debug, Clone)]
+pub enum NodeCamera {
+    /// Images on `image_raw` (or `image_raw/compressed`) through the cascade of
+    /// `section` (its intrinsics and mount are the pipeline's; its `folder` or `v4l2`
+    /// is not used).
+    Images {
+        /// The camera's `[camera]` table: the cascade and its search settings.
+        section: CameraSection,
+        /// `image_raw/compressed` (`sensor_msgs/msg/CompressedImage`) rather than
+        /// `image_raw`.
+        compressed: bool,
+    },
+    /// Upper-body boxes on `detections` (`vision_msgs/msg/Detection2DArray`), in pixels
+    /// of the configured camera, from a detector node or the simulator.
+    Detections {
+        /// The class of the boxes taken (a box with no hypothesis is taken too; empty:
+        /// every box).
+        class: String,
+    },
+}
+
+/// What the node is and does: its name, its topics' remapping, the pipeline and the
+/// loop's settings.
+#[derive(Debug, Clone)]
+pub struct NodeSettings {
+    /// The node's name, namespace and DDS domain.
+    pub identity: NodeIdentity,
+    /// The `--ros-args` block (its remappings name the topics).
+    pub ros: RosArgs,
+    /// The pipeline's settings; the laser's mount is replaced by `/tf_static`'s when
+    /// that is published.
+    pub pipeline: PipelineConfig,
+    /// The frame of the results and of the base's pose on `/tf`.
+    pub fixed_frame: String,
+    /// The robot's frame (the laser's mount is looked up in it).
+    pub base_frame: String,
+    /// Commands as `geometry_msgs/msg/TwistStamped` in `base_frame`, stamped with the
+    /// time of the data that made them, rather than `Twist`.
+    pub cmd_vel_stamped: bool,
+    /// Time is the newest `/clock` (`rosgraph_msgs/msg/Clock`), which the node waits for
+    /// at the start, rather than the host's.
+    pub use_sim_time: bool,
+    /// The camera, if one is used.
+    pub camera: Option<NodeCamera>,
+    /// The pipeline's laser mount was given (a config, a scenario): it is warned about
+    /// when `/tf_static` says otherwise, and published there when nobody else does.
+    pub mount_given: bool,
+    /// Stop after this long (on the node's clock); `None`: until `stop`.
+    pub duration: Option<Duration>,
+    /// Correct the dead reckoning of the commands by scan matching (see
+    /// [`LoopConfig::scan_odometry`]).
+    pub scan_odometry: Option<ScanMatcherConfig>,
+    /// Take the `odom` topic (and `/tf`) as the robot's pose once it publishes (see
+    /// [`LoopConfig::odometry_input`]).
+    pub odometry_input: bool,
+}
+
+/// What a node's run did, for its summary.
+pub struct NodeReport {
+    /// The loop's summary.
+    pub summary: RunSummary,
+    /// The pipeline as the run left it (its statistics, the target selector's).
+    pub pipeline: Pipeline,
+    /// What the scan, odometry and `/tf` readers counted.
+    pub scans: Arc<ScanCounters>,
+    /// What the camera's readers counted.
+    pub camera: Arc<CameraCounters>,
+    /// Mismatches with the graph's topics that were warned about.
+    pub graph_problems: usize,
+    /// The node's clock (with sim time: where it ended, how often it went back).
+    pub clock: LiveClock,
+    /// The resolved `/tf` topic.
+    pub tf_topic: String,
+}
+
+/// Why the node could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeError {
+    /// The pipeline's settings are refused.
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
+    /// Joining the graph, a subscription or a publisher failed.
+    #[error(transparent)]
+    Ros2(#[from] Ros2Error),
+    /// The camera's detector cannot be made.
+    #[error(transparent)]
+    Detector(#[from] DetectorError),
+    /// A thread could not be started.
+    #[error("starting the {what}")]
+    Thread {
+        /// Which thread.
+        what: &'static str,
+        /// What the system said.
+        source: io::Error,
+    },
+    /// `use_sim_time` and no `/clock`.
+    #[error(
+        "use_sim_time is true but nothing was published on {topic} within {waited_s} s: start \
+         the simulator (e.g. `tether sim --scenario corridor --ros2 --use-sim-time`), or set \
+         -p use_sim_time:=false"
+    )]
+    NoClock {
+        /// The clock topic.
+        topic: String,
+        /// How long the node waited, s.
+        waited_s: u64,
+    },
+    /// The laser's mount could not be published on `/tf_static`.
+    #[error("publishing the laser mount on {topic}: {message}")]
+    PublishMount {
+        /// The topic.
+        topic: String,
+        /// What DDS said.
+        message: String,
+    },
+}
+
+/// Runs the node until `settings.duration` passes, `stop` is set, or an output fails;
+/// every output then gets a final stop.
+pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport, NodeError> {
+    let NodeSettings {
+        identity,
+        ros,
+        mut pipeline,
+        fixed_frame,
+        base_frame,
+        cmd_vel_stamped,
+        use_sim_time,
+        camera,
+        mount_given,
+        duration,
+        scan_odometry,
+        odometry_input,
+    } = settings;
+    // Checked now, so a bad config fails before the node joins the graph.
+    Pipeline::new(pipeline.clone(), None)?;
+    let topic = |name: &str| ros.topic(name, &identity.name, &identity.namespace);
+    let scan_topic = topic("scan");
+    let outputs = OutputTopics {
+        cmd_vel: topic("cmd_vel"),
+        cmd_vel_stamped: cmd_vel_stamped.then(|| base_frame.clone()),
+        results: [
+            TickMessages::PEOPLE,
+            TickMessages::LASER_PEOPLE,
+            TickMessages::VISION_PEOPLE,
+            TickMessages::TARGET,
+            TickMessages::TARGET_STATE,
+            TickMessages::MARKERS,
+        ]
+        .map(|t| topic(t.trim_start_matches('/'))),
+    };
+    let intrinsics = pipeline.camera.intrinsics;
+
+    let mut node = RosNode::start(identity.clone())?;
+    let mut sinks: Vec<Box<dyn CommandSink>> = vec![Box::new(RosOutputs::new(
+        &mut node,
+        &outputs,
+        &fixed_frame,
+    )?)];
+    let (tx, rx) = mpsc::sync_channel(CHANNEL_DEPTH);
+    let (stop_clock, clock_stops) = mpsc::channel();
+    let (clock, clock_reader) = if use_sim_time {
+        let sim = SimClock::new();
+        let clock_topic = topic("clock");
+        let reader = start_clock_reader(
+            &mut node,
+            &clock_topic,
+            sim.clone(),
+            tx.clone(),
+            clock_stops,
+        )?;
+        wait_for_clock(&sim, &clock_topic)?;
+        (LiveClock::Sim(sim), Some(reader))
+    } else {
+        (LiveClock::Host(MonotonicClock::new()), None)
+    };
+    let (stop_reader, reader_stops) = mpsc::channel();
+    let counters = Arc::new(ScanCounters::default());
+    let odom_topic = topic("odom");
+    let (stop_odometry, odometry_stops) = mpsc::channel();
+    let odometry_reader = start_odometry_reader(
+        &mut node,
+        &odom_topic,
+        clock.clone(),
+        tx.clone(),
+        odometry_stops,
+        Arc::clone(&counters),
+    )?;
+    // The base's pose from /tf while odom is silent (fixed_frame -> base_frame).
+    let tf_topic = topic("tf");
+    let (stop_tf_poses, tf_pose_stops) = mpsc::channel();
+    let tf_pose_reader = start_tf_reader(
+        &mut node,
+        &tf_topic,
+        &fixed_frame,
+        &base_frame,
+        clock.clone(),
+        tx.clone(),
+        tf_pose_stops,
+        Arc::clone(&counters),
+    )?;
+    let camera_counters = Arc::new(CameraCounters::default());
+    let latest = Arc::new(LatestFrame::default());
+    let mut camera_threads = Vec::new();
+    match &camera {
+        Some(NodeCamera::Detections { class }) => {
+            let detections_topic = topic("detections");
+            let (stop_camera, camera_stops) = mpsc::channel();
+            camera_threads.push((
+                stop_camera,
+                start_detections_reader(
+                    &mut node,
+                    &detections_topic,
+                    class.clone(),
+                    (intrinsics.width_px, intrinsics.height_px),
+                    clock.clone(),
+                    tx.clone(),
+                    camera_stops,
+                    Arc::clone(&camera_counters),
+                )?,
+            ));
+            tracing::info!(
+                "camera: boxes from {detections_topic}{}",
+                if class.is_empty() {
+                    " (every class)".to_owned()
+                } else {
+                    format!(" (class {class:?})")
+                }
+            );
+        }
+        Some(NodeCamera::Images {
+            section,
+            compressed,
+        }) => {
+            let mut detector = BoxDetector::for_camera(section)?;
+            let image_topic = topic(if *compressed {
+                "image_raw/compressed"
+            } else {
+                "image_raw"
+            });
+            let (stop_camera, camera_stops) = mpsc::channel();
+            camera_threads.push((
+                stop_camera,
+                start_camera_reader(
+                    &mut node,
+                    &image_topic,
+                    *compressed,
+                    (intrinsics.width_px, intrinsics.height_px),
+                    clock.clone(),
+                    Arc::clone(&latest),
+                    camera_stops,
+                    Arc::clone(&camera_counters),
+                )?,
+            ));
+            let frames = Arc::clone(&latest);
+            let counters = Arc::clone(&camera_counters);
+            let tx = tx.clone();
+            let detector_thread = std::thread::Builder::new()
+                .name("camera-detector".into())
+                .spawn(move || {
+                    while let Some((stamp, frame)) = frames.take() {
+                        let boxes = frame.gray().and_then(|g| {
+                            detector.boxes(&g, &intrinsics).map_err(FrameError::from)
+                        });
+                        match boxes {
+                            Ok(boxes) => {
+                                if tx
+                                    .send(Input::Camera {
+                                        stamp,
+                                        boxes,
+                                        frame: None,
+                                    })
+                                    .is_err()
+                                {
+                                    break;
+                                }
+                            }
+                            Err(e) => {
+                                if counters.malformed.fetch_add(1, Ordering::Relaxed) == 0 {
+                                    tracing::warn!("a camera frame skipped: {e}");
+                                }
+                            }
+                        }
+                    }
+                })
+                .map_err(|source| NodeError::Thread {
+                    what: "camera detector thread",
+                    source,
+                })?;
+            let (never, _) = mpsc::channel();
+            camera_threads.push((never, detector_thread));
+            tracing::info!("camera: {image_topic}");
+        }
+        None => {}
+    }
+    let transforms = Arc::new(Mutex::new(StaticTransforms::default()));
+    let (stop_tf, tf_stops) = mpsc::channel();
+    let tf_reader = {
+        let transforms = Arc::clone(&transforms);
+        let subscription = node.subscribe::<TfMessage>(&topic("tf_static"), qos::latched(100))?;
+        spawn_reader("ros2-tf-static", subscription, tf_stops, move |received| {
+            if let Received::Message { message, .. } = received {
+                let mut tree = transforms.lock().unwrap_or_else(|e| e.into_inner());
+                let skipped = tree.insert(&message);
+                if skipped > 0 {
+                    tracing::warn!("/tf_static: {skipped} transforms skipped (not a rotation)");
+                }
+            }
+            true
+        })
+        .map_err(|source| NodeError::Thread {
+            what: "/tf_static reader",
+            source,
+        })?
+    };
+    let reader = start_scan_reader(
+        &mut node,
+        &scan_topic,
+        clock.clone(),
+        tx,
+        reader_stops,
+        Arc::clone(&counters),
+    )?;
+    let (stop_graph, graph_stops) = mpsc::channel::<()>();
+    let graph_thread = watch_graph(node.graph_watcher(), graph_stops)?;
+    tracing::info!(
+        "node {}{}{} on ROS 2 domain {} ({} graph ids): scans from {scan_topic}, commands to \
+         {}, results in {fixed_frame}",
+        identity.namespace,
+        if identity.namespace.ends_with('/') {
+            ""
+        } else {
+            "/"
+        },
+        identity.name,
+        identity.domain_id,
+        tether_ros2::DISTRIBUTION,
+        outputs.cmd_vel
+    );
+
+    let unmounted_frame = mount_from_tf(
+        &rx,
+        &transforms,
+        &base_frame,
+        &scan_topic,
+        mount_given,
+        &mut pipeline,
+    );
+    let mount_publisher = match unmounted_frame {
+        Some(frame) if mount_given => Some(publish_mount(
+            &mut node,
+            &topic("tf_static"),
+            &base_frame,
+            &frame,
+            pipeline.laser.mount,
+            clock.now_ns(),
+        )?),
+        _ => None,
+    };
+    let mut pipeline = Pipeline::new(pipeline, None)?;
+    let loop_config = LoopConfig {
+        control_period: Duration::from_millis(50),
+        duration,
+        track_width_m: pipeline.config().limits.track_width_m,
+        scan_odometry,
+        odometry_input,
+    };
+    let scan_period_s = pipeline.config().laser.scan_period_s;
+    let summary = run_loop::run(
+        &mut pipeline,
+        &clock,
+        &rx,
+        &mut sinks,
+        None::<&mut Recorder<io::Cursor<Vec<u8>>>>,
+        stop,
+        &loop_config,
+        scan_period_s,
+    );
+    // A reliable writer resends what its readers have not acknowledged: give the final
+    // stop time to arrive before the participant goes.
+    std::thread::sleep(Duration::from_millis(300));
+    let _ = stop_reader.send(());
+    let _ = stop_odometry.send(());
+    let _ = stop_tf_poses.send(());
+    let _ = stop_tf.send(());
+    let _ = stop_clock.send(());
+    let _ = stop_graph.send(());
+    drop(rx);
+    latest.close();
+    for (stop, _) in &camera_threads {
+        let _ = stop.send(());
+    }
+    let threads = [
+        ("scan", reader),
+        ("odometry", odometry_reader),
+        ("tf", tf_pose_reader),
+        ("tf_static", tf_reader),
+    ]
+    .into_iter()
+    .chain(clock_reader.map(|t| ("clock", t)))
+    .chain(camera_threads.into_iter().map(|(_, t)| ("camera", t)));
+    for (name, thread) in threads {
+        if thread.join().is_err() {
+            tracing::error!("the {name} thread panicked");
+        }
+    }
+    let graph_problems = graph_thread.join().unwrap_or_else(|_| {
+        tracing::error!("the graph thread panicked");
+        0
+    });
+    drop(sinks);
+    drop(mount_publisher);
+    drop(node);
+    Ok(NodeReport {
+        summary,
+        pipeline,
+        scans: counters,
+        camera: camera_counters,
+        graph_problems,
+        clock,
+        tf_topic,
+    })
+}
+
+/// How long the node waits at the start for a scan and its mount on `/tf_static`.
+const TF_WAIT: Duration = Duration::from_secs(5);
+
+/// Takes the laser's mount from `/tf_static` (`base_frame` -> the scans' frame) when it
+/// is published within [`TF_WAIT`] of the start: the robot's description is what a ROS
+/// robot says about itself. Otherwise the config's (or the default) mount stays, with a
+/// warning naming the frames. The scans that arrive meanwhile are dropped. Returns the
+/// scans' frame when a scan came but no transform to it.
+fn mount_from_tf(
+    rx: &mpsc::Receiver<Input>,
+    transforms: &Mutex<StaticTransforms>,
+    base_frame: &str,
+    scan_topic: &str,
+    mount_given: bool,
+    pipeline: &mut PipelineConfig,
+) -> Option<String> {
+    let started = std::time::Instant::now();
+    let mut scan_frame = None;
+    while started.elapsed() < TF_WAIT {
+        if let Ok(Input::Scan(scan)) = rx.recv_timeout(Duration::from_millis(50)) {
+            scan_frame = Some(scan.frame_id);
+        }
+        let Some(frame) = &scan_frame else {
+            continue;
+        };
+        let tree = transforms.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(pose) = tree.lookup(base_frame, frame) {
+            let mount = LaserMount {
+                x_m: pose.position_m[0],
+                y_m: pose.position_m[1],
+                yaw_rad: pose.yaw_rad(),
+                height_m: pose.position_m[2],
+            };
+            let old = pipeline.laser.mount;
+            if mount_given
+                && ((old.x_m - mount.x_m).hypot(old.y_m - mount.y_m) > 0.01
+                    || (old.yaw_rad - mount.yaw_rad).abs() > 0.01)
+            {
+                tracing::warn!(
+                    "the laser's mount in the config ({:.3}, {:.3}, yaw {:.3}) is not the one \
+                     on /tf_static; using /tf_static's",
+                    old.x_m,
+                    old.y_m,
+                    old.yaw_rad
+                );
+            }
+            tracing::info!(
+                "laser mount from /tf_static: {base_frame} -> {frame} at ({:.3}, {:.3}) m, \
+                 yaw {:.3} rad, {:.3} m up",
+                mount.x_m,
+                mount.y_m,
+                mount.yaw_rad,
+                mount.height_m
+            );
+            pipeline.laser.mount = mount;
+            return None;
+        }
+    }
+    let m = pipeline.laser.mount;
+    let source = if mount_given {
+        "the config's"
+    } else {
+        "the default"
+    };
+    match &scan_frame {
+        Some(frame) => {
+            let heard = transforms
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .frames();
+            tracing::warn!(
+                "no transform from {base_frame} to {frame} on /tf_static within {} s (frames \
+                 heard: {}); the laser is taken at {source} mount ({:.3}, {:.3}), yaw {:.3}",
+                TF_WAIT.as_secs(),
+                if heard.is_empty() {
+                    "none".into()
+                } else {
+                    heard.join(", ")
+                },
+                m.x_m,
+                m.y_m,
+                m.yaw_rad
+            );
+        }
+        None => tracing::warn!(
+            "no scan on {scan_topic} within {} s; the laser is taken at {source} mount",
+            TF_WAIT.as_secs()
+        ),
+    }
+    scan_frame
+}
+
+/// The laser's mount as the robot's description: `base_frame` -> `scan_frame` on
+/// `/tf_static` (latched), for RViz and other nodes, when the config gives the mount
+/// and nobody else publishes it. The publisher must live as long as the node.
+fn publish_mount(
+    node: &mut RosNode,
+    topic: &str,
+    base_frame: &str,
+    scan_frame: &str,
+    mount: LaserMount,
+    stamp_ns: i64,
+) -> Result<Publisher<Wire<TfMessage>>, NodeError> {
+    let publisher = node.publisher::<TfMessage>(topic, qos::latched(1))?;
+    let mut pose = Pose3::planar(mount.x_m, mount.y_m, mount.yaw_rad);
+    pose.position_m[2] = mount.height_m;
+    let message = TfMessage {
+        transforms: vec![TransformStampedMsg {
+            header: Header::new(tether_core::Stamp::from_ns(stamp_ns), base_frame),
+            child_frame_id: scan_frame.to_owned(),
+            transform: pose,
+        }],
+    };
+    publisher
+        .publish(Wire(message))
+        .map_err(|e| NodeError::PublishMount {
+            topic: topic.to_owned(),
+            message: format!("{e:?}"),
+        })?;
+    tracing::info!(
+        "published the config's laser mount on {topic}: {base_frame} -> {scan_frame} (nobody \
+         else did)"
+    );
+    Ok(publisher)
+}
+
+/// How often the node compares its topics with the graph's.
+const GRAPH_CHECK_PERIOD: Duration = Duration::from_secs(1);
+
+/// Warns, once each, about publishers and subscribers on tether's topics that DDS will
+/// not connect to it (another type, an incompatible QoS), with the fix; returns how many
+/// there were when `stop` fires.
+fn watch_graph(
+    watcher: GraphWatcher,
+    stop: mpsc::Receiver<()>,
+) -> Result<JoinHandle<usize>, NodeError> {
+    std::thread::Builder::new()
+        .name("ros2-graph".into())
+        .spawn(move || {
+            let mut told = std::collections::BTreeSet::new();
+            loop {
+                for mismatch in watcher.mismatches() {
+                    let text = mismatch.to_string();
+                    if told.insert(text.clone()) {
+                        tracing::warn!("{text}");
+                    }
+                }
+                if !matches!(
+                    stop.recv_timeout(GRAPH_CHECK_PERIOD),
+                    Err(mpsc::RecvTimeoutError::Timeout)
+                ) {
+                    return told.len();
+                }
+            }
+        })
+        .map_err(|source| NodeError::Thread {
+            what: "graph thread",
+            source,
+        })
+}
+
+/// How long the node waits at the start for `/clock` with `use_sim_time`.
+const CLOCK_WAIT: Duration = Duration::from_secs(10);
+
+/// Waits for the first `/clock` (nothing can be stamped before it).
+fn wait_for_clock(clock: &SimClock, topic: &str) -> Result<(), NodeError> {
+    let started = std::time::Instant::now();
+    while !clock.started() {
+        if started.elapsed() >= CLOCK_WAIT {
+            return Err(NodeError::NoClock {
+                topic: topic.to_owned(),
+                waited_s: CLOCK_WAIT.as_secs(),
+            });
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    tracing::info!(
+        "sim time from {topic}: {:.3} s",
+        clock.now_ns() as f64 * 1e-9
+    );
+    Ok(())
+}
