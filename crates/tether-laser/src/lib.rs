@@ -45,10 +45,7 @@ pub use calibration::{
     CalibrationConfig, CalibrationError, CalibrationFit, CalibrationSample, RangeStats,
     fit_range_noise, simulate_samples,
 };
-pub use classifier::{
-    AdaBoostConfig, CompiledClassifier, LegClassifier, ModelError, Node, Provenance, TrainError,
-    Tree, train_adaboost,
-};
+pub use classifier::{CompiledClassifier, LegClassifier, ModelError, Node, Provenance, Tree};
 pub use detector::{
     ConfigError, Detection, DetectionStats, DetectorConfig, DetectorKind, LegDetector,
 };
@@ -57,3 +54,4 @@ pub use fit::Circle;
 pub use people::{Leg, PairingConfig, PersonKind, PersonObservation, pair_legs};
 pub use preprocess::{ScanPoint, preprocess};
 pub use segment::{Breakpoint, Segment};
+pub use training::{AdaBoostConfig, TrainError, train_adaboost};

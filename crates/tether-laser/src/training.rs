@@ -1,5 +1,17 @@
-//! Training data for the leg classifier, its cross-validation, and the measure of both
-//! detectors, on scans already in memory (reading them is the caller's I/O).
+//! Training of the leg classifier (design 4.6): discrete AdaBoost over small decision
+//! trees ([`train_adaboost`]), its training data, its cross-validation, and the measure
+//! of both detectors, on scans already in memory (reading them is the caller's I/O).
+//! The model and its inference are [`crate::classifier`].
+//!
+//! AdaBoost (Freund and Schapire 1997) grows, round after round, the tree that best
+//! separates the weighted training samples, gives it the weight
+//! `alpha_t = 1/2 ln((1 - eps_t) / eps_t)` from its weighted error `eps_t`, and
+//! re-weights the samples `w_i <- w_i exp(-alpha_t y_i h_t(x_i))`, normalised, so that
+//! the next tree attends to the samples the ensemble gets wrong. Trees are grown
+//! greedily on the weighted Gini impurity `sum_side (w_side - (w_pos^2 + w_neg^2) /
+//! w_side)`; a leaf votes for its heavier class. Training draws nothing at random; ties
+//! go to the lowest feature index and the lowest threshold, so the same samples give
+//! the same model.
 //!
 //! The data are leg_tracker's (Leigh et al., ICRA 2015): scans with the labelled
 //! centres of leg clusters, and scans of a room without people where every cluster is
@@ -22,11 +34,13 @@
 //! Every choice made on the training split ([`cross_validate`]) is made on held-out
 //! folds of the training split only.
 
+use thiserror::Error;
+
 use tether_core::{Laser, LaserScan, Point2};
 
-use crate::classifier::{AdaBoostConfig, LegClassifier, Provenance, TrainError, train_adaboost};
+use crate::classifier::{LegClassifier, MAX_DEPTH, MODEL_FORMAT, Node, Provenance, Tree};
 use crate::detector::{Detection, LegDetector, learned_centre};
-use crate::features::FeatureVector;
+use crate::features::{FEATURE_NAMES, FeatureVector, N_FEATURES};
 
 /// Bags whose labelled legs are training positives.
 pub const TRAIN_POSITIVE_BAGS: [&str; 4] = [
@@ -709,8 +723,413 @@ pub fn leg_positions(detection: &Detection) -> Vec<Point2<Laser>> {
     detection.legs.iter().map(|l| l.centre_in_laser).collect()
 }
 
+/// AdaBoost training parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdaBoostConfig {
+    /// Number of boosting rounds (trees); default 300.
+    pub rounds: usize,
+    /// Depth of each tree; 1 gives Arras et al.'s stumps. Default 3.
+    pub max_depth: usize,
+    /// The decision margin written into the model; default 0.
+    pub decision_margin: f64,
+}
+
+impl Default for AdaBoostConfig {
+    fn default() -> Self {
+        AdaBoostConfig {
+            rounds: 300,
+            max_depth: 3,
+            decision_margin: 0.0,
+        }
+    }
+}
+
+/// Why training could not run.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum TrainError {
+    /// One class has no samples.
+    #[error("training needs positive and negative samples, got {positives} and {negatives}")]
+    OneClass {
+        /// Positive samples.
+        positives: usize,
+        /// Negative samples.
+        negatives: usize,
+    },
+    /// A feature value is NaN or infinite.
+    #[error("sample {sample} has a non-finite value of feature {feature}")]
+    NotFinite {
+        /// Index of the sample.
+        sample: usize,
+        /// Name of the feature.
+        feature: &'static str,
+    },
+    /// Samples and labels differ in number.
+    #[error("{samples} samples but {labels} labels")]
+    Mismatch {
+        /// Samples.
+        samples: usize,
+        /// Labels.
+        labels: usize,
+    },
+    /// The parameters make no sense.
+    #[error("AdaBoost needs rounds >= 1 and 1 <= max_depth <= 8, got {rounds} and {max_depth}")]
+    Config {
+        /// Rounds asked for.
+        rounds: usize,
+        /// Depth asked for.
+        max_depth: usize,
+    },
+}
+
+/// Trains a classifier by discrete AdaBoost on trees. `labels[i]` says whether
+/// `samples[i]` is a leg. Deterministic: no randomness, fixed tie-breaking.
+pub fn train_adaboost(
+    samples: &[FeatureVector],
+    labels: &[bool],
+    config: &AdaBoostConfig,
+    provenance: Provenance,
+) -> Result<LegClassifier, TrainError> {
+    if samples.len() != labels.len() {
+        return Err(TrainError::Mismatch {
+            samples: samples.len(),
+            labels: labels.len(),
+        });
+    }
+    if config.rounds == 0 || !(1..=MAX_DEPTH).contains(&config.max_depth) {
+        return Err(TrainError::Config {
+            rounds: config.rounds,
+            max_depth: config.max_depth,
+        });
+    }
+    let positives = labels.iter().filter(|&&l| l).count();
+    let negatives = labels.len() - positives;
+    if positives == 0 || negatives == 0 {
+        return Err(TrainError::OneClass {
+            positives,
+            negatives,
+        });
+    }
+    for (sample, x) in samples.iter().enumerate() {
+        if let Some(f) = x.iter().position(|v| !v.is_finite()) {
+            return Err(TrainError::NotFinite {
+                sample,
+                feature: FEATURE_NAMES[f],
+            });
+        }
+    }
+    let grower = TreeGrower::new(samples, labels, config.max_depth);
+    let mut w = vec![1.0 / samples.len() as f64; samples.len()];
+    let mut trees = Vec::with_capacity(config.rounds);
+    let mut votes = vec![0i8; samples.len()];
+    for _ in 0..config.rounds {
+        let nodes = grower.grow(&w);
+        let tree = Tree { alpha: 1.0, nodes };
+        let mut error = 0.0;
+        for (i, v) in votes.iter_mut().enumerate() {
+            *v = if tree.vote(&samples[i]) > 0.0 { 1 } else { -1 };
+            if (*v > 0) != labels[i] {
+                error += w[i];
+            }
+        }
+        if error >= 0.5 {
+            break;
+        }
+        let error = error.max(1e-12);
+        let alpha = 0.5 * ((1.0 - error) / error).ln();
+        let mut total = 0.0;
+        for (i, wi) in w.iter_mut().enumerate() {
+            let agree = (votes[i] > 0) == labels[i];
+            *wi *= if agree { (-alpha).exp() } else { alpha.exp() };
+            total += *wi;
+        }
+        for wi in &mut w {
+            *wi /= total;
+        }
+        trees.push(Tree { alpha, ..tree });
+    }
+    Ok(LegClassifier {
+        format: MODEL_FORMAT.to_string(),
+        features: FEATURE_NAMES.iter().map(|s| s.to_string()).collect(),
+        decision_margin: config.decision_margin,
+        trees,
+        provenance: Provenance {
+            positives,
+            negatives,
+            ..provenance
+        },
+    })
+}
+
+/// Grows weighted trees level by level over samples sorted once per feature, so that
+/// a level costs one pass over every feature's order.
+struct TreeGrower<'a> {
+    samples: &'a [FeatureVector],
+    labels: &'a [bool],
+    /// Per feature: sample indices sorted by the feature's value, and those values.
+    order: Vec<Vec<u32>>,
+    sorted_values: Vec<Vec<f64>>,
+    max_depth: usize,
+}
+
+/// Best split found so far for one open node.
+#[derive(Clone, Copy)]
+struct SplitCandidate {
+    score: f64,
+    feature: usize,
+    threshold: f64,
+}
+
+/// Running sums of one open node during a sweep over one feature.
+#[derive(Clone, Copy, Default)]
+struct Sweep {
+    pos: f64,
+    neg: f64,
+    last: Option<f64>,
+}
+
+impl<'a> TreeGrower<'a> {
+    fn new(samples: &'a [FeatureVector], labels: &'a [bool], max_depth: usize) -> Self {
+        let order: Vec<Vec<u32>> = (0..N_FEATURES)
+            .map(|f| {
+                let mut idx: Vec<u32> = (0..samples.len() as u32).collect();
+                idx.sort_by(|&a, &b| {
+                    samples[a as usize][f]
+                        .total_cmp(&samples[b as usize][f])
+                        .then(a.cmp(&b))
+                });
+                idx
+            })
+            .collect();
+        let sorted_values = order
+            .iter()
+            .enumerate()
+            .map(|(f, idx)| idx.iter().map(|&i| samples[i as usize][f]).collect())
+            .collect();
+        TreeGrower {
+            samples,
+            labels,
+            order,
+            sorted_values,
+            max_depth,
+        }
+    }
+
+    fn grow(&self, w: &[f64]) -> Vec<Node> {
+        const NONE: usize = usize::MAX;
+        // Node under construction of each sample; all start at the root.
+        let mut at = vec![0usize; self.samples.len()];
+        let mut nodes: Vec<Node> = vec![Node::Leaf { vote: -1 }];
+        let mut open: Vec<usize> = vec![0];
+        for depth in 0..=self.max_depth {
+            // Class weights per open node.
+            let mut slot = vec![NONE; nodes.len()];
+            for (s, &k) in open.iter().enumerate() {
+                slot[k] = s;
+            }
+            let mut totals = vec![(0.0f64, 0.0f64); open.len()];
+            for (i, &k) in at.iter().enumerate() {
+                if k != NONE && slot[k] != NONE {
+                    let t = &mut totals[slot[k]];
+                    if self.labels[i] {
+                        t.0 += w[i];
+                    } else {
+                        t.1 += w[i];
+                    }
+                }
+            }
+            for (s, &k) in open.iter().enumerate() {
+                let (p, n) = totals[s];
+                nodes[k] = Node::Leaf {
+                    vote: if p > n { 1 } else { -1 },
+                };
+            }
+            if depth == self.max_depth {
+                break;
+            }
+            let mut best: Vec<Option<SplitCandidate>> = vec![None; open.len()];
+            let mut sweep = vec![Sweep::default(); open.len()];
+            for (f, (idx, values)) in self.order.iter().zip(&self.sorted_values).enumerate() {
+                sweep.iter_mut().for_each(|s| *s = Sweep::default());
+                for (&i, &v) in idx.iter().zip(values) {
+                    let i = i as usize;
+                    let k = at[i];
+                    if k == NONE || slot[k] == NONE {
+                        continue;
+                    }
+                    let s = slot[k];
+                    let sw = &mut sweep[s];
+                    if let Some(last) = sw.last
+                        && v > last
+                    {
+                        // Split between `last` and `v`: below = sums so far.
+                        let (tp, tn) = totals[s];
+                        let (bp, bn) = (sw.pos, sw.neg);
+                        let (ap, an) = (tp - bp, tn - bn);
+                        let purity = |p: f64, n: f64| {
+                            let t = p + n;
+                            if t > 0.0 { (p * p + n * n) / t } else { 0.0 }
+                        };
+                        let score = purity(bp, bn) + purity(ap, an);
+                        if best[s].is_none_or(|b| score > b.score) {
+                            best[s] = Some(SplitCandidate {
+                                score,
+                                feature: f,
+                                threshold: 0.5 * (last + v),
+                            });
+                        }
+                    }
+                    if self.labels[i] {
+                        sw.pos += w[i];
+                    } else {
+                        sw.neg += w[i];
+                    }
+                    sw.last = Some(v);
+                }
+            }
+            let mut next_open = Vec::new();
+            let mut children = vec![(NONE, NONE); open.len()];
+            for (s, &k) in open.iter().enumerate() {
+                let (p, n) = totals[s];
+                // A pure node gains nothing from a split.
+                let Some(split) = best[s].filter(|_| p > 0.0 && n > 0.0) else {
+                    continue;
+                };
+                let below = nodes.len();
+                nodes.push(Node::Leaf { vote: -1 });
+                let above = nodes.len();
+                nodes.push(Node::Leaf { vote: -1 });
+                nodes[k] = Node::Split {
+                    feature: split.feature,
+                    threshold: split.threshold,
+                    below,
+                    above,
+                };
+                children[s] = (below, above);
+                next_open.push(below);
+                next_open.push(above);
+            }
+            for (i, k) in at.iter_mut().enumerate() {
+                if *k == NONE || slot[*k] == NONE {
+                    *k = NONE;
+                    continue;
+                }
+                let (below, above) = children[slot[*k]];
+                if below == NONE {
+                    *k = NONE;
+                    continue;
+                }
+                if let Node::Split {
+                    feature, threshold, ..
+                } = nodes[*k]
+                {
+                    *k = if self.samples[i][feature] <= threshold {
+                        below
+                    } else {
+                        above
+                    };
+                }
+            }
+            open = next_open;
+            if open.is_empty() {
+                break;
+            }
+        }
+        nodes
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    fn sample(v0: f64, v5: f64) -> FeatureVector {
+        let mut x = [0.0; N_FEATURES];
+        x[0] = v0;
+        x[5] = v5;
+        x
+    }
+
+    /// Legs: 5 <= n and width < 0.2; everything else is not.
+    fn and_rule() -> (Vec<FeatureVector>, Vec<bool>) {
+        let mut samples = Vec::new();
+        let mut labels = Vec::new();
+        for n in 1..15 {
+            for wi in 0..10 {
+                let width = 0.05 * wi as f64;
+                samples.push(sample(n as f64, width));
+                labels.push(n >= 5 && width < 0.2);
+            }
+        }
+        (samples, labels)
+    }
+
+    #[test]
+    fn learns_a_two_feature_rule_deterministically() {
+        let (samples, labels) = and_rule();
+        let config = AdaBoostConfig {
+            rounds: 20,
+            ..AdaBoostConfig::default()
+        };
+        let model = train_adaboost(&samples, &labels, &config, Provenance::default()).unwrap();
+        for (x, &l) in samples.iter().zip(&labels) {
+            assert_eq!(model.is_leg(x), l, "{x:?}");
+        }
+        // A depth-2 tree represents the rule alone: one round suffices.
+        assert!(model.trees.len() <= 20);
+        let again = train_adaboost(&samples, &labels, &config, Provenance::default()).unwrap();
+        assert_eq!(model, again);
+        let round_trip = LegClassifier::from_json(&model.to_json()).unwrap();
+        assert_eq!(round_trip, model);
+        assert_eq!(round_trip.to_json(), model.to_json());
+        assert_eq!(
+            model.provenance.positives,
+            labels.iter().filter(|&&l| l).count()
+        );
+    }
+
+    #[test]
+    fn boosted_stumps_learn_a_threshold() {
+        let (samples, _) = and_rule();
+        let labels: Vec<bool> = samples.iter().map(|x| x[5] < 0.2).collect();
+        let config = AdaBoostConfig {
+            rounds: 5,
+            max_depth: 1,
+            ..AdaBoostConfig::default()
+        };
+        let model = train_adaboost(&samples, &labels, &config, Provenance::default()).unwrap();
+        assert!(matches!(
+            model.trees[0].nodes[0],
+            Node::Split { feature: 5, threshold, .. } if (threshold - 0.175).abs() < 1e-12
+        ));
+        for (x, &l) in samples.iter().zip(&labels) {
+            assert_eq!(model.is_leg(x), l);
+        }
+    }
+
+    #[test]
+    fn refuses_bad_training_data() {
+        let x = [sample(1.0, 0.1)];
+        let cfg = AdaBoostConfig::default();
+        assert!(matches!(
+            train_adaboost(&x, &[true], &cfg, Provenance::default()),
+            Err(TrainError::OneClass { .. })
+        ));
+        let x = [sample(f64::NAN, 0.1), sample(1.0, 0.1)];
+        assert!(matches!(
+            train_adaboost(&x, &[true, false], &cfg, Provenance::default()),
+            Err(TrainError::NotFinite {
+                sample: 0,
+                feature: "n_points"
+            })
+        ));
+        let x = [sample(2.0, 0.1), sample(1.0, 0.1)];
+        let deep = AdaBoostConfig {
+            max_depth: 0,
+            ..cfg
+        };
+        assert!(matches!(
+            train_adaboost(&x, &[true, false], &deep, Provenance::default()),
+            Err(TrainError::Config { .. })
+        ));
+    }
 
     #[test]
     fn the_robot_body_is_what_stays_put_in_the_sensor_frame() {
@@ -722,7 +1141,7 @@ mod tests {
             let mut push = |x: f64, y: f64| {
                 s.centroids.push(Point2::new(x, y));
                 s.centres.push(Point2::new(x, y));
-                s.features.push([k as f64; crate::features::N_FEATURES]);
+                s.features.push([k as f64; N_FEATURES]);
                 s.positive.push(false);
             };
             push(0.2 + 0.003 * (k % 3) as f64, 0.5);
@@ -803,7 +1222,7 @@ mod tests {
     #[test]
     fn folds_take_one_bag_and_a_block_of_each_topic() {
         let scan = |n: usize| ScanSample {
-            features: vec![[n as f64; crate::features::N_FEATURES]],
+            features: vec![[n as f64; N_FEATURES]],
             ..ScanSample::default()
         };
         let bags = vec![vec![scan(0)], vec![scan(1)]];

@@ -749,6 +749,8 @@ impl Pipeline {
         self.finish(stamp, TickInput::Timer, world_from_robot)
     }
 
+    /// The tick of an input that changed nothing: no people, the tracks, the target and
+    /// the command as they are.
     fn idle_tick(&self, stamp: Stamp, input: TickInput) -> Tick {
         Tick {
             stamp,
@@ -802,69 +804,145 @@ impl Pipeline {
         }
     }
 
-    /// Target update, control and safety.
+    /// The end of every tick, once the tracks have taken in its data: the target
+    /// update, why the robot is held, the trails, the spring's command, the obstacle
+    /// stop, the reverse rule and the limits, in the order of design 6 ("Safety").
     fn finish(
         &mut self,
         stamp: Stamp,
         input: TickInput,
         world_from_robot: Pose2<World, Robot>,
     ) -> Tick {
+        let dt_s = self.control_period_s(stamp);
+        self.forget_heights_of_dropped_tracks();
+        if self.config.fusion.mode == FusionMode::Tracker {
+            self.update_target(stamp, input, world_from_robot);
+        }
+        let target = self.target_view();
+        let mut stop = self.hold_reason(stamp, &target);
+        self.record_trails(stamp, world_from_robot, &target);
+        let mut desired = match (stop, target.estimate) {
+            (None, Some(estimate)) => {
+                self.follow(world_from_robot, estimate.mean, target.velocity, dt_s)
+            }
+            _ => self.held_command(stamp, world_from_robot, target.state),
+        };
+        let obstacle = self.obstacle_in_the_way(desired);
+        if obstacle {
+            desired.v_mps = desired.v_mps.min(0.0);
+            stop = stop.or(Some(StopReason::Obstacle));
+        }
+        if desired.v_mps < 0.0 && !self.may_reverse(stamp, world_from_robot) {
+            desired.v_mps = 0.0;
+        }
+        let emergency = obstacle
+            || matches!(
+                stop,
+                Some(StopReason::Obstacle | StopReason::StaleLaser | StopReason::StaleTarget)
+            );
+        let command = self.apply_limits(desired, dt_s, emergency);
+        Tick {
+            target,
+            command,
+            stop,
+            refusals: self.selector.refusals().to_vec(),
+            ..self.idle_tick(stamp, input)
+        }
+    }
+
+    /// The time since the previous tick, s, clamped to [0, 0.2] (a long silence does
+    /// not become one huge control step); this tick becomes the previous one.
+    fn control_period_s(&mut self, stamp: Stamp) -> f64 {
         let dt_s = self
             .last_tick
             .map_or(0.0, |t| stamp.secs_since(t))
             .clamp(0.0, 0.2);
         self.last_tick = Some(stamp);
+        dt_s
+    }
+
+    /// Forgets the head heights learned for tracks the tracker has dropped (design
+    /// 3.2: a person's own height, learned while the laser measured their range).
+    fn forget_heights_of_dropped_tracks(&mut self) {
         let tracker = &self.tracker;
         self.heights.retain(|id, _| tracker.track(*id).is_some());
-        if self.config.fusion.mode == FusionMode::Tracker {
-            let camera = self.config.camera;
-            let half_fov = 0.5 * camera.horizontal_fov_rad();
-            let max_range = self.config.vision.max_range_m;
-            let world_from_camera = world_from_robot * camera.robot_from_camera();
-            let camera_from_world = world_from_camera.inverse();
-            let use_vision = self.config.fusion.use_vision;
-            let camera_sees = move |p: Point2<World>| {
-                let q = camera_from_world * p;
-                use_vision
-                    && q.x > 0.3
-                    && q.range_m() <= max_range
-                    && q.bearing_rad().abs() <= half_fov
-            };
-            let laser_from_world =
-                (world_from_robot * self.config.laser.robot_from_laser()).inverse();
-            let (first, last, reach) = self.laser_view.unwrap_or((
-                self.config.laser.geometry.angle_min_rad(),
-                self.config.laser.geometry.angle_max_rad(),
-                self.config.laser.range_max_m,
-            ));
-            let laser_sees = move |p: Point2<World>| {
-                let q = laser_from_world * p;
-                q.range_m() <= reach && (first..=last).contains(&q.bearing_rad())
-            };
-            let (world_map, laser_map) = (&self.clutter_world, &self.clutter_laser);
-            let in_clutter = move |p: Point2<World>| {
-                world_map.is_static(p, stamp) || laser_map.is_static(laser_from_world * p, stamp)
-            };
-            let lost_after_s = self.selector.config().lost_after_s;
-            let sensor_gap = match (input, self.last_scan) {
-                (_, None) => false,
-                (TickInput::Scan, Some(_)) => self.scan_gap_s > lost_after_s,
-                (_, Some(t)) => stamp.secs_since(t) > lost_after_s,
-            };
-            let view = View {
-                world_from_robot,
-                camera_sees: &camera_sees,
-                laser_sees: &laser_sees,
-                in_clutter: &in_clutter,
-                laser_in_use: self.config.fusion.use_laser,
-                sensor_gap,
-            };
-            self.selector
-                .update_with_view(stamp, self.tracker.tracks(), &view);
-        }
-        let target = self.target_view();
+    }
 
-        // Why the robot may not follow.
+    /// Updates the target selector with the tracks and what the sensors could see at
+    /// this tick (design 5.6, 11): the camera's and the laser's fields of view, the
+    /// learned static clutter (design 11.2), and whether the laser fell silent for
+    /// longer than a loss takes (the `sensor_gap` loss reason, design 11.6).
+    fn update_target(
+        &mut self,
+        stamp: Stamp,
+        input: TickInput,
+        world_from_robot: Pose2<World, Robot>,
+    ) {
+        let camera_sees = self.camera_sees(world_from_robot);
+        let laser_from_world = (world_from_robot * self.config.laser.robot_from_laser()).inverse();
+        let laser_sees = self.laser_sees(laser_from_world);
+        let (world_map, laser_map) = (&self.clutter_world, &self.clutter_laser);
+        let in_clutter = move |p: Point2<World>| {
+            world_map.is_static(p, stamp) || laser_map.is_static(laser_from_world * p, stamp)
+        };
+        let lost_after_s = self.selector.config().lost_after_s;
+        let sensor_gap = match (input, self.last_scan) {
+            (_, None) => false,
+            (TickInput::Scan, Some(_)) => self.scan_gap_s > lost_after_s,
+            (_, Some(t)) => stamp.secs_since(t) > lost_after_s,
+        };
+        let view = View {
+            world_from_robot,
+            camera_sees: &camera_sees,
+            laser_sees: &laser_sees,
+            in_clutter: &in_clutter,
+            laser_in_use: self.config.fusion.use_laser,
+            sensor_gap,
+        };
+        self.selector
+            .update_with_view(stamp, self.tracker.tracks(), &view);
+    }
+
+    /// Whether the camera, in use, would see a person at a world point: in front of it
+    /// (0.3 m at least), within the monocular model's range and the horizontal field of
+    /// view (design 2.2, 3.2).
+    fn camera_sees(
+        &self,
+        world_from_robot: Pose2<World, Robot>,
+    ) -> impl Fn(Point2<World>) -> bool + use<> {
+        let camera = self.config.camera;
+        let half_fov = 0.5 * camera.horizontal_fov_rad();
+        let max_range = self.config.vision.max_range_m;
+        let world_from_camera = world_from_robot * camera.robot_from_camera();
+        let camera_from_world = world_from_camera.inverse();
+        let use_vision = self.config.fusion.use_vision;
+        move |p: Point2<World>| {
+            let q = camera_from_world * p;
+            use_vision && q.x > 0.3 && q.range_m() <= max_range && q.bearing_rad().abs() <= half_fov
+        }
+    }
+
+    /// Whether the laser would see a world point: within the last scan's beams and
+    /// longest range (before the first scan, the laser model's).
+    fn laser_sees(
+        &self,
+        laser_from_world: Pose2<Laser, World>,
+    ) -> impl Fn(Point2<World>) -> bool + use<> {
+        let (first, last, reach) = self.laser_view.unwrap_or((
+            self.config.laser.geometry.angle_min_rad(),
+            self.config.laser.geometry.angle_max_rad(),
+            self.config.laser.range_max_m,
+        ));
+        move |p: Point2<World>| {
+            let q = laser_from_world * p;
+            q.range_m() <= reach && (first..=last).contains(&q.bearing_rad())
+        }
+    }
+
+    /// Why the robot may not follow (design 6, safety 1 and 2): no target yet, the
+    /// target lost, or, while locked, the watchdogs (the newest scan or the target's
+    /// last update too old). `None` when it may follow.
+    fn hold_reason(&self, stamp: Stamp, target: &TargetView) -> Option<StopReason> {
         let last_target_update = match self.config.fusion.mode {
             FusionMode::Tracker => target
                 .id
@@ -872,7 +950,7 @@ impl Pipeline {
                 .map(|t| t.last_update),
             FusionMode::PerFrame => self.per_frame_target.map(|(t, _)| t),
         };
-        let mut stop = match target.state {
+        match target.state {
             TargetState::Searching => Some(StopReason::NoTarget),
             TargetState::Lost { .. } => Some(StopReason::TargetLost),
             TargetState::Locked { .. } => {
@@ -880,7 +958,18 @@ impl Pipeline {
                     .safety
                     .watchdog(stamp, self.last_scan, last_target_update)
             }
-        };
+        }
+    }
+
+    /// Records where the robot is and, while locked, where the target is: the trails
+    /// the spring may steer along and the robot may back up onto (design 6, "Where the
+    /// spring pulls").
+    fn record_trails(
+        &mut self,
+        stamp: Stamp,
+        world_from_robot: Pose2<World, Robot>,
+        target: &TargetView,
+    ) {
         self.trails
             .record_robot(stamp, world_from_robot.translation());
         if let (Some(id), Some(estimate), TargetState::Locked { .. }) =
@@ -888,73 +977,93 @@ impl Pipeline {
         {
             self.trails.record_target(id, estimate.mean);
         }
+    }
+
+    /// The command that follows the target at `target_at` (world): the aim, straight at
+    /// the target or along its trail when the laser sees something in the way, then one
+    /// step of the virtual spring toward a person in the aim's direction at the
+    /// (possibly along-the-trail) distance, damped relative to the target's speed
+    /// (design 6).
+    fn follow(
+        &mut self,
+        world_from_robot: Pose2<World, Robot>,
+        target_at: Point2<World>,
+        target_velocity: Option<Vector2<World>>,
+        dt_s: f64,
+    ) -> Twist {
         let safety = &self.config.safety;
-        let desired = match (stop, target.estimate) {
-            (None, Some(estimate)) => {
-                let robot_from_world = world_from_robot.inverse();
-                let attach =
-                    world_from_robot * Point2::new(self.config.follower.attach_ahead_m, 0.0);
-                // Only returns nearer than the target (plus a margin) can stand between.
-                let reach_m = (robot_from_world * estimate.mean).range_m() + 1.0;
-                let obstacles: Vec<Point2<World>> = self
-                    .obstacle_points
-                    .iter()
-                    .filter(|p| p.range_m() <= reach_m)
-                    .map(|p| world_from_robot * *p)
-                    .collect();
-                let aim = self.trails.aim(
-                    world_from_robot,
-                    attach,
-                    estimate.mean,
-                    &obstacles,
-                    safety.robot_radius_m + safety.corridor_margin_m,
-                    self.config.follower_always_trail,
-                );
-                // The spring sees a person in the aim's direction at the (possibly
-                // along-the-trail) distance.
-                let direction = aim.point - attach;
-                let norm = direction.norm().max(1e-6);
-                let virtual_person =
-                    robot_from_world * (attach + direction * (aim.distance_m / norm));
-                let vx = target
-                    .velocity
-                    .map_or(0.0, |v| robot_from_world.rotate(v).x);
-                let (v, w) = self.spring.step(
-                    &PersonInRobot {
-                        x_m: virtual_person.x,
-                        y_m: virtual_person.y,
-                        vx_mps: vx,
-                    },
-                    dt_s,
-                );
+        let robot_from_world = world_from_robot.inverse();
+        let attach = world_from_robot * Point2::new(self.config.follower.attach_ahead_m, 0.0);
+        // Only returns nearer than the target (plus a margin) can stand between.
+        let reach_m = (robot_from_world * target_at).range_m() + 1.0;
+        let obstacles: Vec<Point2<World>> = self
+            .obstacle_points
+            .iter()
+            .filter(|p| p.range_m() <= reach_m)
+            .map(|p| world_from_robot * *p)
+            .collect();
+        let aim = self.trails.aim(
+            world_from_robot,
+            attach,
+            target_at,
+            &obstacles,
+            safety.robot_radius_m + safety.corridor_margin_m,
+            self.config.follower_always_trail,
+        );
+        // The spring sees a person in the aim's direction at the (possibly
+        // along-the-trail) distance.
+        let direction = aim.point - attach;
+        let norm = direction.norm().max(1e-6);
+        let virtual_person = robot_from_world * (attach + direction * (aim.distance_m / norm));
+        let vx = target_velocity.map_or(0.0, |v| robot_from_world.rotate(v).x);
+        let (v, w) = self.spring.step(
+            &PersonInRobot {
+                x_m: virtual_person.x,
+                y_m: virtual_person.y,
+                vx_mps: vx,
+            },
+            dt_s,
+        );
+        Twist {
+            v_mps: v,
+            w_radps: w,
+        }
+    }
+
+    /// The command while the robot is held: the spring is reset, and the robot stands,
+    /// except that for a moment after a loss it turns on the spot toward where the
+    /// target should be (design 6, safety 1; design 11.3).
+    fn held_command(
+        &mut self,
+        stamp: Stamp,
+        world_from_robot: Pose2<World, Robot>,
+        state: TargetState,
+    ) -> Twist {
+        self.spring.reset();
+        // A target lost a moment ago: stay put but turn on the spot towards where it
+        // should be (it may have stepped out of the sensors' field of view beside the
+        // robot). Turning in place sweeps no new ground.
+        match (state, self.selector.lost_prediction(stamp)) {
+            (TargetState::Lost { since, .. }, Some(predicted))
+                if stamp.secs_since(since) <= self.config.safety.search_turn_s =>
+            {
+                let p = world_from_robot.inverse() * predicted.mean;
+                let w = (1.5 * p.bearing_rad()).clamp(-1.0, 1.0);
                 Twist {
-                    v_mps: v,
-                    w_radps: w,
+                    v_mps: 0.0,
+                    w_radps: if p.bearing_rad().abs() > 0.2 { w } else { 0.0 },
                 }
             }
-            _ => {
-                self.spring.reset();
-                // A target lost a moment ago: stay put but turn on the spot towards where
-                // it should be (it may have stepped out of the sensors' field of view
-                // beside the robot). Turning in place sweeps no new ground.
-                match (target.state, self.selector.lost_prediction(stamp)) {
-                    (TargetState::Lost { since, .. }, Some(predicted))
-                        if stamp.secs_since(since) <= self.config.safety.search_turn_s =>
-                    {
-                        let p = world_from_robot.inverse() * predicted.mean;
-                        let w = (1.5 * p.bearing_rad()).clamp(-1.0, 1.0);
-                        Twist {
-                            v_mps: 0.0,
-                            w_radps: if p.bearing_rad().abs() > 0.2 { w } else { 0.0 },
-                        }
-                    }
-                    _ => Twist::STOP,
-                }
-            }
-        };
-        let mut desired = desired;
-        // Something in the way of where the robot is going, or of where it is still
-        // rolling (a smooth stop takes a moment): brake at once.
+            _ => Twist::STOP,
+        }
+    }
+
+    /// The obstacle stop (design 6, safety 3): true when a return of the last scan
+    /// lies in the straight corridor ahead of the footprint or on the arc it sweeps,
+    /// within the stop distance plus the braking distance, for the `desired` motion or
+    /// the one the robot is still rolling with (a smooth stop takes a moment).
+    fn obstacle_in_the_way(&self, desired: Twist) -> bool {
+        let safety = &self.config.safety;
         let current = self.motion.twist;
         let decel = self.config.limits.max_decel_mps2;
         // Returns within reach of the footprint at the highest speed: the rest cannot
@@ -980,24 +1089,20 @@ impl Pipeline {
                 && (reach.obstacle_ahead_m(near.iter().copied()).is_some()
                     || reach.obstacle_on_arc_m(&near, v, w).is_some())
         };
-        let obstacle =
-            blocked(desired.v_mps, desired.w_radps) || blocked(current.v_mps, current.w_radps);
-        if obstacle {
-            desired.v_mps = desired.v_mps.min(0.0);
-            stop = stop.or(Some(StopReason::Obstacle));
-        }
-        if desired.v_mps < 0.0
-            && !self
-                .trails
-                .may_reverse(stamp, world_from_robot, safety.robot_radius_m)
-        {
-            desired.v_mps = 0.0;
-        }
-        let emergency = obstacle
-            || matches!(
-                stop,
-                Some(StopReason::Obstacle | StopReason::StaleLaser | StopReason::StaleTarget)
-            );
+        blocked(desired.v_mps, desired.w_radps) || blocked(current.v_mps, current.w_radps)
+    }
+
+    /// The reverse rule (design 6, safety 4): the laser does not see behind, so the
+    /// robot backs up only onto its own path, driven over more than half a second ago.
+    fn may_reverse(&self, stamp: Stamp, world_from_robot: Pose2<World, Robot>) -> bool {
+        self.trails
+            .may_reverse(stamp, world_from_robot, self.config.safety.robot_radius_m)
+    }
+
+    /// The limits of the base (design 6, "Limits"; safety 5), without the jerk limit in
+    /// an `emergency`; the spring is told what was commanded so that it cannot wind up,
+    /// and the result is the tick's command.
+    fn apply_limits(&mut self, desired: Twist, dt_s: f64, emergency: bool) -> Twist {
         self.motion = self
             .config
             .limits
@@ -1005,17 +1110,6 @@ impl Pipeline {
         let command = self.motion.twist;
         self.spring.sync(command.v_mps, command.w_radps);
         self.command = command;
-        Tick {
-            stamp,
-            input,
-            laser_people: Vec::new(),
-            vision_people: Vec::new(),
-            fused_people: Vec::new(),
-            tracks: self.track_views(),
-            target,
-            command,
-            stop,
-            refusals: self.selector.refusals().to_vec(),
-        }
+        command
     }
 }

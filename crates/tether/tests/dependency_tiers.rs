@@ -1,0 +1,238 @@
+//! The dependency rule per tier (issue 18; the README's *Layout*): every workspace crate
+//! has a tier, and a crate's dependencies on other workspace crates point down, to a
+//! lower tier, never sideways or up. Tests and benchmarks may reach sideways or up
+//! (dev-dependencies: a simulated world or a recording as input) but never onto a crate
+//! that depends on the crate itself.
+//!
+//! The arrows are read from `cargo metadata --no-deps` (the `Cargo.toml` files), so a
+//! new arrow that points up fails here, in CI, before it takes root. A crate that is not
+//! in the table fails too: place it in a tier. A crate in the table that does not exist
+//! (yet) is allowed, so that the table can name a crate before it lands.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+use std::process::Command;
+
+use serde_json::Value;
+
+/// The tiers, bottom up: the crates of each and what they are for. A crate may use the
+/// crates of lower tiers only.
+const TIERS: &[(&str, &[&str])] = &[
+    ("shared types", &["tether-core"]),
+    ("image decoding", &["tether-image"]),
+    (
+        "algorithms and sensor links",
+        &[
+            "tether-laser",
+            "tether-vision",
+            "tether-fusion",
+            "tether-control",
+            "tether-scanmatch",
+            "tether-io",
+        ],
+    ),
+    (
+        "compositions of algorithms",
+        &["tether-pipeline", "tether-cascade"],
+    ),
+    ("the simulated world", &["tether-sim"]),
+    ("ROS 2", &["tether-ros2"]),
+    ("the live runtime", &["tether-live"]),
+    ("the command line", &["tether"]),
+];
+
+/// The tier of each crate in [`TIERS`].
+fn tier_of() -> BTreeMap<&'static str, usize> {
+    let mut tiers = BTreeMap::new();
+    for (tier, (_, crates)) in TIERS.iter().enumerate() {
+        for name in *crates {
+            assert!(
+                tiers.insert(*name, tier).is_none(),
+                "{name} is in two tiers"
+            );
+        }
+    }
+    tiers
+}
+
+/// One arrow between workspace crates: user, used, and whether only tests and
+/// benchmarks use it.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+struct Arrow {
+    from: String,
+    to: String,
+    dev: bool,
+}
+
+/// The workspace's crates and the arrows between them, from `cargo metadata`'s JSON.
+fn arrows(metadata: &Value) -> (BTreeSet<String>, Vec<Arrow>) {
+    let packages = metadata["packages"]
+        .as_array()
+        .expect("cargo metadata lists packages");
+    let members: BTreeSet<String> = packages
+        .iter()
+        .filter_map(|p| p["name"].as_str().map(str::to_owned))
+        .collect();
+    let mut arrows = BTreeSet::new();
+    for p in packages {
+        let from = p["name"].as_str().unwrap_or_default();
+        for d in p["dependencies"].as_array().into_iter().flatten() {
+            let to = d["name"].as_str().unwrap_or_default();
+            if !members.contains(to) || to == from {
+                continue;
+            }
+            // `kind` is null for a normal dependency, "build" or "dev" otherwise.
+            arrows.insert(Arrow {
+                from: from.to_owned(),
+                to: to.to_owned(),
+                dev: d["kind"].as_str() == Some("dev"),
+            });
+        }
+    }
+    (members, arrows.into_iter().collect())
+}
+
+/// Everything wrong with the workspace's arrows against [`TIERS`], one line each.
+fn violations(members: &BTreeSet<String>, arrows: &[Arrow]) -> Vec<String> {
+    let tiers = tier_of();
+    let mut out = Vec::new();
+    for name in members {
+        if !tiers.contains_key(name.as_str()) {
+            out.push(format!(
+                "{name} is in no tier: add it to TIERS (crates/tether/tests/dependency_tiers.rs) \
+                 and to the README's layout"
+            ));
+        }
+    }
+    // Which crates each crate uses, through normal and build dependencies.
+    let mut uses: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+    for a in arrows.iter().filter(|a| !a.dev) {
+        uses.entry(&a.from).or_default().push(&a.to);
+    }
+    let reaches = |from: &str, to: &str| {
+        let mut seen = BTreeSet::new();
+        let mut stack = vec![from];
+        while let Some(c) = stack.pop() {
+            if c == to {
+                return true;
+            }
+            if seen.insert(c) {
+                stack.extend(uses.get(c).into_iter().flatten().copied());
+            }
+        }
+        false
+    };
+    for a in arrows {
+        let (Some(&from), Some(&to)) = (tiers.get(a.from.as_str()), tiers.get(a.to.as_str()))
+        else {
+            continue;
+        };
+        if a.dev {
+            if reaches(&a.to, &a.from) {
+                out.push(format!(
+                    "{} (tests) -> {}: a cycle, {} depends on {}",
+                    a.from, a.to, a.to, a.from
+                ));
+            }
+        } else if to >= from {
+            out.push(format!(
+                "{} (tier {from}, {}) -> {} (tier {to}, {}): an arrow {} a tier",
+                a.from,
+                TIERS[from].0,
+                a.to,
+                TIERS[to].0,
+                if to == from { "within" } else { "up" }
+            ));
+        }
+    }
+    out
+}
+
+#[test]
+fn every_dependency_points_down_a_tier() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let output = Command::new(env!("CARGO"))
+        .args([
+            "metadata",
+            "--format-version",
+            "1",
+            "--no-deps",
+            "--offline",
+        ])
+        .arg("--manifest-path")
+        .arg(root.join("Cargo.toml"))
+        .output()
+        .expect("cargo runs");
+    assert!(
+        output.status.success(),
+        "cargo metadata failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let metadata: Value = serde_json::from_slice(&output.stdout).expect("cargo metadata's JSON");
+    let (members, arrows) = arrows(&metadata);
+    // Not vacuous: the workspace's crates are found, and the app uses the pipeline.
+    assert!(members.contains("tether-core") && members.contains("tether-pipeline"));
+    assert!(arrows.contains(&Arrow {
+        from: "tether".into(),
+        to: "tether-pipeline".into(),
+        dev: false,
+    }));
+    let problems = violations(&members, &arrows);
+    assert!(
+        problems.is_empty(),
+        "dependencies against the tiers (the README's layout):\n{}",
+        problems.join("\n")
+    );
+}
+
+#[test]
+fn the_check_catches_arrows_up_and_within_a_tier_and_cycles_through_tests() {
+    let crate_json = |name: &str, deps: &[(&str, Option<&str>)]| {
+        serde_json::json!({
+            "name": name,
+            "dependencies": deps
+                .iter()
+                .map(|(to, kind)| serde_json::json!({"name": to, "kind": kind}))
+                .collect::<Vec<_>>(),
+        })
+    };
+    let metadata = serde_json::json!({
+        "packages": [
+            crate_json("tether-core", &[("serde", None), ("tether-laser", Some("dev"))]),
+            crate_json("tether-laser", &[("tether-core", None), ("tether-fusion", None)]),
+            crate_json("tether-fusion", &[("tether-core", None)]),
+            crate_json("tether-control", &[("tether-sim", Some("build"))]),
+            crate_json("tether-pipeline", &[("tether-laser", None), ("tether-sim", Some("dev"))]),
+            crate_json("tether-sim", &[("tether-core", None)]),
+            crate_json("tether-extra", &[("tether-core", None)]),
+        ]
+    });
+    let (members, arrows) = arrows(&metadata);
+    let problems = violations(&members, &arrows);
+    // Neither tether-image nor tether-live exists here, and that is no problem; nor is
+    // the pipeline's test using the simulator, nor an arrow to a crate outside the
+    // workspace. Everything else is.
+    let found = |what: &[&str]| problems.iter().any(|p| what.iter().all(|w| p.contains(w)));
+    assert_eq!(problems.len(), 4, "{problems:#?}");
+    assert!(found(&["tether-extra is in no tier"]), "{problems:#?}");
+    assert!(
+        found(&[
+            "tether-control (tier 2",
+            "-> tether-sim (tier 4",
+            "up a tier"
+        ]),
+        "{problems:#?}"
+    );
+    assert!(
+        found(&[
+            "tether-laser (tier 2",
+            "-> tether-fusion (tier 2",
+            "within a tier"
+        ]),
+        "{problems:#?}"
+    );
+    assert!(
+        found(&["tether-core (tests) -> tether-laser: a cycle"]),
+        "{problems:#?}"
+    );
+}
