@@ -155,6 +155,21 @@ pub struct LaserSection {
     pub tcp: Option<String>,
     /// Where the scanner sits on the robot.
     pub mount: MountSection,
+    /// How long a laser that stops answering (a cable pulled and plugged back, a sensor
+    /// restarting) is tried again before the run ends, s; `0` ends the run at once.
+    /// The robot stands meanwhile (`[pipeline.safety] laser_timeout_s`). Optional,
+    /// default [`DEFAULT_RECONNECT_S`].
+    #[serde(default = "default_reconnect_s")]
+    pub reconnect_s: f64,
+}
+
+/// How long a laser that stops answering is tried again by default, s: long enough
+/// for a USB device to be enumerated again or a sensor to restart, short enough that
+/// a laser really gone ends the run soon.
+pub const DEFAULT_RECONNECT_S: f64 = 10.0;
+
+fn default_reconnect_s() -> f64 {
+    DEFAULT_RECONNECT_S
 }
 
 /// Where the laser is plugged in.
@@ -522,6 +537,12 @@ impl RobotConfig {
         }
         if l.baud == Some(0) {
             return Err(("laser.baud".into(), "= 0: must be a baud rate".into()));
+        }
+        if !(l.reconnect_s.is_finite() && (0.0..=3600.0).contains(&l.reconnect_s)) {
+            return Err((
+                "laser.reconnect_s".into(),
+                format!("= {:?}: must be in [0, 3600] s", l.reconnect_s),
+            ));
         }
         let m = &l.mount;
         finite("laser.mount.x_m", m.x_m)?;
@@ -921,6 +942,23 @@ stdout = true
             e.contains("robot.max_speed_mps") && e.contains("1e300") && e.contains("(0, 3] m/s"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn the_laser_is_tried_again_for_a_bounded_time() {
+        assert_eq!(
+            parse(MINIMAL).unwrap().laser.reconnect_s,
+            DEFAULT_RECONNECT_S
+        );
+        let mount = "mount = { x_m";
+        let with = |value: &str| MINIMAL.replace(mount, &format!("reconnect_s = {value}\n{mount}"));
+        assert_eq!(parse(&with("0")).unwrap().laser.reconnect_s, 0.0);
+        assert_eq!(parse(&with("2.5")).unwrap().laser.reconnect_s, 2.5);
+        for bad in ["-1", "inf", "nan", "1e9"] {
+            let e = parse(&with(bad)).unwrap_err();
+            assert_eq!(e.field(), Some("laser.reconnect_s"), "{bad}: {e}");
+            assert!(e.to_string().contains("[0, 3600] s"), "{bad}: {e}");
+        }
     }
 
     #[test]

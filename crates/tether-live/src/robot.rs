@@ -256,6 +256,7 @@ fn start(
     let (tx, rx) = mpsc::sync_channel(CHANNEL_DEPTH);
     let laser = scip::start(
         &config.laser_link(),
+        config.laser.reconnect_s,
         clock,
         &mut pipeline_config,
         tx.clone(),

@@ -134,6 +134,8 @@ pub struct RunSummary {
     pub frames: u64,
     /// Laser faults the driver recovered from.
     pub laser_faults: u64,
+    /// Times the laser stopped answering and was opened again.
+    pub laser_reconnects: u64,
     /// Camera frames skipped because they could not be used.
     pub bad_frames: u64,
     /// Data processed at the last tick's time because they were older.
@@ -440,6 +442,18 @@ impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
                     tracing::debug!("laser: {fault}");
                     Ok(())
                 }
+                Ok(Input::LaserLost { error, within_s }) => {
+                    tracing::warn!(
+                        "the laser stopped answering ({error}); the robot stands while it is \
+                         opened again, for up to {within_s:.1} s ([laser] reconnect_s)"
+                    );
+                    Ok(())
+                }
+                Ok(Input::LaserBack { after_s }) => {
+                    self.summary.laser_reconnects += 1;
+                    tracing::warn!("the laser answers again after {after_s:.1} s");
+                    Ok(())
+                }
                 Ok(Input::LaserFailed(error)) => Err(Ending::LaserFailed(error)),
                 Ok(Input::CameraFrameBad(why)) => {
                     self.summary.bad_frames += 1;
@@ -575,6 +589,7 @@ pub fn run<W: std::io::Write + std::io::Seek>(
             scans: 0,
             frames: 0,
             laser_faults: 0,
+            laser_reconnects: 0,
             bad_frames: 0,
             clamped_stamps: 0,
             ticks_with_target: 0,

@@ -34,7 +34,20 @@ pub enum Input {
     Scan(LaserScan),
     /// Something the laser source met and recovered from.
     LaserFault(LaserFault),
-    /// The laser failed for good (unplugged, not answering).
+    /// The laser stopped answering; its thread is opening it again for up to
+    /// `within_s` (the robot stands meanwhile: no scans, so the laser watchdog holds it).
+    LaserLost {
+        /// What the driver met.
+        error: ScipError,
+        /// How long the thread tries, s.
+        within_s: f64,
+    },
+    /// The laser answers again after a [`Input::LaserLost`], and streams.
+    LaserBack {
+        /// Time from the loss to the stream's restart, s.
+        after_s: f64,
+    },
+    /// The laser failed for good (unplugged, not answering, and not back in time).
     LaserFailed(ScipError),
     /// The people boxes of a camera frame, stamped when the frame arrived.
     Camera {

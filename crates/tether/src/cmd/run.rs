@@ -78,7 +78,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let stats = pipeline.stats();
     tracing::info!(
         "{}: {} scans, {} camera frames, {} ticks ({} with a target), {:.1} m driven by dead \
-         reckoning, {} laser faults recovered, {} camera frames skipped",
+         reckoning, {} laser faults recovered, {} laser reconnects, {} camera frames skipped",
         summary.ending.name(),
         summary.scans,
         summary.frames,
@@ -86,6 +86,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.ticks_with_target,
         summary.distance_m,
         summary.laser_faults,
+        summary.laser_reconnects,
         summary.bad_frames,
     );
     if summary.clamped_stamps > 0 {
