@@ -2,6 +2,8 @@
 //! progress; colour codes only on a terminal"). The terminal is a pseudo-terminal from
 //! util-linux's `script`, as a user's shell gives one.
 
+#![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
+
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
