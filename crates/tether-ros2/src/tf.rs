@@ -21,8 +21,9 @@ fn quat_mul(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
     ]
 }
 
-/// `v` rotated by the unit quaternion `q`.
-fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+/// `v` rotated by the unit quaternion `q` (`q v q*`): a child frame's axis `v` in its
+/// parent's axes, for the child's orientation `q`.
+pub fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
     let r = quat_mul(
         quat_mul(q, [v[0], v[1], v[2], 0.0]),
         [-q[0], -q[1], -q[2], q[3]],

@@ -650,6 +650,12 @@ fn with_the_simulated_camera_on_detections_the_robot_follows_on_both_sensors() {
     );
     let ros2 = &c.ros2_log;
     assert!(ros2.contains("camera: boxes from /detections"), "{ros2}");
+    // The camera's mount from the simulator's /tf_static, the same as the scenario's.
+    assert!(
+        ros2.contains("camera mount from /tf_static: base_link -> camera (x forward)"),
+        "{ros2}"
+    );
+    assert!(!ros2.contains("camera's mount in the config"), "{ros2}");
     let received: u64 = ros2
         .split("camera: ")
         .nth(2)

@@ -9,9 +9,9 @@
 //! future); otherwise (a publisher with a skewed clock or zero stamps) it is stamped on
 //! arrival, and that is counted and reported once.
 
-use std::sync::Arc;
 use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender};
+use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
 
 use tether_core::{Pose2, Robot, World};
@@ -364,6 +364,18 @@ pub struct CameraCounters {
     pub bad_boxes: AtomicU64,
     /// Boxes of detection messages left out: another class than the one followed.
     pub other_class: AtomicU64,
+    /// The camera's frame, as the first message named it (its mount is looked up on
+    /// `/tf_static` under this name).
+    pub frame_id: OnceLock<String>,
+}
+
+impl CameraCounters {
+    /// Keeps `frame_id` when it is the first frame named.
+    fn name_frame(&self, frame_id: &str) {
+        if self.frame_id.get().is_none() {
+            let _ = self.frame_id.set(frame_name(frame_id).to_owned());
+        }
+    }
 }
 
 /// The boxes of a `vision_msgs/msg/Detection2DArray` that `tether ros2` takes for
@@ -425,23 +437,29 @@ pub fn start_detections_reader(
             Received::Message { message, .. } => message,
             Received::Malformed(why) => {
                 if counters.malformed.fetch_add(1, Ordering::Relaxed) == 0 {
-                    tracing::warn!("{topic_name}: a sample skipped: {why} (further ones are counted)");
+                    tracing::warn!(
+                        "{topic_name}: a sample skipped: {why} (further ones are counted)"
+                    );
                 }
                 return true;
             }
         };
         counters.received.fetch_add(1, Ordering::Relaxed);
+        counters.name_frame(&message.header.frame_id);
         let (boxes, bad, other) = detection_boxes(&message, &class_id, size_px);
         if bad > 0 && counters.bad_boxes.fetch_add(bad, Ordering::Relaxed) == 0 {
             tracing::warn!(
-                "{topic_name}: a box with a size that is not finite and positive, or outside                  the camera model's {}x{} image, skipped (further ones are counted; are the                  boxes in pixels of the camera that --config describes?)",
+                "{topic_name}: a box with a size that is not finite and positive, or outside \
+                 the camera model's {}x{} image, skipped (further ones are counted; are the \
+                 boxes in pixels of the camera that --config describes?)",
                 size_px.0,
                 size_px.1
             );
         }
         counters.other_class.fetch_add(other, Ordering::Relaxed);
         let now = clock.now_ns();
-        let stamp = tether_core::Stamp::from_ns(loop_stamp(message.header.stamp.ns(), now).unwrap_or(now));
+        let stamp =
+            tether_core::Stamp::from_ns(loop_stamp(message.header.stamp.ns(), now).unwrap_or(now));
         let before = dropped;
         let open = offer(
             &tx,
@@ -582,8 +600,9 @@ pub fn start_camera_reader(
     };
     let size_counters = Arc::clone(&counters);
     let size_topic = topic_name.clone();
-    let keep = move |stamp, frame| {
+    let keep = move |stamp, frame_id: &str, frame| {
         counters.received.fetch_add(1, Ordering::Relaxed);
+        counters.name_frame(frame_id);
         if latest.put(stamp, frame) {
             counters.superseded.fetch_add(1, Ordering::Relaxed);
         }
@@ -596,10 +615,14 @@ pub fn start_camera_reader(
             subscription,
             stop,
             move |received| match received {
-                Received::Message { message, .. } => keep(
-                    stamp_of(message.header.stamp.ns()),
-                    Frame::Compressed(message),
-                ),
+                Received::Message { message, .. } => {
+                    let frame_id = message.header.frame_id.clone();
+                    keep(
+                        stamp_of(message.header.stamp.ns()),
+                        &frame_id,
+                        Frame::Compressed(message),
+                    )
+                }
                 Received::Malformed(why) => malformed(why),
             },
         )
@@ -625,7 +648,12 @@ pub fn start_camera_reader(
                         }
                         return true;
                     }
-                    keep(stamp_of(message.header.stamp.ns()), Frame::Raw(message))
+                    let frame_id = message.header.frame_id.clone();
+                    keep(
+                        stamp_of(message.header.stamp.ns()),
+                        &frame_id,
+                        Frame::Raw(message),
+                    )
                 }
                 Received::Malformed(why) => malformed(why),
             },

@@ -9,7 +9,7 @@
 //! | `odom` (in) | `nav_msgs/msg/Odometry` (the pose of `child_frame_id` in `header.frame_id`) | best effort, keep last 5 |
 //! | `tf` (in) | `tf2_msgs/msg/TFMessage`: `fixed_frame` -> `base_frame`, the base's pose while `odom` is silent | best effort, keep last 5 |
 //! | `clock` (in, with `use_sim_time`) | `rosgraph_msgs/msg/Clock` | best effort, keep last 1 |
-//! | `tf_static` (in) | `tf2_msgs/msg/TFMessage` (the laser's mount below `base_frame`) | reliable, transient local |
+//! | `tf_static` (in) | `tf2_msgs/msg/TFMessage` (the laser's and the camera's mounts below `base_frame`; [`camera_mount`]) | reliable, transient local |
 //! | `image_raw` or `image_raw/compressed` (in, when the config has a `[camera]`) | `sensor_msgs/msg/Image` (`mono8`, `rgb8`, `bgr8`) or `sensor_msgs/msg/CompressedImage` (JPEG, PNG) | best effort, keep last 5 |
 //! | `detections` (in, with `camera_input:=detections`, and from the simulator) | `vision_msgs/msg/Detection2DArray` (upper-body boxes in pixels of the configured camera) | best effort, keep last 5 |
 //! | `cmd_vel` (out) | `geometry_msgs/msg/Twist` (or `TwistStamped`) | reliable, keep last 10 |
@@ -21,6 +21,7 @@
 //! The camera: frames are taken as they arrive; the detector gets the newest one when
 //! it is free (frames it had no time for are counted as superseded, never queued).
 
+pub mod camera_mount;
 pub mod inputs;
 pub mod node;
 pub mod outputs;

@@ -29,6 +29,7 @@ use tether_ros2::{
 };
 use tether_scanmatch::ScanMatcherConfig;
 
+use super::camera_mount::camera_mount_from_tf;
 use super::inputs::{
     CameraCounters, FrameError, LatestFrame, ScanCounters, start_camera_reader, start_clock_reader,
     start_detections_reader, start_odometry_reader, start_scan_reader, start_tf_reader,
@@ -392,6 +393,16 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         mount_given,
         &mut pipeline,
     );
+    if camera.is_some() {
+        camera_mount_from_tf(
+            &rx,
+            &camera_counters,
+            &transforms,
+            &base_frame,
+            TF_WAIT,
+            &mut pipeline,
+        );
+    }
     let mount_publisher = match unmounted_frame {
         Some(frame) if mount_given => Some(publish_mount(
             &mut node,
