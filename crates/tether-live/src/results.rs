@@ -197,6 +197,15 @@ impl<W: std::io::Write + std::io::Seek> ResultWriter<W> {
         })
     }
 
+    /// [`ResultWriter::new`] unchunked ([`McapWriter::streaming`]): every message goes
+    /// through to `w` as it is written.
+    pub fn streaming(w: W, frame: &str) -> Result<Self, McapError> {
+        Ok(ResultWriter {
+            writer: McapWriter::streaming(w)?,
+            frame: frame.to_owned(),
+        })
+    }
+
     /// The underlying writer, to add other topics (sensor data, ground truth).
     pub fn mcap(&mut self) -> &mut McapWriter<W> {
         &mut self.writer

@@ -27,7 +27,7 @@ use crate::base::{BaseError, CommandLine, CommandSink, QueuedLines, open_base};
 use crate::clock::MonotonicClock;
 use crate::config::RobotConfig;
 use crate::guard::{Guard, GuardSpec};
-use crate::recorder::{Recorder, fresh_recording_path};
+use crate::recorder::{Recorder, RecordingError, fresh_recording_path};
 use crate::run_loop::{self, LoopConfig, RunSummary};
 use crate::sources::camera::{CameraSource, CameraStartError};
 use crate::sources::scip::{self, LaserStartError};
@@ -50,7 +50,7 @@ pub struct RobotReport {
     /// The pipeline as the run left it (its statistics, the target selector's).
     pub pipeline: Pipeline,
     /// Why the recording could not be finished, if it could not.
-    pub recording_error: Option<McapError>,
+    pub recording_error: Option<RecordingError>,
 }
 
 /// Why the run could not start. When a sensor could not be started, the outputs already

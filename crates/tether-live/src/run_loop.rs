@@ -20,7 +20,6 @@ use std::time::Duration;
 
 use tether_control::Twist;
 use tether_core::{LaserScan, PixelBox, Pose2, Robot, Stamp, World};
-use tether_io::mcap::McapError;
 use tether_io::scip::{Clock, ScipError};
 use tether_pipeline::{Pipeline, Tick, TickInput};
 use tether_scanmatch::{MotionPrior, ScanMatcherConfig};
@@ -29,7 +28,7 @@ use crate::base::{CommandLine, CommandSink, TargetLine};
 use crate::ego::ScanOdometry;
 use crate::monitor::FollowMonitor;
 use crate::odometry::DeadReckoning;
-use crate::recorder::Recorder;
+use crate::recorder::{Recorder, RecordingError};
 use crate::results::TargetStateLine;
 pub use crate::sources::Input;
 use crate::sources::frames::EncodedFrame;
@@ -96,7 +95,7 @@ pub enum OutputError {
     Io(#[from] std::io::Error),
     /// Writing the recording failed.
     #[error(transparent)]
-    Recording(#[from] McapError),
+    Recording(#[from] RecordingError),
     /// The output panicked (a bug in it); the panic's message.
     #[error("it panicked: {0}")]
     Panicked(String),
@@ -160,7 +159,7 @@ pub struct RunSummary {
 }
 
 /// The loop's state.
-struct Live<'a, W: std::io::Write + std::io::Seek> {
+struct Live<'a, W: std::io::Write + std::io::Seek + Send + 'static> {
     pipeline: &'a mut Pipeline,
     clock: &'a dyn Clock,
     sinks: &'a mut [Box<dyn CommandSink>],
@@ -183,7 +182,7 @@ struct Live<'a, W: std::io::Write + std::io::Seek> {
     monitor: FollowMonitor,
 }
 
-impl<W: std::io::Write + std::io::Seek> Live<'_, W> {
+impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
     fn now(&self) -> Stamp {
         Stamp::from_ns(self.clock.now_ns())
     }
@@ -539,7 +538,7 @@ fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
         .unwrap_or_else(|| "no message".into())
 }
 
-fn recording_failed(e: McapError) -> Ending {
+fn recording_failed(e: RecordingError) -> Ending {
     Ending::OutputFailed {
         output: "recording".into(),
         error: e.into(),
@@ -553,7 +552,7 @@ fn recording_failed(e: McapError) -> Ending {
     clippy::too_many_arguments,
     reason = "each is a separate part of the run"
 )]
-pub fn run<W: std::io::Write + std::io::Seek>(
+pub fn run<W: std::io::Write + std::io::Seek + Send + 'static>(
     pipeline: &mut Pipeline,
     clock: &dyn Clock,
     inputs: &Receiver<Input>,
