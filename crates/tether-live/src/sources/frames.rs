@@ -313,7 +313,7 @@ mod v4l2 {
     impl V4l2Frames {
         /// Opens `device` and asks for `width` x `height` frames in YUYV (what most
         /// webcams deliver uncompressed), accepting GREY or MJPG if that is what the
-        /// driver sets instead.
+        /// driver sets instead; a device that will not deliver that size is refused.
         pub fn open(device: &str, width: u32, height: u32) -> Result<Self, CameraError> {
             let error = |message: String| CameraError::Device {
                 device: device.to_owned(),
@@ -327,12 +327,14 @@ mod v4l2 {
             let format = dev
                 .set_format(&format)
                 .map_err(|e| error(format!("setting the format: {e}")))?;
+            // The monocular model's ranges hold only for frames of the calibrated size.
             if (format.width, format.height) != (width, height) {
-                tracing::warn!(
-                    "{device} delivers {}x{} frames, not the {width}x{height} of [camera.intrinsics]",
-                    format.width,
-                    format.height
-                );
+                return Err(error(format!(
+                    "delivers {}x{} frames, not the {width}x{height} of [camera.intrinsics]: \
+                     calibrate the camera at the size it delivers (tether calibrate camera) \
+                     or use a device mode of {width}x{height}",
+                    format.width, format.height
+                )));
             }
             let mut stream = v4l::io::mmap::Stream::with_buffers(&dev, Type::VideoCapture, 4)
                 .map_err(|e| error(format!("starting the stream: {e}")))?;
