@@ -364,12 +364,38 @@ fn camera_frames_at_30_hz_arrive_without_loss_beside_the_scans() {
     let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robot.example.toml");
     let seen = peer(
         &bag,
-        &["--seconds", "10", "--images-hz", "30"],
+        &[
+            "--seconds",
+            "10",
+            "--images-hz",
+            "30",
+            "--read-tf-static",
+            "8",
+        ],
         &["--config", config.to_str().unwrap()],
     );
     let j = &seen.json;
     let stderr = j["stderr"].as_str().unwrap();
     assert_eq!(j["exit_code"], 0, "{stderr}");
+    // The peer's frames name `camera`, which nobody describes on /tf_static: tether
+    // takes the config's camera mount and publishes it there for the others.
+    assert!(
+        stderr.contains("no transform from base_link to the camera's camera on /tf_static"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("published the config's camera mount on /tf_static: base_link -> camera"),
+        "{stderr}"
+    );
+    let mounts = j["tf_static"].as_array().unwrap();
+    assert!(
+        mounts.iter().any(|t| t[0] == "base_link"
+            && t[1] == "camera"
+            && (Seen::f(&t[2]) - 0.05).abs() < 1e-9
+            && Seen::f(&t[3]).abs() < 1e-9
+            && (Seen::f(&t[4]) - 0.65).abs() < 1e-9),
+        "{mounts:?}"
+    );
     let sent = j["images_sent"].as_u64().unwrap();
     assert!(sent >= 290, "{sent} frames sent in 10 s");
     // 640x480 rgb8 (0.9 MB, fragmented on the wire), every one of them received.

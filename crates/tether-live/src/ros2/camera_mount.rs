@@ -50,20 +50,47 @@ pub fn camera_mount_from_pose(pose: &Pose3, optical: bool) -> CameraMount {
     }
 }
 
+/// The rotation from a camera's body frame (x along the optical axis) to its optical
+/// frame (REP 103: z along the axis, x right, y down), `[x, y, z, w]`.
+const BODY_FROM_OPTICAL: [f64; 4] = [-0.5, 0.5, -0.5, 0.5];
+
+/// Where a camera frame sits in `base_frame` for `mount`: the inverse of
+/// [`camera_mount_from_pose`] (yawed by the mount's yaw, then pitched up by its tilt;
+/// turned into an optical frame when `optical`).
+pub fn camera_pose(mount: &CameraMount, optical: bool) -> Pose3 {
+    let (sz, cz) = (0.5 * mount.yaw_rad).sin_cos();
+    // Pitching up is a negative rotation about y (x towards +z).
+    let (sp, cp) = (-0.5 * mount.tilt_rad).sin_cos();
+    let body = Pose3 {
+        position_m: [mount.x_m, mount.y_m, mount.height_m],
+        orientation: [-sz * sp, cz * sp, sz * cp, cz * cp],
+    };
+    if optical {
+        let optical_in_body = Pose3 {
+            position_m: [0.0; 3],
+            orientation: BODY_FROM_OPTICAL,
+        };
+        tether_ros2::tf::compose(&body, &optical_in_body)
+    } else {
+        body
+    }
+}
+
 /// Takes the camera's mount from `/tf_static` (`base_frame` -> the camera's frame, as
-/// its first message names it) when both are heard within `wait`; otherwise the
+/// its first message names it) when both are heard before `deadline` (the laser's
+/// mount is looked up first, within the same time from the start); otherwise the
 /// config's (or the default) mount stays, with a warning naming the frames. The inputs
-/// that arrive meanwhile are dropped, as while the laser's mount is looked up.
+/// that arrive meanwhile are dropped, as while the laser's mount is looked up. Returns
+/// the camera's frame when its messages named one but no transform to it came.
 pub fn camera_mount_from_tf(
     rx: &mpsc::Receiver<Input>,
     camera: &CameraCounters,
     transforms: &Mutex<StaticTransforms>,
     base_frame: &str,
-    wait: Duration,
+    deadline: Instant,
     pipeline: &mut PipelineConfig,
-) {
-    let started = Instant::now();
-    while started.elapsed() < wait {
+) -> Option<String> {
+    while Instant::now() < deadline {
         let _ = rx.recv_timeout(Duration::from_millis(50));
         let Some(frame) = camera.frame_id.get() else {
             continue;
@@ -105,24 +132,28 @@ pub fn camera_mount_from_tf(
             mount.tilt_rad
         );
         pipeline.camera.mount = mount;
-        return;
+        return None;
     }
     let m = pipeline.camera.mount;
     match camera.frame_id.get() {
-        Some(frame) => tracing::warn!(
-            "no transform from {base_frame} to the camera's {frame} on /tf_static within {} s; \
-             the camera is taken at its configured mount ({:.3}, {:.3}) m, {:.3} m up, tilt \
-             {:.3} rad",
-            wait.as_secs(),
-            m.x_m,
-            m.y_m,
-            m.height_m,
-            m.tilt_rad
-        ),
-        None => tracing::warn!(
-            "no camera message within {} s; the camera is taken at its configured mount",
-            wait.as_secs()
-        ),
+        Some(frame) => {
+            tracing::warn!(
+                "no transform from {base_frame} to the camera's {frame} on /tf_static at the \
+                 start; the camera is taken at its configured mount ({:.3}, {:.3}) m, {:.3} m \
+                 up, tilt {:.3} rad",
+                m.x_m,
+                m.y_m,
+                m.height_m,
+                m.tilt_rad
+            );
+            Some(frame.clone())
+        }
+        None => {
+            tracing::warn!(
+                "no camera message at the start; the camera is taken at its configured mount"
+            );
+            None
+        }
     }
 }
 
@@ -182,6 +213,29 @@ mod tests {
         Pose3 {
             position_m: [0.0; 3],
             orientation: [-0.5, 0.5, -0.5, 0.5],
+        }
+    }
+
+    #[test]
+    fn a_published_mount_reads_back_as_itself() {
+        let mount = CameraMount {
+            x_m: 0.08,
+            y_m: -0.03,
+            yaw_rad: 0.15,
+            height_m: 0.7,
+            tilt_rad: 0.35,
+        };
+        for optical in [false, true] {
+            let back = camera_mount_from_pose(&camera_pose(&mount, optical), optical);
+            for (a, b) in [
+                (back.x_m, mount.x_m),
+                (back.y_m, mount.y_m),
+                (back.yaw_rad, mount.yaw_rad),
+                (back.height_m, mount.height_m),
+                (back.tilt_rad, mount.tilt_rad),
+            ] {
+                assert!(close(a, b), "optical {optical}: {back:?} != {mount:?}");
+            }
         }
     }
 

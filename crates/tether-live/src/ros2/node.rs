@@ -29,7 +29,7 @@ use tether_ros2::{
 };
 use tether_scanmatch::ScanMatcherConfig;
 
-use super::camera_mount::camera_mount_from_tf;
+use super::camera_mount::{camera_mount_from_tf, camera_pose, is_optical_frame};
 use super::inputs::{
     CameraCounters, FrameError, LatestFrame, ScanCounters, start_camera_reader, start_clock_reader,
     start_detections_reader, start_odometry_reader, start_scan_reader, start_tf_reader,
@@ -385,6 +385,7 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         outputs.cmd_vel
     );
 
+    let mounts_by = std::time::Instant::now() + TF_WAIT;
     let unmounted_frame = mount_from_tf(
         &rx,
         &transforms,
@@ -393,26 +394,43 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         mount_given,
         &mut pipeline,
     );
-    if camera.is_some() {
+    let unmounted_camera = if camera.is_some() {
         camera_mount_from_tf(
             &rx,
             &camera_counters,
             &transforms,
             &base_frame,
-            TF_WAIT,
+            mounts_by,
             &mut pipeline,
-        );
+        )
+    } else {
+        None
+    };
+    // The config's mounts for the frames nobody described, as the robot's description
+    // would give them.
+    let mut unmounted = Vec::new();
+    if mount_given {
+        if let Some(frame) = unmounted_frame {
+            let m = pipeline.laser.mount;
+            let mut pose = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
+            pose.position_m[2] = m.height_m;
+            unmounted.push(("laser", frame, pose));
+        }
+        if let Some(frame) = unmounted_camera {
+            let pose = camera_pose(&pipeline.camera.mount, is_optical_frame(&frame));
+            unmounted.push(("camera", frame, pose));
+        }
     }
-    let mount_publisher = match unmounted_frame {
-        Some(frame) if mount_given => Some(publish_mount(
+    let mount_publisher = if unmounted.is_empty() {
+        None
+    } else {
+        Some(publish_mounts(
             &mut node,
             &topic("tf_static"),
             &base_frame,
-            &frame,
-            pipeline.laser.mount,
+            &unmounted,
             clock.now_ns(),
-        )?),
-        _ => None,
+        )?)
     };
     let mut pipeline = Pipeline::new(pipeline, None)?;
     let loop_config = LoopConfig {
@@ -479,7 +497,8 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
     })
 }
 
-/// How long the node waits at the start for a scan and its mount on `/tf_static`.
+/// How long the node waits at the start for a scan and its mount on `/tf_static` (and,
+/// with a camera, for the camera's).
 const TF_WAIT: Duration = Duration::from_secs(5);
 
 /// Takes the laser's mount from `/tf_static` (`base_frame` -> the scans' frame) when it
@@ -571,26 +590,28 @@ fn mount_from_tf(
     scan_frame
 }
 
-/// The laser's mount as the robot's description: `base_frame` -> `scan_frame` on
-/// `/tf_static` (latched), for RViz and other nodes, when the config gives the mount
-/// and nobody else publishes it. The publisher must live as long as the node.
-fn publish_mount(
+/// The sensors' mounts as the robot's description: `base_frame` -> each sensor's frame
+/// on `/tf_static` (latched, one message), for RViz and other nodes, when the config
+/// gives the mounts and nobody else publishes them. The publisher must live as long as
+/// the node.
+fn publish_mounts(
     node: &mut RosNode,
     topic: &str,
     base_frame: &str,
-    scan_frame: &str,
-    mount: LaserMount,
+    mounts: &[(&str, String, Pose3)],
     stamp_ns: i64,
 ) -> Result<Publisher<Wire<TfMessage>>, NodeError> {
     let publisher = node.publisher::<TfMessage>(topic, qos::latched(1))?;
-    let mut pose = Pose3::planar(mount.x_m, mount.y_m, mount.yaw_rad);
-    pose.position_m[2] = mount.height_m;
+    // One message with every transform: a latched topic keeps only the last one.
     let message = TfMessage {
-        transforms: vec![TransformStampedMsg {
-            header: Header::new(tether_core::Stamp::from_ns(stamp_ns), base_frame),
-            child_frame_id: scan_frame.to_owned(),
-            transform: pose,
-        }],
+        transforms: mounts
+            .iter()
+            .map(|(_, frame, pose)| TransformStampedMsg {
+                header: Header::new(tether_core::Stamp::from_ns(stamp_ns), base_frame),
+                child_frame_id: frame.clone(),
+                transform: *pose,
+            })
+            .collect(),
     };
     publisher
         .publish(Wire(message))
@@ -598,10 +619,12 @@ fn publish_mount(
             topic: topic.to_owned(),
             message: format!("{e:?}"),
         })?;
-    tracing::info!(
-        "published the config's laser mount on {topic}: {base_frame} -> {scan_frame} (nobody \
-         else did)"
-    );
+    for (sensor, frame, _) in mounts {
+        tracing::info!(
+            "published the config's {sensor} mount on {topic}: {base_frame} -> {frame} \
+             (nobody else did)"
+        );
+    }
     Ok(publisher)
 }
 
