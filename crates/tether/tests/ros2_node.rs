@@ -532,12 +532,22 @@ struct ClosedLoop {
 /// corridor ROS2_ARGS` as two processes, with the Python listener, on one
 /// private graph. `tether ros2` is stopped with SIGINT when the simulation has ended.
 fn closed_loop_over_dds(name: &str, sim_args: &str, ros2_args: &str, listen_s: f64) -> ClosedLoop {
+    closed_loop_listening(name, sim_args, ros2_args, &format!("--seconds {listen_s}"))
+}
+
+/// [`closed_loop_over_dds`] with the listener's arguments.
+fn closed_loop_listening(
+    name: &str,
+    sim_args: &str,
+    ros2_args: &str,
+    listen_args: &str,
+) -> ClosedLoop {
     let dir = scratch(name);
     let bin = env!("CARGO_BIN_EXE_tether");
     let listen = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/listen.py");
     let script = format!(
         "'{bin}' ros2 --scenario corridor {ros2_args} 2> '{d}/ros2.err' & ROS2=$!; \
-         python3 '{listen}' --seconds {listen_s} > '{d}/listen.json' & LISTEN=$!; \
+         python3 '{listen}' {listen_args} > '{d}/listen.json' & LISTEN=$!; \
          '{bin}' sim --scenario corridor --ros2 {sim_args} --out '{d}/sim' \
          > '{d}/sim.out' 2> '{d}/sim.err'; sleep 2; kill -INT $ROS2; wait $ROS2; ROS2_RC=$?; \
          wait $LISTEN; exit $ROS2_RC",
@@ -696,15 +706,16 @@ fn with_the_simulated_camera_on_detections_the_robot_follows_on_both_sensors() {
 }
 
 #[test]
-fn on_sim_time_the_clock_drives_both_at_twice_real_time() {
+fn on_sim_time_the_clock_drives_both_at_twice_real_time_with_stamped_commands() {
     if !peer_available() {
         return;
     }
-    let c = closed_loop_over_dds(
+    // With stamped commands (Jazzy's diff-drive controller's TwistStamped) both ways.
+    let c = closed_loop_listening(
         "ros2-sim-time",
-        "--laser-only --duration 25 --use-sim-time --rate 2",
-        "--laser-only --ros-args -p use_sim_time:=true",
-        12.0,
+        "--laser-only --duration 25 --use-sim-time --rate 2 --cmd-vel-stamped",
+        "--laser-only --ros-args -p use_sim_time:=true -p cmd_vel_stamped:=true",
+        "--seconds 12 --cmd-vel-stamped",
     );
     // 0.08 to 0.24 m over fifteen runs here.
     check_closed_loop("sim time at 2 x real time", &c, 0.3);

@@ -80,6 +80,11 @@ pub struct Args {
     /// `use_sim_time:=true` (`tether ros2 --ros-args -p use_sim_time:=true`).
     #[arg(long, requires = "ros2")]
     pub use_sim_time: bool,
+    /// With `--ros2`: take the commands as `geometry_msgs/msg/TwistStamped` (Jazzy's
+    /// diff-drive controller's type; `tether ros2 -p cmd_vel_stamped:=true`) instead of
+    /// `Twist`.
+    #[arg(long, requires = "ros2")]
+    pub cmd_vel_stamped: bool,
     /// With `--use-sim-time`: run this many times faster than real time (1 to 10).
     #[arg(
         long,
@@ -285,7 +290,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         } else {
             super::sim_ros2::SimTime::Wall
         };
-        return super::sim_ros2::run(&scenario, args.seed, time, &args.out);
+        return super::sim_ros2::run(&scenario, args.seed, time, args.cmd_vel_stamped, &args.out);
     }
     let bar = progress_bar(&scenario.name);
     let end_ns = (scenario.duration_s * 1e9) as i64;

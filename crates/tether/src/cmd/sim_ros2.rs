@@ -2,7 +2,8 @@
 //! time. It publishes the simulated laser on `/scan` (best effort, keep last 5, frame
 //! `laser`), its mount on `/tf_static` (`base_link` -> `laser`, reliable and transient
 //! local) and, when the scenario's robot has odometry, its pose on `/odom` and `/tf`
-//! (`odom` -> `base_link`, 20 Hz), and drives from `/cmd_vel` (`Twist`). Like a real
+//! (`odom` -> `base_link`, 20 Hz), and drives from `/cmd_vel` (`Twist`, or `TwistStamped`
+//! with `--cmd-vel-stamped`). Like a real
 //! base, it stops when no command has come for 0.5 s. Unless `--laser-only`, the
 //! camera's upper-body boxes go out on `/detections` (`vision_msgs/msg/Detection2DArray`,
 //! class `person`, best effort, frame `camera`), as a detector node's would, and their
@@ -30,7 +31,7 @@ use tether_control::SpringConfig;
 use tether_core::{Point2, Stamp};
 use tether_io::mcap::{
     ClockMsg, Detection2DArrayMsg, Detection2DMsg, Header, LaserScanMsg, ObjectHypothesisMsg,
-    OdometryMsg, Pose3, TfMessage, TransformStampedMsg, TwistMsg,
+    OdometryMsg, Pose3, TfMessage, TransformStampedMsg, TwistMsg, TwistStampedMsg,
 };
 use tether_io::scip::{Clock, SystemClock};
 use tether_ros2::{NodeIdentity, Received, RosNode, Wire, qos, spawn_reader};
@@ -90,7 +91,13 @@ fn camera_pose(m: &tether_core::CameraMount) -> Pose3 {
 }
 
 /// Runs `scenario` on the graph until its end or Ctrl-C.
-pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow::Result<()> {
+pub fn run(
+    scenario: &Scenario,
+    seed: u64,
+    time: SimTime,
+    cmd_vel_stamped: bool,
+    out: &Path,
+) -> anyhow::Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
@@ -121,28 +128,48 @@ pub fn run(scenario: &Scenario, seed: u64, time: SimTime, out: &Path) -> anyhow:
     } else {
         (None, None)
     };
-    let commands = node.subscribe::<TwistMsg>("/cmd_vel", qos::reliable(10))?;
     // The simulated time now, ns, for the reader to stamp the commands with.
     let sim_now = Arc::new(AtomicI64::new(0));
     let latest: Arc<Mutex<Option<(i64, Command, u64)>>> = Arc::new(Mutex::new(None));
     let (stop_reader, reader_stops) = mpsc::channel();
-    let reader = {
+    let take = {
         let latest = Arc::clone(&latest);
         let sim_now = Arc::clone(&sim_now);
-        spawn_reader("sim-cmd-vel", commands, reader_stops, move |received| {
-            if let Received::Message { message, .. } = received {
-                let command = Command {
-                    v_mps: message.v_mps(),
-                    w_radps: message.w_radps(),
-                };
-                if command.v_mps.is_finite() && command.w_radps.is_finite() {
-                    let mut slot = latest.lock().unwrap_or_else(|e| e.into_inner());
-                    let n = slot.map_or(0, |(_, _, n)| n) + 1;
-                    *slot = Some((sim_now.load(Ordering::Acquire), command, n));
-                }
+        move |twist: &TwistMsg| {
+            let command = Command {
+                v_mps: twist.v_mps(),
+                w_radps: twist.w_radps(),
+            };
+            if command.v_mps.is_finite() && command.w_radps.is_finite() {
+                let mut slot = latest.lock().unwrap_or_else(|e| e.into_inner());
+                let n = slot.map_or(0, |(_, _, n)| n) + 1;
+                *slot = Some((sim_now.load(Ordering::Acquire), command, n));
             }
             true
-        })?
+        }
+    };
+    let reader = if cmd_vel_stamped {
+        let commands = node.subscribe::<TwistStampedMsg>("/cmd_vel", qos::reliable(10))?;
+        spawn_reader(
+            "sim-cmd-vel",
+            commands,
+            reader_stops,
+            move |received| match received {
+                Received::Message { message, .. } => take(&message.twist),
+                Received::Malformed(_) => true,
+            },
+        )?
+    } else {
+        let commands = node.subscribe::<TwistMsg>("/cmd_vel", qos::reliable(10))?;
+        spawn_reader(
+            "sim-cmd-vel",
+            commands,
+            reader_stops,
+            move |received| match received {
+                Received::Message { message, .. } => take(&message),
+                Received::Malformed(_) => true,
+            },
+        )?
     };
 
     let mut sim = Simulation::new(scenario, seed)?;

@@ -13,7 +13,7 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
-from peer import Clock, Detection2DArray, LaserScan, MarkerArray, ParticipantEntitiesInfo, PoseArray, TFMessage, Twist, qos, valid
+from peer import Clock, Detection2DArray, LaserScan, MarkerArray, ParticipantEntitiesInfo, PoseArray, TFMessage, Twist, TwistStamped, qos, valid
 
 
 def main():
@@ -25,10 +25,16 @@ def main():
         default=5.0,
         help="join /tf_static this late (transient local: the mounts must still come)",
     )
+    ap.add_argument(
+        "--cmd-vel-stamped",
+        action="store_true",
+        help="cmd_vel is geometry_msgs/msg/TwistStamped",
+    )
     a = ap.parse_args()
     dp = DomainParticipant(0)
+    cmd_type = TwistStamped if a.cmd_vel_stamped else Twist
     readers = {
-        "cmd_vel": DataReader(dp, Topic(dp, "rt/cmd_vel", Twist), qos=qos(True, 100)),
+        "cmd_vel": DataReader(dp, Topic(dp, "rt/cmd_vel", cmd_type), qos=qos(True, 100)),
         "people": DataReader(
             dp, Topic(dp, "rt/tether/people", PoseArray), qos=qos(True, 100)
         ),
@@ -87,7 +93,7 @@ def main():
         for name, reader in readers.items():
             for s in valid(reader.take(N=1000)):
                 counts[name] += 1
-                if name == "cmd_vel" and s.linear.x > 0.05:
+                if name == "cmd_vel" and (s.twist if a.cmd_vel_stamped else s).linear.x > 0.05:
                     moving += 1
                 if name == "people" and s.poses:
                     people_seen += 1
