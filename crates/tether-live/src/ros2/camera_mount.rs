@@ -226,6 +226,7 @@ mod tests {
             tilt_rad: 0.35,
         };
         for optical in [false, true] {
+            // `tether sim --ros2` publishes its camera's frame this way (x forward).
             let back = camera_mount_from_pose(&camera_pose(&mount, optical), optical);
             for (a, b) in [
                 (back.x_m, mount.x_m),
@@ -240,30 +241,29 @@ mod tests {
     }
 
     #[test]
-    fn the_simulators_camera_frame_gives_back_its_mount() {
-        // `tether sim --ros2` publishes base_link -> camera (x along the optical axis,
-        // yawed, then pitched up by the tilt).
-        let mount = CameraMount {
-            x_m: 0.05,
-            y_m: 0.01,
-            yaw_rad: -0.2,
+    fn the_camera_frame_looks_along_the_mount_s_yaw_and_up_by_its_tilt() {
+        let m = CameraMount {
+            x_m: 0.1,
+            y_m: -0.05,
+            yaw_rad: 0.3,
             height_m: 0.65,
-            tilt_rad: 28f64.to_radians(),
+            tilt_rad: 0.4,
         };
-        let frame = pose(
-            [mount.x_m, mount.y_m, mount.height_m],
-            mount.yaw_rad,
-            -mount.tilt_rad,
-        );
-        let back = camera_mount_from_pose(&frame, is_optical_frame("camera"));
-        for (a, b) in [
-            (back.x_m, mount.x_m),
-            (back.y_m, mount.y_m),
-            (back.yaw_rad, mount.yaw_rad),
-            (back.height_m, mount.height_m),
-            (back.tilt_rad, mount.tilt_rad),
-        ] {
-            assert!(close(a, b), "{back:?} != {mount:?}");
+        let [x, y, z, w] = camera_pose(&m, false).orientation;
+        assert!((x * x + y * y + z * z + w * w - 1.0).abs() < 1e-12);
+        // The optical axis (the frame's x) rotated into base_link: R e_x.
+        let axis = [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y + w * z),
+            2.0 * (x * z - w * y),
+        ];
+        let expected = [
+            m.tilt_rad.cos() * m.yaw_rad.cos(),
+            m.tilt_rad.cos() * m.yaw_rad.sin(),
+            m.tilt_rad.sin(),
+        ];
+        for (a, e) in axis.iter().zip(expected) {
+            assert!((a - e).abs() < 1e-12, "{axis:?} vs {expected:?}");
         }
     }
 }

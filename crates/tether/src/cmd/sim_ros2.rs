@@ -34,6 +34,7 @@ use tether_io::mcap::{
     OdometryMsg, Pose3, TfMessage, TransformStampedMsg, TwistMsg, TwistStampedMsg,
 };
 use tether_io::scip::{Clock, SystemClock};
+use tether_live::ros2::camera_mount::camera_pose;
 use tether_ros2::{NodeIdentity, Received, RosNode, Wire, qos, spawn_reader};
 use tether_sim::{Command, Scenario, SensorData, Simulation};
 
@@ -76,18 +77,6 @@ struct Ros2RunSummary {
     abs_distance_error_by_second_m: Vec<f64>,
     collisions: u32,
     distance_driven_m: f64,
-}
-
-/// The camera's frame in `base_link`: at the lens, x along the optical axis (yawed by
-/// the mount's yaw, then pitched up by its tilt), z up in the image.
-fn camera_pose(m: &tether_core::CameraMount) -> Pose3 {
-    let (sz, cz) = (0.5 * m.yaw_rad).sin_cos();
-    // Pitching up is a negative rotation about y (x towards +z).
-    let (sp, cp) = (-0.5 * m.tilt_rad).sin_cos();
-    Pose3 {
-        position_m: [m.x_m, m.y_m, m.height_m],
-        orientation: [-sz * sp, cz * sp, cp * sz, cz * cp],
-    }
 }
 
 /// Runs `scenario` on the graph until its end or Ctrl-C.
@@ -202,7 +191,7 @@ pub fn run(
         transforms.push(TransformStampedMsg {
             header: Header::new(Stamp::from_ns(unix0), "base_link"),
             child_frame_id: "camera".into(),
-            transform: camera_pose(&scenario.camera.mount),
+            transform: camera_pose(&scenario.camera.mount, false),
         });
     }
     let mount = TfMessage { transforms };
@@ -420,36 +409,4 @@ pub fn run(
         path.display()
     )?;
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_camera_frame_looks_along_the_mount_s_yaw_and_up_by_its_tilt() {
-        let m = tether_core::CameraMount {
-            x_m: 0.1,
-            y_m: -0.05,
-            yaw_rad: 0.3,
-            height_m: 0.65,
-            tilt_rad: 0.4,
-        };
-        let [x, y, z, w] = camera_pose(&m).orientation;
-        assert!((x * x + y * y + z * z + w * w - 1.0).abs() < 1e-12);
-        // The optical axis (the frame's x) rotated into base_link: R e_x.
-        let axis = [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y + w * z),
-            2.0 * (x * z - w * y),
-        ];
-        let expected = [
-            m.tilt_rad.cos() * m.yaw_rad.cos(),
-            m.tilt_rad.cos() * m.yaw_rad.sin(),
-            m.tilt_rad.sin(),
-        ];
-        for (a, e) in axis.iter().zip(expected) {
-            assert!((a - e).abs() < 1e-12, "{axis:?} vs {expected:?}");
-        }
-    }
 }
