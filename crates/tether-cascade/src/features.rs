@@ -133,6 +133,8 @@ impl Feature {
 /// Every feature of `mode` that fits a `width x height` window, in OpenCV's enumeration
 /// order.
 pub fn enumerate(width: u32, height: u32, mode: FeatureMode) -> Vec<Feature> {
+    // One arm a feature type, in OpenCV's order, parallel on purpose: each arm's
+    // rectangles read as the feature's drawing, and the order is the features' numbering.
     let (ww, wh) = (width as i32, height as i32);
     let mut out = Vec::new();
     for x in 0..ww {

@@ -32,6 +32,8 @@ pub struct Point2<F: Frame> {
 
 /// A displacement or velocity in frame `F` (metres, or metres per second): rotates with
 /// the frame but does not translate.
+// Parallel to Point2 on purpose: a point and a vector transform differently, so they are
+// two types.
 #[derive(Serialize, Deserialize)]
 #[serde(bound = "")]
 pub struct Vector2<F: Frame> {

@@ -205,6 +205,8 @@ pub struct MountSection {
 
 /// `[camera]`: frames from a V4L2 device or a folder of images, searched for upper
 /// bodies with a Haar cascade.
+// Alike in shape to `[laser]` (where from, optional settings, a mount), not in keys: each
+// section is a TOML table of its own.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSection {
@@ -250,6 +252,8 @@ pub enum FrameInput {
 }
 
 /// Pinhole intrinsics (all keys required).
+// Parallel to tether_core::CameraIntrinsics on purpose: a robot's config must state every
+// key of its camera, where the pipeline's TOML takes a default for each.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IntrinsicsSection {

@@ -178,10 +178,7 @@ mod tests {
                 estimate: locked.then(|| gaussian(2.0, 1.0, elongated)),
                 velocity: None,
             },
-            command: Twist {
-                v_mps: 0.0,
-                w_radps: 0.0,
-            },
+            command: Twist::STOP,
             stop: None,
             refusals: Vec::new(),
         }

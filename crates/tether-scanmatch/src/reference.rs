@@ -517,7 +517,8 @@ impl Reference {
                 best = Some(k);
             }
         }
-        // Clockwise from just below the hint, likewise.
+        // Clockwise from just below the hint, likewise. Parallel to the walk above on
+        // purpose: this is the matcher's inner loop, and the two differ in the side test.
         let mut before = 0;
         for k in (0..h).rev() {
             let e = &self.search[k];

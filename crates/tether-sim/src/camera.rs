@@ -280,14 +280,7 @@ mod tests {
         let spec = PersonSpec {
             name: format!("p{id}"),
             target: id == 0,
-            path: vec![[x, y]],
-            speed_mps: 0.0,
-            start_s: 0.0,
-            pauses: vec![],
-            repeat: false,
-            height_m: Some(1.75),
-            leg_radius_m: Some(0.06),
-            leg_spread_m: Some(0.2),
+            ..crate::person::tests::spec(vec![[x, y]], 0.0)
         };
         Person::from_spec(id, &spec, &mut SimRng::stream(0, "p"))
     }

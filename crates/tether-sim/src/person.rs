@@ -388,11 +388,12 @@ impl Person {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::scenario::PauseSpec;
 
-    fn spec(path: Vec<[f64; 2]>, speed: f64) -> PersonSpec {
+    /// A target of average build walking `path` at `speed` m/s, no pauses.
+    pub(crate) fn spec(path: Vec<[f64; 2]>, speed: f64) -> PersonSpec {
         PersonSpec {
             name: "p".into(),
             target: true,

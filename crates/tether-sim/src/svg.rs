@@ -81,6 +81,29 @@ pub fn round_length_m(max_m: f64) -> f64 {
     nice * mag
 }
 
+/// Where a label `w` x `h` px may go beside pixel `(u, v)`, best first, as its left end
+/// and baseline: `gap` px off the point to the right, below, left and above, then
+/// `lift` px farther up or down.
+pub fn label_spots(
+    (u, v): (f64, f64),
+    (w, h): (f64, f64),
+    gap: f64,
+    lift: f64,
+) -> [(f64, f64); 10] {
+    [
+        (u + gap, v - gap),
+        (u + gap, v + gap + h),
+        (u - gap - w, v - gap),
+        (u - gap - w, v + gap + h),
+        (u - w / 2.0, v - gap - lift),
+        (u - w / 2.0, v + gap + h + lift),
+        (u + gap, v - gap - h - lift),
+        (u + gap, v + gap + 2.0 * h + lift),
+        (u - gap - w, v - gap - h - lift),
+        (u - gap - w, v + gap + 2.0 * h + lift),
+    ]
+}
+
 /// A length for a label: "20 cm", "2 m", "500 m".
 pub fn length_text(m: f64) -> String {
     if m < 1.0 {
@@ -485,19 +508,7 @@ impl MapSvg {
     fn place_label(&mut self, u: f64, v: f64, text: &str) -> (f64, f64) {
         let w = label_width_px(text);
         let h = LABEL_H_PX;
-        let gap = 6.0;
-        let candidates = [
-            (u + gap, v - gap),
-            (u + gap, v + gap + h),
-            (u - gap - w, v - gap),
-            (u - gap - w, v + gap + h),
-            (u - w / 2.0, v - gap - 4.0),
-            (u - w / 2.0, v + gap + h + 4.0),
-            (u + gap, v - gap - h - 4.0),
-            (u + gap, v + gap + 2.0 * h + 4.0),
-            (u - gap - w, v - gap - h - 4.0),
-            (u - gap - w, v + gap + 2.0 * h + 4.0),
-        ];
+        let candidates = label_spots((u, v), (w, h), 6.0, 4.0);
         // The body's area, margins included.
         let (l, t, r, b) = (
             -MARGIN_PX + 2.0,
@@ -703,20 +714,23 @@ pub fn scene_svg(
 mod tests {
     use super::*;
 
+    /// The number in the first attribute `name` of `element` (its text from its start).
+    fn attribute(element: &str, name: &str) -> f64 {
+        element
+            .split(&format!(" {name}=\""))
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    }
+
     /// The `width` and `height` attributes of the document's `svg` element.
     fn size(svg: &str) -> (f64, f64) {
-        let attr = |name: &str| -> f64 {
-            let head = svg.split('>').next().unwrap();
-            head.split(&format!(" {name}=\""))
-                .nth(1)
-                .unwrap()
-                .split('"')
-                .next()
-                .unwrap()
-                .parse()
-                .unwrap()
-        };
-        (attr("width"), attr("height"))
+        let head = svg.split('>').next().unwrap();
+        (attribute(head, "width"), attribute(head, "height"))
     }
 
     fn fitted(name: &str) -> MapSvg {
@@ -749,16 +763,7 @@ mod tests {
             );
             // A round scale bar, at most SCALE_BAR_MAX_PX long.
             let bar = svg.split("class=\"scale-bar\"").nth(1).unwrap();
-            let x = |a: &str| -> f64 {
-                bar.split(&format!(" {a}=\""))
-                    .nth(1)
-                    .unwrap()
-                    .split('"')
-                    .next()
-                    .unwrap()
-                    .parse()
-                    .unwrap()
-            };
+            let x = |a: &str| attribute(bar, a);
             assert!(x("x2") - x("x1") <= SCALE_BAR_MAX_PX + 0.1, "{name}");
         }
         // The ten-minute park (about 60 m across) is drawn at about 15 px/m, its map

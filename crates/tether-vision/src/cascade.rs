@@ -434,6 +434,39 @@ fn child<'a, 'i>(node: Node<'a, 'i>, name: &str) -> Option<Node<'a, 'i>> {
 }
 
 /// Reading context: the document, for line numbers in errors.
+/// A cascade's stages and trees as a reader fills them (either layout).
+#[derive(Default)]
+struct Boosted {
+    stages: Vec<Stage>,
+    trees: Vec<WeakTree>,
+    nodes: Vec<TreeNode>,
+    leaves: Vec<f32>,
+}
+
+impl Boosted {
+    /// The cascade of these stages with `features`, checked.
+    fn into_cascade(
+        self,
+        format: CascadeFormat,
+        (window_width_px, window_height_px): (u32, u32),
+        features: Vec<HaarFeature>,
+    ) -> Result<Cascade, CascadeError> {
+        Cascade {
+            format,
+            window_width_px,
+            window_height_px,
+            features,
+            stages: self.stages,
+            trees: self.trees,
+            nodes: self.nodes,
+            leaves: self.leaves,
+            stump_based: false,
+            has_tilted: false,
+        }
+        .validated()
+    }
+}
+
 struct Ctx<'d, 'i> {
     doc: &'d Document<'i>,
 }
@@ -615,17 +648,17 @@ impl<'d, 'i> Ctx<'d, 'i> {
             }
         }
 
-        let mut stages = Vec::new();
-        let mut trees = Vec::new();
-        let mut nodes = Vec::new();
-        let mut leaves = Vec::new();
-        let stages_node = self.req(top, "stages")?;
-        for stage_node in elements(stages_node) {
-            let thr_node = self.req(stage_node, "stageThreshold")?;
-            let threshold = self.number(thr_node)? as f32 - STAGE_THRESHOLD_EPS;
-            let weaks = self.req(stage_node, "weakClassifiers")?;
-            let first_tree = trees.len() as u32;
-            for weak in elements(weaks) {
+        let boosted = self.read_stages(
+            top,
+            ["stageThreshold", "weakClassifiers"],
+            "a stage has no weak classifiers",
+            |weak, b| {
+                let Boosted {
+                    trees,
+                    nodes,
+                    leaves,
+                    ..
+                } = b;
                 let internal = self.req(weak, "internalNodes")?;
                 let leaf_node = self.req(weak, "leafValues")?;
                 let values = self.numbers(internal)?;
@@ -668,20 +701,9 @@ impl<'d, 'i> Ctx<'d, 'i> {
                     });
                 }
                 leaves.extend(leaf_values.iter().map(|v| *v as f32));
-            }
-            let tree_count = trees.len() as u32 - first_tree;
-            if tree_count == 0 {
-                return Err(self.err(weaks, "a stage has no weak classifiers"));
-            }
-            stages.push(Stage {
-                threshold,
-                first_tree,
-                tree_count,
-            });
-        }
-        if stages.is_empty() {
-            return Err(self.err(stages_node, "the cascade has no stages"));
-        }
+                Ok(())
+            },
+        )?;
 
         let features_node = self.req(top, "features")?;
         let mut features = Vec::new();
@@ -689,19 +711,11 @@ impl<'d, 'i> Ctx<'d, 'i> {
             let rects = self.req(f, "rects")?;
             features.push(self.read_feature(rects, self.tilted_flag(f)?)?);
         }
-        Cascade {
-            format: CascadeFormat::TrainCascade,
-            window_width_px,
-            window_height_px,
+        boosted.into_cascade(
+            CascadeFormat::TrainCascade,
+            (window_width_px, window_height_px),
             features,
-            stages,
-            trees,
-            nodes,
-            leaves,
-            stump_based: false,
-            has_tilted: false,
-        }
-        .validated()
+        )
     }
 
     /// The old `opencv_haartraining` layout, converted as OpenCV 4.x converts it: features
@@ -716,18 +730,18 @@ impl<'d, 'i> Ctx<'d, 'i> {
         let window_width_px = self.window_side(size, *w)?;
         let window_height_px = self.window_side(size, *h)?;
 
-        let mut stages = Vec::new();
-        let mut trees = Vec::new();
-        let mut nodes = Vec::new();
-        let mut leaves = Vec::new();
         let mut features = Vec::new();
-        let stages_node = self.req(top, "stages")?;
-        for stage_node in elements(stages_node) {
-            let thr_node = self.req(stage_node, "stage_threshold")?;
-            let threshold = self.number(thr_node)? as f32 - STAGE_THRESHOLD_EPS;
-            let trees_node = self.req(stage_node, "trees")?;
-            let first_tree = trees.len() as u32;
-            for tree in elements(trees_node) {
+        let boosted = self.read_stages(
+            top,
+            ["stage_threshold", "trees"],
+            "a stage has no trees",
+            |tree, b| {
+                let Boosted {
+                    trees,
+                    nodes,
+                    leaves,
+                    ..
+                } = b;
                 let first_node = nodes.len() as u32;
                 let first_leaf = leaves.len() as u32;
                 let mut tree_leaves = 0i32;
@@ -777,33 +791,51 @@ impl<'d, 'i> Ctx<'d, 'i> {
                     node_count,
                     first_leaf,
                 });
+                Ok(())
+            },
+        )?;
+        boosted.into_cascade(
+            CascadeFormat::HaarTraining,
+            (window_width_px, window_height_px),
+            features,
+        )
+    }
+
+    /// The `<stages>` of `top`, in either layout: each stage's threshold (element
+    /// `names[0]`) and trees (the elements of `names[1]`, each read into the arrays by
+    /// `read_tree`); a stage without trees is refused with `no_trees`, as is a cascade
+    /// without stages.
+    fn read_stages<'a>(
+        &self,
+        top: Node<'a, 'i>,
+        names: [&str; 2],
+        no_trees: &str,
+        mut read_tree: impl FnMut(Node<'a, 'i>, &mut Boosted) -> Result<(), CascadeError>,
+    ) -> Result<Boosted, CascadeError> {
+        let mut b = Boosted::default();
+        let stages_node = self.req(top, "stages")?;
+        for stage_node in elements(stages_node) {
+            let thr_node = self.req(stage_node, names[0])?;
+            let threshold = self.number(thr_node)? as f32 - STAGE_THRESHOLD_EPS;
+            let trees_node = self.req(stage_node, names[1])?;
+            let first_tree = b.trees.len() as u32;
+            for tree in elements(trees_node) {
+                read_tree(tree, &mut b)?;
             }
-            let tree_count = trees.len() as u32 - first_tree;
+            let tree_count = b.trees.len() as u32 - first_tree;
             if tree_count == 0 {
-                return Err(self.err(trees_node, "a stage has no trees"));
+                return Err(self.err(trees_node, no_trees));
             }
-            stages.push(Stage {
+            b.stages.push(Stage {
                 threshold,
                 first_tree,
                 tree_count,
             });
         }
-        if stages.is_empty() {
+        if b.stages.is_empty() {
             return Err(self.err(stages_node, "the cascade has no stages"));
         }
-        Cascade {
-            format: CascadeFormat::HaarTraining,
-            window_width_px,
-            window_height_px,
-            features,
-            stages,
-            trees,
-            nodes,
-            leaves,
-            stump_based: false,
-            has_tilted: false,
-        }
-        .validated()
+        Ok(b)
     }
 }
 

@@ -288,6 +288,11 @@ mod tests {
     use proptest::prelude::*;
     use tether_core::Point3;
 
+    /// The box with its left side at `x`, its top at `y`, `w` wide and `h` high.
+    fn pixel_box(x: f64, y: f64, w: f64, h: f64) -> PixelBox {
+        PixelBox { x, y, w, h }
+    }
+
     fn box_with_top_centre(u: f64, v: f64, h: f64, margin: f64) -> PixelBox {
         PixelBox {
             x: u - 0.4 * h,
@@ -483,23 +488,13 @@ mod tests {
         let p = MonocularParams::default();
         // A level camera below the head: a box top below the image centre looks down,
         // away from the head plane.
-        let low = PixelBox {
-            x: 300.0,
-            y: 400.0,
-            w: 40.0,
-            h: 50.0,
-        };
+        let low = pixel_box(300.0, 400.0, 40.0, 50.0);
         assert!(matches!(
             locate(&level, &low, &p),
             Err(MonocularError::NoIntersection { .. })
         ));
         let cam = CameraModel::default();
-        let nan = PixelBox {
-            x: f64::NAN,
-            y: 10.0,
-            w: 40.0,
-            h: 50.0,
-        };
+        let nan = pixel_box(f64::NAN, 10.0, 40.0, 50.0);
         assert!(matches!(
             locate(&cam, &nan, &p),
             Err(MonocularError::BadBox(_))
@@ -508,19 +503,7 @@ mod tests {
             head_height_m: -1.0,
             ..p
         };
-        assert!(
-            locate(
-                &cam,
-                &PixelBox {
-                    x: 300.0,
-                    y: 100.0,
-                    w: 40.0,
-                    h: 50.0
-                },
-                &bad
-            )
-            .is_err()
-        );
+        assert!(locate(&cam, &pixel_box(300.0, 100.0, 40.0, 50.0), &bad).is_err());
         let zero = MonocularParams {
             sigma_u_px: 0.0,
             sigma_v_px: 0.0,
@@ -529,16 +512,7 @@ mod tests {
             ..p
         };
         assert!(matches!(
-            locate(
-                &cam,
-                &PixelBox {
-                    x: 300.0,
-                    y: 100.0,
-                    w: 40.0,
-                    h: 50.0
-                },
-                &zero
-            ),
+            locate(&cam, &pixel_box(300.0, 100.0, 40.0, 50.0), &zero),
             Err(MonocularError::Covariance(_))
         ));
     }
@@ -546,12 +520,7 @@ mod tests {
     #[test]
     fn box_height_cue() {
         let cam = CameraModel::default();
-        let b = PixelBox {
-            x: 0.0,
-            y: 0.0,
-            w: 50.0,
-            h: 105.0,
-        };
+        let b = pixel_box(0.0, 0.0, 50.0, 105.0);
         let d = range_from_box_height(&cam, &b, 0.6).unwrap();
         assert!(
             (d - cam.intrinsics.fy_px * 0.6 / 105.0).abs() < 1e-12,

@@ -54,6 +54,24 @@ impl EgoMotion {
             (EgoMotion::None, _) => Ok(PoseSource::Still),
         }
     }
+
+    /// [`EgoMotion::resolve`] for a run over a recording, with the scan odometry the run
+    /// keeps when the source is scan matching (default settings, a scanner mounted at
+    /// `robot_from_laser`).
+    pub fn for_recording(
+        self,
+        have_odometry: bool,
+        robot_from_laser: tether_core::Pose2<tether_core::Robot, tether_core::Laser>,
+    ) -> Result<(PoseSource, Option<tether_live::ego::ScanOdometry>), NoOdometry> {
+        let source = self.resolve(have_odometry)?;
+        let scan_odometry = (source == PoseSource::Scans).then(|| {
+            tether_live::ego::ScanOdometry::new(
+                tether_scanmatch::ScanMatcherConfig::default(),
+                robot_from_laser,
+            )
+        });
+        Ok((source, scan_odometry))
+    }
 }
 
 #[cfg(test)]

@@ -456,6 +456,8 @@ impl Stored for mcap::RawMessage {
     }
 }
 
+// Parallel to the MCAP impl above on purpose: two wire formats (CDR and ROS 1), each
+// decoding with its own message types and type names.
 impl Stored for rosbag::RawMessage {
     fn topic(&self) -> &str {
         &self.connection.topic

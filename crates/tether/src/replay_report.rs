@@ -160,23 +160,8 @@ impl Bounds {
 }
 
 /// The longest "round" length (1, 2 or 5 times a power of ten) of at most `max_m`: a
-/// scale bar's length.
-pub fn scale_bar_m(max_m: f64) -> f64 {
-    if !(max_m.is_finite() && max_m > 0.0) {
-        return 1.0;
-    }
-    let mag = 10f64.powf(max_m.log10().floor());
-    let norm = max_m / mag;
-    // A hair of tolerance: 0.3 / 0.1 is 2.9999999999999996.
-    let nice = if norm >= 5.0 - 1e-9 {
-        5.0
-    } else if norm >= 2.0 - 1e-9 {
-        2.0
-    } else {
-        1.0
-    };
-    nice * mag
-}
+/// scale bar's length, as the simulator's maps draw it.
+pub use tether_sim::svg::round_length_m as scale_bar_m;
 
 const AXIS_LEFT: f64 = 48.0;
 const AXIS_RIGHT: f64 = 14.0;
@@ -365,17 +350,9 @@ impl Labels {
     fn place(&mut self, u: f64, v: f64, text: &str, area: (f64, f64, f64, f64)) -> (f64, f64) {
         let w = Self::CHAR_W * text.chars().count() as f64;
         let h = Self::H;
-        let gap = 7.0;
-        let candidates = [
-            (u + gap, v - gap),
-            (u + gap, v + gap + h),
-            (u - gap - w, v - gap),
-            (u - gap - w, v + gap + h),
-            (u - w / 2.0, v - gap - 2.0),
-            (u - w / 2.0, v + gap + h + 2.0),
-            (u + gap, v - gap - h - 2.0),
-            (u + gap, v + gap + 2.0 * h + 2.0),
-        ];
+        // The first eight of the map's spots, nearer.
+        let spots = tether_sim::svg::label_spots((u, v), (w, h), 7.0, 2.0);
+        let candidates = &spots[..8];
         let (l, t, aw, ah) = area;
         let fits = |&(x, y): &(f64, f64)| {
             let (x0, y0, x1, y1) = (x, y - h, x + w, y + 2.0);

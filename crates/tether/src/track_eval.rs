@@ -573,10 +573,7 @@ mod tests {
                     .map(|t| g(t.1)),
                 velocity: None,
             },
-            command: Twist {
-                v_mps: 0.0,
-                w_radps: 0.0,
-            },
+            command: Twist::STOP,
             stop: None,
             refusals: Vec::new(),
         }

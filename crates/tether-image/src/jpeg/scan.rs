@@ -337,6 +337,8 @@ impl Decoder<'_> {
     }
 
     /// A multi-scan file: MCUs go into the coefficient buffers (`consume_data`).
+    // Parallel to decode_scan_streaming on purpose: the two are libjpeg's two decoding
+    // paths, each a hot loop of its own over the MCUs.
     pub(crate) fn decode_scan_buffered(&mut self) -> Result<(), JpegError> {
         let mut st = self.scan_state()?;
         let mut frame = self

@@ -65,6 +65,53 @@ pub fn loop_stamp(header_ns: i64, now_ns: i64) -> Option<i64> {
         .then_some(header_ns)
 }
 
+/// The loop's stamp of a message stamped `header_ns` that arrived at `now_ns`: its
+/// header stamp when plausible ([`loop_stamp`]), else its arrival.
+fn stamp_on_arrival(header_ns: i64, now_ns: i64) -> tether_core::Stamp {
+    tether_core::Stamp::from_ns(loop_stamp(header_ns, now_ns).unwrap_or(now_ns))
+}
+
+/// Whether a velocity is one a ground robot can have ([`MAX_ODOMETRY_SPEED_MPS`],
+/// [`MAX_ODOMETRY_TURN_RADPS`]).
+fn ground_robot_velocity(moving: &tether_control::Twist) -> bool {
+    moving.v_mps.abs() <= MAX_ODOMETRY_SPEED_MPS && moving.w_radps.abs() <= MAX_ODOMETRY_TURN_RADPS
+}
+
+/// Whether every coordinate of `pose` is finite.
+fn finite_pose(pose: &Pose2<World, Robot>) -> bool {
+    pose.x.is_finite() && pose.y.is_finite() && pose.yaw.is_finite()
+}
+
+/// Counts a sample of `topic` that did not decode in `counter`, warning about the first.
+fn count_skipped(counter: &AtomicU64, topic: &str, why: &str) {
+    if counter.fetch_add(1, Ordering::Relaxed) == 0 {
+        tracing::warn!("{topic}: a sample skipped: {why} (further ones are counted)");
+    }
+}
+
+/// [`offer`], counting a drop in `counter` as well.
+fn offer_counted(
+    tx: &SyncSender<Input>,
+    input: Input,
+    dropped: &mut u64,
+    counter: &AtomicU64,
+) -> bool {
+    let before = *dropped;
+    let open = offer(tx, input, dropped);
+    if *dropped > before {
+        counter.fetch_add(1, Ordering::Relaxed);
+    }
+    open
+}
+
+/// The error of a reader `thread` (e.g. "the clock reader thread") that did not start.
+fn not_started(domain: u16, thread: &'static str) -> impl FnOnce(std::io::Error) -> Ros2Error {
+    move |e| Ros2Error::Join {
+        domain,
+        message: format!("cannot start {thread}: {e}"),
+    }
+}
+
 /// Subscribes to `topic` and sends its scans to the loop until `stop` fires or the
 /// loop goes away. Never blocks DDS: a full queue drops the scan (counted).
 pub fn start_scan_reader(
@@ -102,28 +149,16 @@ pub fn start_scan_reader(
                 Input::Scan(scan)
             }
             Received::Malformed(why) => {
-                if counters.malformed.fetch_add(1, Ordering::Relaxed) == 0 {
-                    tracing::warn!(
-                        "{topic_name}: a sample skipped: {why} (further ones are counted)"
-                    );
-                }
+                count_skipped(&counters.malformed, &topic_name, &why);
                 Input::LaserFault(LaserFault::Sample {
                     topic: topic_name.clone(),
                     why,
                 })
             }
         };
-        let before = dropped;
-        let open = offer(&tx, input, &mut dropped);
-        if dropped > before {
-            counters.dropped.fetch_add(1, Ordering::Relaxed);
-        }
-        open
+        offer_counted(&tx, input, &mut dropped, &counters.dropped)
     })
-    .map_err(|e| Ros2Error::Join {
-        domain,
-        message: format!("cannot start the reader thread: {e}"),
-    })
+    .map_err(not_started(domain, "the reader thread"))
 }
 
 /// Subscribes to `/clock` (`rosgraph_msgs/msg/Clock`, best effort, keep last 1, which
@@ -168,10 +203,7 @@ pub fn start_clock_reader(
             }
         },
     )
-    .map_err(|e| Ros2Error::Join {
-        domain,
-        message: format!("cannot start the clock reader thread: {e}"),
-    })
+    .map_err(not_started(domain, "the clock reader thread"))
 }
 
 /// Subscribes to the base's odometry on `topic` and sends each pose to the loop, stamped
@@ -185,6 +217,8 @@ pub fn start_odometry_reader(
     counters: Arc<ScanCounters>,
 ) -> Result<JoinHandle<()>, Ros2Error> {
     let domain = node.identity().domain_id;
+    // Parallel to start_scan_reader on purpose: every reader is wired alike (node, topic,
+    // clock, queue, stop, counters) and differs in the message it decodes.
     let subscription = node.subscribe::<OdometryMsg>(topic, qos::sensor_data())?;
     let topic_name = topic.to_owned();
     let mut dropped = 0;
@@ -192,21 +226,16 @@ pub fn start_odometry_reader(
         let input = match received {
             Received::Message { message, .. } => {
                 let now = clock.now_ns();
-                let stamp = loop_stamp(message.header.stamp.ns(), now).unwrap_or(now);
+                let stamp = stamp_on_arrival(message.header.stamp.ns(), now);
                 let pose = message.pose;
                 let world_from_robot: Pose2<World, Robot> = pose.pose2();
                 let moving = tether_control::Twist {
                     v_mps: message.twist.v_mps(),
                     w_radps: message.twist.w_radps(),
                 };
-                let problem = if !(world_from_robot.x.is_finite()
-                    && world_from_robot.y.is_finite()
-                    && world_from_robot.yaw.is_finite())
-                {
+                let problem = if !finite_pose(&world_from_robot) {
                     Some("its pose is not finite".to_owned())
-                } else if !(moving.v_mps.abs() <= MAX_ODOMETRY_SPEED_MPS
-                    && moving.w_radps.abs() <= MAX_ODOMETRY_TURN_RADPS)
-                {
+                } else if !ground_robot_velocity(&moving) {
                     Some(format!(
                         "its velocity ({} m/s, {} rad/s) is not a ground robot's",
                         moving.v_mps, moving.w_radps
@@ -225,26 +254,19 @@ pub fn start_odometry_reader(
                 }
                 counters.odometry_last_ns.store(now, Ordering::Relaxed);
                 Input::Odometry {
-                    stamp: tether_core::Stamp::from_ns(stamp),
+                    stamp,
                     world_from_robot,
                     moving,
                 }
             }
             Received::Malformed(why) => {
-                if counters.odometry_refused.fetch_add(1, Ordering::Relaxed) == 0 {
-                    tracing::warn!(
-                        "{topic_name}: a sample skipped: {why} (further ones are counted)"
-                    );
-                }
+                count_skipped(&counters.odometry_refused, &topic_name, &why);
                 return true;
             }
         };
         offer(&tx, input, &mut dropped)
     })
-    .map_err(|e| Ros2Error::Join {
-        domain,
-        message: format!("cannot start the odometry reader thread: {e}"),
-    })
+    .map_err(not_started(domain, "the odometry reader thread"))
 }
 
 /// A frame name as tf2 compares them: without a leading `/`.
@@ -312,7 +334,7 @@ pub fn start_tf_reader(
                 continue;
             }
             let pose: Pose2<World, Robot> = t.transform.pose2();
-            if !(pose.x.is_finite() && pose.y.is_finite() && pose.yaw.is_finite()) {
+            if !finite_pose(&pose) {
                 counters.odometry_refused.fetch_add(1, Ordering::Relaxed);
                 continue;
             }
@@ -324,9 +346,7 @@ pub fn start_tf_reader(
                 _ => tether_control::Twist::STOP,
             };
             previous = Some((stamp, pose));
-            if !(moving.v_mps.abs() <= MAX_ODOMETRY_SPEED_MPS
-                && moving.w_radps.abs() <= MAX_ODOMETRY_TURN_RADPS)
-            {
+            if !ground_robot_velocity(&moving) {
                 counters.odometry_refused.fetch_add(1, Ordering::Relaxed);
                 continue;
             }
@@ -342,10 +362,7 @@ pub fn start_tf_reader(
         }
         true
     })
-    .map_err(|e| Ros2Error::Join {
-        domain,
-        message: format!("cannot start the /tf reader thread: {e}"),
-    })
+    .map_err(not_started(domain, "the /tf reader thread"))
 }
 
 /// What the camera reader counted.
@@ -436,11 +453,7 @@ pub fn start_detections_reader(
         let message = match received {
             Received::Message { message, .. } => message,
             Received::Malformed(why) => {
-                if counters.malformed.fetch_add(1, Ordering::Relaxed) == 0 {
-                    tracing::warn!(
-                        "{topic_name}: a sample skipped: {why} (further ones are counted)"
-                    );
-                }
+                count_skipped(&counters.malformed, &topic_name, &why);
                 return true;
             }
         };
@@ -457,28 +470,15 @@ pub fn start_detections_reader(
             );
         }
         counters.other_class.fetch_add(other, Ordering::Relaxed);
-        let now = clock.now_ns();
-        let stamp =
-            tether_core::Stamp::from_ns(loop_stamp(message.header.stamp.ns(), now).unwrap_or(now));
-        let before = dropped;
-        let open = offer(
-            &tx,
-            Input::Camera {
-                stamp,
-                boxes,
-                frame: None,
-            },
-            &mut dropped,
-        );
-        if dropped > before {
-            counters.superseded.fetch_add(1, Ordering::Relaxed);
-        }
-        open
+        let stamp = stamp_on_arrival(message.header.stamp.ns(), clock.now_ns());
+        let input = Input::Camera {
+            stamp,
+            boxes,
+            frame: None,
+        };
+        offer_counted(&tx, input, &mut dropped, &counters.superseded)
     })
-    .map_err(|e| Ros2Error::Join {
-        domain,
-        message: format!("cannot start the detections reader thread: {e}"),
-    })
+    .map_err(not_started(domain, "the detections reader thread"))
 }
 
 /// A camera frame as it came (decoded on the detector's thread).
@@ -584,10 +584,7 @@ pub fn start_camera_reader(
 ) -> Result<JoinHandle<()>, Ros2Error> {
     let domain = node.identity().domain_id;
     let topic_name = topic.to_owned();
-    let stamp_of = move |header_ns: i64| {
-        let now = clock.now_ns();
-        tether_core::Stamp::from_ns(loop_stamp(header_ns, now).unwrap_or(now))
-    };
+    let stamp_of = move |header_ns: i64| stamp_on_arrival(header_ns, clock.now_ns());
     let malformed = {
         let counters = Arc::clone(&counters);
         let topic_name = topic_name.clone();
@@ -659,10 +656,7 @@ pub fn start_camera_reader(
             },
         )
     };
-    started.map_err(|e| Ros2Error::Join {
-        domain,
-        message: format!("cannot start the camera reader thread: {e}"),
-    })
+    started.map_err(not_started(domain, "the camera reader thread"))
 }
 
 #[cfg(test)]

@@ -168,6 +168,8 @@ impl Avx2 {
     }
 }
 
+// Parallel to Avx2::block's signature on purpose: that is the safe entry point, this the
+// AVX2 function it calls once the CPU is known to have AVX2.
 #[target_feature(enable = "avx2")]
 fn block<F: FnMut(usize, &Norms) -> u8>(
     table: &Table,

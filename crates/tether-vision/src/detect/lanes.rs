@@ -280,6 +280,8 @@ impl LevelEval<'_> {
         y: usize,
         hits: &mut Vec<Rect>,
     ) {
+        // Parallel to scan_row_lanes' walk on purpose: the detector's hot loop, here over
+        // blocks of eight AVX2 lanes, there over portable lanes it is checked against.
         const BLOCK: usize = avx2::LANES8;
         let step = level.step;
         let mut skip_next = false;

@@ -65,24 +65,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "--gap-s must be a positive number of seconds, got {}",
         args.gap_s
     );
-    let mut config = super::track::load_config(args.config.as_ref())?;
-    if args.odom_topic.is_none() {
-        // A still sensor: the scan's frame is the robot's and the world's.
-        config.laser.mount.x_m = 0.0;
-        config.laser.mount.y_m = 0.0;
-        config.laser.mount.yaw_rad = 0.0;
-    }
+    let mut config =
+        super::track::load_recording_config(args.config.as_ref(), args.odom_topic.is_some())?;
     config.fusion.use_vision = false;
-    let source = args
+    let (_, mut scan_odometry) = args
         .ego_motion
-        .resolve(args.odom_topic.is_some())
+        .for_recording(args.odom_topic.is_some(), config.laser.robot_from_laser())
         .map_err(anyhow::Error::msg)?;
-    let mut scan_odometry = (source == tether::ego_motion::PoseSource::Scans).then(|| {
-        tether_live::ego::ScanOdometry::new(
-            tether_scanmatch::ScanMatcherConfig::default(),
-            config.laser.robot_from_laser(),
-        )
-    });
     let mut pipeline = Pipeline::new(config, None)?;
     let topics = Topics {
         scan: args.scan_topic.clone(),

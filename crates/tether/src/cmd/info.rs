@@ -161,6 +161,8 @@ impl ScanGeometry {
         }
     }
 
+    // Parallel to from_ros1 on purpose: the two wire formats' raw scans are two types
+    // with the same fields.
     fn from_ros2(m: &mcap::RawLaserScan) -> Self {
         ScanGeometry {
             beams: m.ranges.len(),
@@ -558,6 +560,24 @@ fn add_message(
     }
 }
 
+/// Adds each of `messages` to `info` with `add`, up to the first that does not read (its
+/// error is kept).
+fn add_messages<R, E: std::fmt::Display>(
+    info: &mut Info,
+    messages: impl Iterator<Item = Result<R, E>>,
+    mut add: impl FnMut(&mut Info, R),
+) {
+    for m in messages {
+        match m {
+            Ok(raw) => add(info, raw),
+            Err(e) => {
+                info.read.error = Some(e.to_string());
+                break;
+            }
+        }
+    }
+}
+
 fn read_bag(path: &Path, size: u64) -> anyhow::Result<Info> {
     let mut bag =
         Bag::open_salvaging(path).with_context(|| format!("cannot read {}", path.display()))?;
@@ -571,14 +591,7 @@ fn read_bag(path: &Path, size: u64) -> anyhow::Result<Info> {
     info.read.index_unused = bag.salvaged().map(str::to_owned);
     let mut readings: HashMap<u32, Reading> = HashMap::new();
     let mut messages = bag.messages();
-    for m in &mut messages {
-        let raw = match m {
-            Ok(raw) => raw,
-            Err(e) => {
-                info.read.error = Some(e.to_string());
-                break;
-            }
-        };
+    add_messages(&mut info, &mut messages, |info, raw| {
         let c = &raw.connection;
         let reading = *readings.entry(c.id).or_insert_with(|| {
             let is_scan = SCAN_TYPES.contains(&c.msg_type.as_str());
@@ -588,15 +601,8 @@ fn read_bag(path: &Path, size: u64) -> anyhow::Result<Info> {
                 is_scan,
             }
         });
-        add_message(
-            &mut info,
-            &c.topic,
-            &c.msg_type,
-            reading,
-            raw.time,
-            &raw.data,
-        );
-    }
+        add_message(info, &c.topic, &c.msg_type, reading, raw.time, &raw.data);
+    });
     info.read.cut = messages.cut().map(ToString::to_string);
     info.read.unattributed = messages.skipped_count();
     drop(messages);
@@ -620,25 +626,18 @@ fn read_mcap(path: &Path, size: u64) -> anyhow::Result<Info> {
     info.read.index_unused = file.salvaged().map(str::to_owned);
     let mut readings: HashMap<u16, Reading> = HashMap::new();
     let mut messages = file.messages();
-    for m in &mut messages {
-        let raw = match m {
-            Ok(raw) => raw,
-            Err(e) => {
-                info.read.error = Some(e.to_string());
-                break;
-            }
-        };
+    add_messages(&mut info, &mut messages, |info, raw| {
         let ch = &raw.channel;
         let reading = *readings.entry(ch.id).or_insert_with(|| channel_reading(ch));
         add_message(
-            &mut info,
+            info,
             &ch.topic,
             ch.type_name(),
             reading,
             raw.log_time,
             &raw.data,
         );
-    }
+    });
     info.read.cut = messages.cut().map(ToString::to_string);
     info.read.unattributed = messages.skipped_count();
     for ch in file.channels() {

@@ -19,16 +19,17 @@ use tether_core::{Gaussian2, Laser, LaserScan, Pose2, Robot, Stamp, World};
 use tether_fusion::tracker::Track;
 use tether_fusion::{TargetState, TargetStats};
 use tether_laser::LegDetector;
-use tether_live::ego::ScanOdometry;
 use tether_live::results::ResultWriter;
 use tether_live::target_log::TargetLog;
 use tether_pipeline::{Pipeline, Tick};
-use tether_scanmatch::{MotionPrior, ScanMatcherConfig};
+use tether_scanmatch::MotionPrior;
 use tether_sim::svg::xml_escape;
 
 use super::track::CameraArgs;
 
 /// Options of `tether replay`.
+// Parallel to track's Args on purpose: the options are alike, but each command's help
+// says what they mean for it (and their defaults and order differ).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The recording: an MCAP file (ROS 2) or a ROS 1 bag.
@@ -321,16 +322,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = config;
     config.fusion.use_vision = camera.is_some();
     let intrinsics = config.camera.intrinsics;
-    let source = args
+    let (source, mut scan_odometry) = args
         .ego_motion
-        .resolve(args.odom_topic.is_some())
+        .for_recording(args.odom_topic.is_some(), config.laser.robot_from_laser())
         .map_err(anyhow::Error::msg)?;
-    let mut scan_odometry = (source == PoseSource::Scans).then(|| {
-        ScanOdometry::new(
-            ScanMatcherConfig::default(),
-            config.laser.robot_from_laser(),
-        )
-    });
     let mut pipeline = Pipeline::new(config, None)?;
     let frame = source.frame();
     let mut output = match &args.out {

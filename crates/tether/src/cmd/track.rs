@@ -98,6 +98,22 @@ struct PoseLine {
     yaw: f64,
 }
 
+/// [`load_config`] for a recording with (`has_odometry`) or without odometry: without, the
+/// sensor is taken as still, its mount zeroed.
+pub fn load_recording_config(
+    path: Option<&PathBuf>,
+    has_odometry: bool,
+) -> anyhow::Result<PipelineConfig> {
+    let mut config = load_config(path)?;
+    if !has_odometry {
+        // A still sensor: the scan's frame is the robot's and the world's.
+        config.laser.mount.x_m = 0.0;
+        config.laser.mount.y_m = 0.0;
+        config.laser.mount.yaw_rad = 0.0;
+    }
+    Ok(config)
+}
+
 /// Reads a configuration file: a pipeline configuration (every table optional), or a
 /// robot's own config (`tether run`'s, with `[robot]`), whose robot, laser mount,
 /// camera, follower and `[pipeline]` tables make the pipeline's configuration; its
@@ -164,29 +180,17 @@ pub fn camera(args: &CameraArgs) -> anyhow::Result<Camera> {
 /// robot's motion from `--odom-topic`, scan matching or none (`--ego-motion`).
 /// Positions and velocities come out in the scan's frame.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut config = load_config(args.config.as_ref())?;
-    if args.odom_topic.is_none() {
-        // A still sensor: the scan's frame is the robot's and the world's.
-        config.laser.mount.x_m = 0.0;
-        config.laser.mount.y_m = 0.0;
-        config.laser.mount.yaw_rad = 0.0;
-    }
+    let mut config = load_recording_config(args.config.as_ref(), args.odom_topic.is_some())?;
     let mut camera = match &args.image_topic {
         Some(_) => Some(camera(&args.detector)?),
         None => None,
     };
     config.fusion.use_vision = camera.is_some();
     let intrinsics = config.camera.intrinsics;
-    let source = args
+    let (_, mut scan_odometry) = args
         .ego_motion
-        .resolve(args.odom_topic.is_some())
+        .for_recording(args.odom_topic.is_some(), config.laser.robot_from_laser())
         .map_err(anyhow::Error::msg)?;
-    let mut scan_odometry = (source == tether::ego_motion::PoseSource::Scans).then(|| {
-        tether_live::ego::ScanOdometry::new(
-            tether_scanmatch::ScanMatcherConfig::default(),
-            config.laser.robot_from_laser(),
-        )
-    });
     let laser_from_robot = config.laser.robot_from_laser().inverse();
     let mut pipeline = Pipeline::new(config, None)?;
     let topics = Topics {
@@ -379,6 +383,8 @@ mod tests {
                 1..6,
             ),
         ) {
+            // Parallel to the other parsers' damage tests (tether-io, tether-ros2,
+            // tether-laser) on purpose: the crates share no test support.
             let mut text: Vec<char> = defaults().chars().collect();
             for (at, c, op) in edits {
                 let i = at.index(text.len());
