@@ -1,12 +1,13 @@
 //! The MCAP reader on arbitrary files: opening (summary, or the linear scan of a file
 //! without one), walking every record and chunk (zstd and lz4 under the size caps of
-//! `tether_io::limits`) and decoding every message as a scan must never panic, and a
+//! `tether_recording::limits`) and decoding every message as a scan must never panic, and a
 //! walk yields at most one error, as its last item.
 
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use tether_io::mcap::{LaserScanMsg, MAGIC, McapFile};
+use tether_recording::mcap::{MAGIC, McapFile};
+use tether_msgs::LaserScanMsg;
 
 fuzz_target!(|data: &[u8]| {
     let mut bytes = Vec::with_capacity(data.len() + 8);

@@ -1,6 +1,6 @@
 //! The ROS 1 bag reader on arbitrary files, strict and salvaging: opening, walking every
 //! record and chunk (decompressing bz2 and lz4 under the size caps of
-//! `tether_io::limits`) and decoding every message as the types tether reads must never
+//! `tether_recording::limits`) and decoding every message as the types tether reads must never
 //! panic, and a walk yields at most one error, as its last item.
 
 #![no_main]
@@ -8,7 +8,8 @@
 use std::io::Cursor;
 
 use libfuzzer_sys::fuzz_target;
-use tether_io::rosbag::{Bag, BagError, LaserScanMsg, OdometryMsg, PersonArrayMsg, PoseArrayMsg};
+use tether_recording::rosbag::{Bag, BagError};
+use tether_msgs::{LaserScanMsg, OdometryMsg, PersonArrayMsg, PoseArrayMsg};
 
 fn walk(bag: Result<Bag<Cursor<&[u8]>>, BagError>) {
     let Ok(mut bag) = bag else {

@@ -4,7 +4,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use tether_io::scip::{ParseEvent, ReplyParser};
+use tether_scip::{ParseEvent, ReplyParser};
 
 fn parse(pieces: &[&[u8]]) -> Vec<ParseEvent> {
     let mut parser = ReplyParser::new();

@@ -4,7 +4,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use tether_io::scip::command::parse_request;
+use tether_scip::command::parse_request;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(request) = parse_request(data)

@@ -25,8 +25,8 @@ use std::path::Path;
 
 use divan::{Bencher, black_box};
 use tether_core::{LaserScan, RangeNoiseModel};
-use tether_io::rosbag::read_scans;
 use tether_laser::{Detection, DetectorConfig, LegClassifier, LegDetector};
+use tether_recording::rosbag::read_scans;
 
 fn main() {
     divan::main();

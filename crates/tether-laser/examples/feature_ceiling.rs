@@ -18,13 +18,13 @@ use std::error::Error;
 use std::path::Path;
 
 use tether_core::RangeNoiseModel;
-use tether_io::rosbag::{read_labelled_scans, read_scans};
 use tether_laser::training::{
     LabelledRegion, NEGATIVE_BAG, POSITIVE_LABEL_TOPIC, POSITIVE_SCAN_TOPIC, ScanSample,
     TEST_NEGATIVE_TOPICS, TEST_POSITIVE_BAGS, cross_validate, default_adaboost_config,
     training_folds,
 };
 use tether_laser::{DetectorConfig, LegDetector};
+use tether_recording::rosbag::{read_labelled_scans, read_scans};
 
 fn main() -> Result<(), Box<dyn Error>> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/laser/leg_tracker");

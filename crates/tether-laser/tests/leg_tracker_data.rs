@@ -20,10 +20,10 @@
 use std::path::{Path, PathBuf};
 
 use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
-use tether_io::rosbag::{read_labelled_scans, read_scans};
 use tether_laser::classifier::DEFAULT_MODEL_JSON;
 use tether_laser::training::*;
 use tether_laser::{DetectorConfig, LegClassifier, LegDetector};
+use tether_recording::rosbag::{read_labelled_scans, read_scans};
 
 fn data_dir() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/laser/leg_tracker");

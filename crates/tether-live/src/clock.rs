@@ -10,7 +10,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 use std::time::Instant;
 
-use tether_io::scip::{Clock, SystemClock};
+use tether_scip::{Clock, SystemClock};
 
 /// Wall-clock time at the start plus monotonic time since.
 #[derive(Debug, Clone, Copy)]

@@ -678,10 +678,7 @@ impl RobotConfig {
         match (&self.laser.serial, &self.laser.tcp) {
             (Some(path), _) => LaserLink::Serial {
                 path: path.clone(),
-                baud: self
-                    .laser
-                    .baud
-                    .unwrap_or(tether_io::scip::DEFAULT_BAUD_RATE),
+                baud: self.laser.baud.unwrap_or(tether_scip::DEFAULT_BAUD_RATE),
             },
             (None, Some(address)) => LaserLink::Tcp {
                 address: address.clone(),

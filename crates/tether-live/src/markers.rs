@@ -14,7 +14,7 @@
 //! for the covariance's eigenvalues `lambda` (design 5.1's gate at 95 %).
 
 use tether_core::{Gaussian2, World};
-use tether_io::mcap::{ColorRgba, Header, MarkerArrayMsg, MarkerMsg, Pose3};
+use tether_msgs::{ColorRgba, Header, MarkerArrayMsg, MarkerMsg, Pose3};
 use tether_pipeline::{Tick, TickInput};
 
 /// The 95 % quantile of the chi-square distribution with 2 degrees of freedom.

@@ -8,8 +8,9 @@ use std::thread::JoinHandle;
 
 use tether_control::Twist;
 use tether_core::{LaserScan, Pose2, Robot, Stamp, World};
-use tether_io::mcap::{CompressedImageMsg, Header, LaserScanMsg, McapError, OdometryMsg, TwistMsg};
+use tether_msgs::{CompressedImageMsg, Header, LaserScanMsg, OdometryMsg, TwistMsg};
 use tether_pipeline::Tick;
+use tether_recording::mcap::McapError;
 
 use crate::results::ResultWriter;
 use crate::sources::frames::EncodedFrame;
@@ -47,7 +48,7 @@ enum Record {
 /// the pipeline's ticks (see [`ResultWriter`]).
 ///
 /// It writes its messages unchunked through a buffered file flushed at least once a
-/// second of log time ([`tether_io::mcap::McapWriter::streaming`]): a run that is
+/// second of log time ([`tether_recording::mcap::McapWriter::streaming`]): a run that is
 /// killed leaves a recording readable up to its last second or so, and a run of hours
 /// keeps no index that grows in memory.
 ///
@@ -252,7 +253,7 @@ mod tests {
     use std::time::Duration;
 
     use tether_core::Stamp;
-    use tether_io::mcap::McapFile;
+    use tether_recording::mcap::McapFile;
 
     /// What the disk under a [`Disk`] does.
     #[derive(Debug, Clone, Copy, PartialEq, Eq)]

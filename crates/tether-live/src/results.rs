@@ -16,11 +16,11 @@
 use std::path::Path;
 
 use tether_core::Stamp;
-use tether_io::mcap::{
-    Header, MarkerArrayMsg, McapError, McapWriter, Pose3, PoseArrayMsg,
-    PoseWithCovarianceStampedMsg, StringMsg, TwistMsg,
+use tether_msgs::{
+    Header, MarkerArrayMsg, Pose3, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg, TwistMsg,
 };
 use tether_pipeline::{Tick, TickInput};
+use tether_recording::mcap::{McapError, McapWriter};
 
 /// The target's state at a tick, as `track`'s JSON lines and `/tether/target_state`
 /// carry it.

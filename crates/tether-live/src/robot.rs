@@ -18,10 +18,10 @@ use std::sync::mpsc::{self, Receiver};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use tether_io::mcap::McapError;
-use tether_io::scip::Clock;
 use tether_pipeline::{Pipeline, PipelineConfig, PipelineError};
+use tether_recording::mcap::McapError;
 use tether_scanmatch::ScanMatcherConfig;
+use tether_scip::Clock;
 
 use crate::base::{BaseError, CommandLine, CommandSink, QueuedLines, open_base};
 use crate::clock::MonotonicClock;

@@ -20,9 +20,9 @@ use std::time::Duration;
 
 use tether_control::Twist;
 use tether_core::{LaserScan, PixelBox, Pose2, Robot, Stamp, World};
-use tether_io::scip::{Clock, ScipError};
 use tether_pipeline::{Pipeline, Tick, TickInput};
 use tether_scanmatch::{MotionPrior, ScanMatcherConfig};
+use tether_scip::{Clock, ScipError};
 
 use crate::base::{CommandLine, CommandSink, TargetLine};
 use crate::ego::ScanOdometry;
@@ -624,8 +624,8 @@ mod tests {
     use std::sync::mpsc;
     use std::sync::{Arc, Mutex};
 
-    use tether_io::scip::SystemClock;
     use tether_pipeline::PipelineConfig;
+    use tether_scip::SystemClock;
 
     use super::*;
     use crate::results::ResultWriter;

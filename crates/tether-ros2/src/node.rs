@@ -11,7 +11,7 @@ use futures::FutureExt;
 use ros2_client::dds::{Context, ContextOptions, Node, Publisher, Subscription};
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{Name, NodeName, NodeOptions, QosProfile};
-use tether_io::mcap::Ros2Message;
+use tether_msgs::Ros2Message;
 
 use crate::graph;
 use crate::wire::{Wire, type_name};

@@ -7,7 +7,7 @@
 
 use std::collections::BTreeMap;
 
-use tether_io::mcap::{Pose3, TfMessage};
+use tether_msgs::{Pose3, TfMessage};
 
 /// `a * b` for quaternions `[x, y, z, w]`.
 fn quat_mul(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
@@ -116,7 +116,7 @@ mod tests {
     #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
 
     use tether_core::Stamp;
-    use tether_io::mcap::{Header, TransformStampedMsg};
+    use tether_msgs::{Header, TransformStampedMsg};
 
     use super::*;
 

@@ -1,7 +1,7 @@
 //! tether's own CDR messages on DDS.
 //!
 //! Every ROS 2 message tether knows has one definition: the type in
-//! `tether_io::mcap::msgs` with its hand-written CDR codec, checked byte for byte
+//! `tether_recording::mcap::msgs` with its hand-written CDR codec, checked byte for byte
 //! against Python `rosbags`. The MCAP reader and writer use it, and so does the live
 //! node, through [`Wire`].
 //!
@@ -23,7 +23,7 @@ use std::fmt;
 use serde::de::{SeqAccess, Visitor};
 use serde::ser::SerializeTuple;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
-use tether_io::mcap::{Ros2Message, from_cdr, to_cdr};
+use tether_msgs::{Ros2Message, from_cdr, to_cdr};
 
 /// The encapsulation header of little-endian plain CDR (`CDR_LE`, options 0).
 const CDR_LE_HEADER: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
@@ -89,7 +89,7 @@ mod tests {
     #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
 
     use tether_core::{LaserScan, Stamp};
-    use tether_io::mcap::{
+    use tether_msgs::{
         CompressedImageMsg, Detection2DArrayMsg, ImageMsg, LaserScanMsg, OdometryMsg, TwistMsg,
         TwistStampedMsg,
     };

@@ -12,8 +12,8 @@
 use std::path::Path;
 
 use tether_core::{Point2, Pose2, RangeNoiseModel};
-use tether_io::rosbag::read_scans;
 use tether_laser::{DetectorConfig, LegClassifier, LegDetector};
+use tether_recording::rosbag::read_scans;
 use tether_scanmatch::{
     ExclusionZone, MotionPrior, Quality, ScanMatcher, ScanMatcherConfig, ScanPoints,
 };
@@ -43,7 +43,7 @@ struct Run {
     excluded_points: usize,
 }
 
-fn run(scans: &[tether_io::rosbag::LaserScanMsg], exclude_legs: bool) -> Run {
+fn run(scans: &[tether_msgs::LaserScanMsg], exclude_legs: bool) -> Run {
     let mut detector = LegDetector::learned(
         DetectorConfig::default(),
         RangeNoiseModel::default(),

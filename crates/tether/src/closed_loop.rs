@@ -150,7 +150,7 @@ pub enum RunError {
     Record(#[from] tether_sim::record::RecordError),
     /// Writing the run's MCAP recording failed.
     #[error("writing the MCAP recording: {0}")]
-    Mcap(#[from] tether_io::mcap::McapError),
+    Mcap(#[from] tether_recording::mcap::McapError),
 }
 
 /// The pipeline configuration that matches a scenario's robot: its laser and camera

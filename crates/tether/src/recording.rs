@@ -23,8 +23,9 @@ use std::path::Path;
 use anyhow::Context;
 use tether_core::{GrayImage, Laser, LaserScan, Point2, Pose2, Robot, Stamp, World};
 use tether_image::imread::decode_gray;
-use tether_io::mcap::{self, CompressedImageMsg, ImageMsg, McapFile, OdometryMsg, Ros2Message};
-use tether_io::rosbag::{self, Bag, RosMessage};
+use tether_msgs::{CompressedImageMsg, ImageMsg, OdometryMsg, Ros2Message, RosMessage};
+use tether_recording::mcap::{self, McapFile};
+use tether_recording::rosbag::{self, Bag};
 
 /// The topics to read; `None` leaves a stream out.
 #[derive(Debug, Clone, Default)]
@@ -87,7 +88,7 @@ impl LabelMessage {
     fn from_poses<'a>(
         stamp: Stamp,
         frame_id: String,
-        poses: impl Iterator<Item = (Option<u32>, &'a rosbag::Pose3)>,
+        poses: impl Iterator<Item = (Option<u32>, &'a tether_msgs::Pose3)>,
     ) -> Self {
         LabelMessage {
             stamp,
@@ -312,7 +313,7 @@ fn check_topics(
 fn report_salvage(
     path: &Path,
     salvaged: Option<&str>,
-    cut: Option<&tether_io::CutShort>,
+    cut: Option<&tether_recording::CutShort>,
     wanted: &[&str],
     messages: usize,
 ) -> anyhow::Result<()> {
@@ -420,7 +421,7 @@ impl Stored for mcap::RawMessage {
         name == <CompressedImageMsg as Ros2Message>::TYPE || name == "sensor_msgs/CompressedImage"
     }
     fn scan(&self) -> anyhow::Result<LaserScan> {
-        Ok(self.decode::<mcap::LaserScanMsg>()?.scan)
+        Ok(self.decode::<tether_msgs::LaserScanMsg>()?.scan)
     }
     fn odometry(&self) -> anyhow::Result<OdometryMsg> {
         Ok(self.decode()?)
@@ -433,15 +434,19 @@ impl Stored for mcap::RawMessage {
     }
     fn labels(&self) -> anyhow::Result<LabelMessage> {
         let name = self.channel.type_name();
-        if name == mcap::PersonArrayMsg::TYPE || name == "leg_tracker/PersonArray" {
-            let m = self.decode::<mcap::PersonArrayMsg>()?;
+        if name == <tether_msgs::PersonArrayMsg as Ros2Message>::TYPE
+            || name == "leg_tracker/PersonArray"
+        {
+            let m = self.decode::<tether_msgs::PersonArrayMsg>()?;
             Ok(LabelMessage::from_poses(
                 m.header.stamp,
                 m.header.frame_id,
-                m.people.iter().map(|(id, p)| (Some(*id), p)),
+                m.people.iter().map(|p| (Some(p.id), &p.pose)),
             ))
-        } else if name == mcap::PoseArrayMsg::TYPE || name == "geometry_msgs/PoseArray" {
-            let m = self.decode::<mcap::PoseArrayMsg>()?;
+        } else if name == <tether_msgs::PoseArrayMsg as Ros2Message>::TYPE
+            || name == "geometry_msgs/PoseArray"
+        {
+            let m = self.decode::<tether_msgs::PoseArrayMsg>()?;
             Ok(LabelMessage::from_poses(
                 m.header.stamp,
                 m.header.frame_id,
@@ -466,7 +471,7 @@ impl Stored for rosbag::RawMessage {
         self.connection.msg_type == <CompressedImageMsg as RosMessage>::TYPE
     }
     fn scan(&self) -> anyhow::Result<LaserScan> {
-        Ok(self.decode::<rosbag::LaserScanMsg>()?.scan)
+        Ok(self.decode::<tether_msgs::LaserScanMsg>()?.scan)
     }
     fn odometry(&self) -> anyhow::Result<OdometryMsg> {
         Ok(self.decode()?)
@@ -479,15 +484,15 @@ impl Stored for rosbag::RawMessage {
     }
     fn labels(&self) -> anyhow::Result<LabelMessage> {
         let name = self.connection.msg_type.as_str();
-        if name == <rosbag::PersonArrayMsg as RosMessage>::TYPE {
-            let m = self.decode::<rosbag::PersonArrayMsg>()?;
+        if name == <tether_msgs::PersonArrayMsg as RosMessage>::TYPE {
+            let m = self.decode::<tether_msgs::PersonArrayMsg>()?;
             Ok(LabelMessage::from_poses(
                 m.header.stamp,
                 m.header.frame_id,
                 m.people.iter().map(|p| (Some(p.id), &p.pose)),
             ))
-        } else if name == <rosbag::PoseArrayMsg as RosMessage>::TYPE {
-            let m = self.decode::<rosbag::PoseArrayMsg>()?;
+        } else if name == <tether_msgs::PoseArrayMsg as RosMessage>::TYPE {
+            let m = self.decode::<tether_msgs::PoseArrayMsg>()?;
             Ok(LabelMessage::from_poses(
                 m.header.stamp,
                 m.header.frame_id,

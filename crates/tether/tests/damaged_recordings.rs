@@ -25,7 +25,8 @@ use std::time::{Duration, Instant};
 
 use common::{scratch, tether, text};
 use tether_core::Stamp;
-use tether_io::rosbag::{BagWriter, Header, RawLaserScan};
+use tether_msgs::{Header, RawLaserScan};
+use tether_recording::rosbag::BagWriter;
 
 fn leg_tracker(name: &str) -> Option<PathBuf> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))

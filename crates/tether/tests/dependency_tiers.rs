@@ -19,7 +19,10 @@ use serde_json::Value;
 /// crates of lower tiers only.
 const TIERS: &[(&str, &[&str])] = &[
     ("shared types", &["tether-core"]),
-    ("image decoding", &["tether-image"]),
+    (
+        "image decoding and ROS messages",
+        &["tether-image", "tether-msgs"],
+    ),
     (
         "algorithms and sensor links",
         &[
@@ -28,7 +31,8 @@ const TIERS: &[(&str, &[&str])] = &[
             "tether-fusion",
             "tether-control",
             "tether-scanmatch",
-            "tether-io",
+            "tether-recording",
+            "tether-scip",
         ],
     ),
     (

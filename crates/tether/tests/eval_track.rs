@@ -15,7 +15,8 @@ use std::path::{Path, PathBuf};
 
 use common::{scratch, tether, text};
 use serde_json::Value;
-use tether_io::rosbag::{Bag, LaserScanMsg, PersonArrayMsg};
+use tether_msgs::{LaserScanMsg, PersonArrayMsg};
+use tether_recording::rosbag::Bag;
 
 fn run_ok(args: &[&str]) -> String {
     let out = tether(args);

@@ -11,7 +11,8 @@ use std::process::Output;
 
 use common::{scratch, tether, text};
 use tether_core::{Point2, World};
-use tether_io::mcap::{McapFile, PoseArrayMsg, PoseWithCovarianceStampedMsg, TwistMsg};
+use tether_msgs::{PoseArrayMsg, PoseWithCovarianceStampedMsg, TwistMsg};
+use tether_recording::mcap::McapFile;
 
 fn ok(out: &Output) -> String {
     let stdout = text(&out.stdout);

@@ -15,13 +15,13 @@
 use std::path::{Path, PathBuf};
 
 use tether_core::RangeNoiseModel;
-use tether_io::rosbag::{read_labelled_scans, read_scans};
 use tether_laser::statistics::{DetectorStatistics, detected_legs, labelled_legs};
 use tether_laser::training::{
     LabelledRegion, POSITIVE_LABEL_TOPIC, POSITIVE_SCAN_TOPIC, ScanSample, TRAIN_NEGATIVE_TOPICS,
     TrainingSet, default_adaboost_config, drop_robot_body, training_folds,
 };
 use tether_laser::{DetectorConfig, LegClassifier, LegDetector, Provenance, train_adaboost};
+use tether_recording::rosbag::{read_labelled_scans, read_scans};
 
 /// The scanners of the negative bags.
 pub const NEGATIVE_TOPICS: [&str; 3] = ["/left_scan", "/right_scan", "/rear_scan"];

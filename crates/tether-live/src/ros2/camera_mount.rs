@@ -19,7 +19,7 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use tether_core::CameraMount;
-use tether_io::mcap::Pose3;
+use tether_msgs::Pose3;
 use tether_pipeline::PipelineConfig;
 use tether_ros2::tf::{StaticTransforms, rotate};
 

@@ -16,12 +16,12 @@ use std::thread::JoinHandle;
 
 use tether_core::{Pose2, Robot, World};
 use tether_image::ImreadError;
-use tether_io::mcap::{
+use tether_msgs::{
     ClockMsg, CompressedImageMsg, Detection2DArrayMsg, ImageMsg, ImageMsgError, LaserScanMsg,
     OdometryMsg, TfMessage,
 };
-use tether_io::scip::Clock;
 use tether_ros2::{Received, Ros2Error, RosNode, offer, qos, spawn_reader};
+use tether_scip::Clock;
 use tether_vision::DetectError;
 
 use crate::clock::{LiveClock, SimClock};
@@ -662,7 +662,7 @@ pub fn start_camera_reader(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tether_io::mcap::Header;
+    use tether_msgs::Header;
 
     #[test]
     fn the_velocity_between_two_poses_is_along_the_heading_and_the_turn() {
@@ -683,7 +683,7 @@ mod tests {
     #[test]
     fn detection_boxes_keep_people_inside_the_image() {
         use tether_core::{PixelBox, Stamp};
-        use tether_io::mcap::{Detection2DMsg, ObjectHypothesisMsg};
+        use tether_msgs::{Detection2DMsg, ObjectHypothesisMsg};
         let header = Header::new(Stamp::from_ns(1), "camera");
         let at = |x: f64, w: f64, class: Option<&str>| {
             let mut d = Detection2DMsg::from_box(

@@ -20,14 +20,14 @@ use std::time::Duration;
 
 use ros2_client::dds::Publisher;
 use tether_core::LaserMount;
-use tether_io::mcap::{Header, Pose3, TfMessage, TransformStampedMsg};
-use tether_io::scip::Clock;
+use tether_msgs::{Header, Pose3, TfMessage, TransformStampedMsg};
 use tether_pipeline::{Pipeline, PipelineConfig, PipelineError};
 use tether_ros2::{
     GraphWatcher, NodeIdentity, Received, Ros2Error, RosArgs, RosNode, StaticTransforms, Wire, qos,
     spawn_reader,
 };
 use tether_scanmatch::ScanMatcherConfig;
+use tether_scip::Clock;
 
 use super::camera_mount::{camera_mount_from_tf, camera_pose, is_optical_frame};
 use super::inputs::{

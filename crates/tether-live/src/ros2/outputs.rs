@@ -6,7 +6,7 @@
 use std::io;
 
 use ros2_client::dds::Publisher;
-use tether_io::mcap::{
+use tether_msgs::{
     Header, MarkerArrayMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, Ros2Message, StringMsg,
     TwistMsg, TwistStampedMsg,
 };

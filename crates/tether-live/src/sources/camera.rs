@@ -14,7 +14,7 @@ use std::sync::mpsc::SyncSender;
 use std::thread::JoinHandle;
 
 use tether_core::{CameraIntrinsics, GrayImage, PixelBox, Stamp};
-use tether_io::scip::Clock;
+use tether_scip::Clock;
 use tether_vision::{Cascade, CascadeFileError, DetectError, DetectParams, Detector};
 
 use super::frames::{CameraError, FolderFrames, FrameSource, png_of};

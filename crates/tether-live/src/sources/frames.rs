@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-use tether_io::mcap::CompressedFormat;
+use tether_msgs::CompressedFormat;
 
 use tether_core::{GrayImage, ImageError};
 use tether_image::ImreadError;

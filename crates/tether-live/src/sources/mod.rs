@@ -14,7 +14,7 @@
 
 use tether_control::Twist;
 use tether_core::{LaserScan, PixelBox, Pose2, Robot, Stamp, World};
-use tether_io::scip::{Fault, ScipError};
+use tether_scip::{Fault, ScipError};
 use tether_vision::DetectError;
 
 use frames::{CameraError, EncodedFrame};

@@ -1,5 +1,5 @@
 //! The laser of `tether run`: a SCIP 2.0 Hokuyo on a serial or USB-ACM port, or on TCP
-//! (`tether_io::scip`). The handshake gives the sensor's own geometry, which replaces the
+//! (`tether_scip`). The handshake gives the sensor's own geometry, which replaces the
 //! configured one; then the driver streams scans on a thread of its own until the run
 //! ends, and switches the laser off.
 //!
@@ -19,10 +19,10 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use tether_core::{LaserModelError, UrgGeometry};
-use tether_io::scip::{
+use tether_pipeline::PipelineConfig;
+use tether_scip::{
     DriverConfig, DriverEvent, Link, ScipError, UrgDriver, connect_tcp, open_serial,
 };
-use tether_pipeline::PipelineConfig;
 
 use super::Input;
 use crate::clock::MonotonicClock;
@@ -284,7 +284,7 @@ mod tests {
 
     use std::sync::mpsc::{Receiver, RecvTimeoutError, sync_channel};
 
-    use tether_io::scip::emulator::{Emulator, EmulatorConfig, EmulatorServer, Endpoint, FnSource};
+    use tether_scip::emulator::{Emulator, EmulatorConfig, EmulatorServer, Endpoint, FnSource};
 
     use super::*;
 

@@ -18,8 +18,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use serde_json::{Value, json};
 use tether_core::Stamp;
-use tether_io::mcap::{self, McapFile};
-use tether_io::rosbag::{self, Bag, RosMessage};
+use tether_msgs::RosMessage;
+use tether_recording::mcap::{self, McapFile};
+use tether_recording::rosbag::Bag;
 
 /// Options of `tether info`.
 ///
@@ -148,7 +149,7 @@ struct ScanGeometry {
 }
 
 impl ScanGeometry {
-    fn from_ros1(m: &rosbag::RawLaserScan) -> Self {
+    fn from_ros1(m: &tether_msgs::RawLaserScan) -> Self {
         ScanGeometry {
             beams: m.ranges.len(),
             angle_min_rad: f64::from(m.angle_min),
@@ -161,9 +162,7 @@ impl ScanGeometry {
         }
     }
 
-    // Parallel to from_ros1 on purpose: the two wire formats' raw scans are two types
-    // with the same fields.
-    fn from_ros2(m: &mcap::RawLaserScan) -> Self {
+    fn from_ros2(m: &tether_msgs::RawLaserScan) -> Self {
         ScanGeometry {
             beams: m.ranges.len(),
             angle_min_rad: f64::from(m.angle_min),
@@ -500,7 +499,7 @@ fn ros1_frame_id(data: &[u8]) -> Option<String> {
 /// The frame id of a CDR message that starts with a header (after the encapsulation:
 /// `int32 sec`, `uint32 nanosec`, `string frame_id`).
 fn cdr_frame_id(data: &[u8]) -> Option<String> {
-    let mut r = mcap::cdr::CdrReader::new(data).ok()?;
+    let mut r = tether_msgs::cdr::CdrReader::new(data).ok()?;
     r.i32("header.stamp.sec").ok()?;
     r.u32("header.stamp.nanosec").ok()?;
     r.string("header.frame_id").ok()
@@ -545,10 +544,10 @@ fn add_message(
     }
     if reading.is_scan && entry.scan.is_none() {
         let scan = match reading.encoding {
-            Encoding::Ros1 => rosbag::RawLaserScan::decode(data)
+            Encoding::Ros1 => tether_msgs::RawLaserScan::decode(data)
                 .ok()
                 .map(|m| ScanGeometry::from_ros1(&m)),
-            Encoding::Cdr => mcap::from_cdr::<mcap::RawLaserScan>(data)
+            Encoding::Cdr => tether_msgs::from_cdr::<tether_msgs::RawLaserScan>(data)
                 .ok()
                 .map(|m| ScanGeometry::from_ros2(&m)),
             Encoding::Other => None,
@@ -897,7 +896,7 @@ mod tests {
         ros1.extend([1, 2, 3]);
         assert_eq!(ros1_frame_id(&ros1).as_deref(), Some("laser"));
         assert_eq!(ros1_frame_id(&ros1[..18]), None);
-        let mut cdr = mcap::cdr::CDR_LE_HEADER.to_vec();
+        let mut cdr = tether_msgs::cdr::CDR_LE_HEADER.to_vec();
         cdr.extend(7i32.to_le_bytes());
         cdr.extend(9u32.to_le_bytes());
         cdr.extend(6u32.to_le_bytes());

@@ -36,7 +36,6 @@ use std::time::Duration;
 
 use anyhow::Context;
 use tether::ego_motion::EgoMotion;
-use tether_io::scip::Clock;
 use tether_live::Ending;
 use tether_live::clock::LiveClock;
 use tether_live::config::RobotConfig;
@@ -44,6 +43,7 @@ use tether_live::ros2::{NodeCamera, NodeSettings, run_node};
 use tether_pipeline::PipelineConfig;
 use tether_ros2::{NodeIdentity, ParamValue, RosArgs};
 use tether_scanmatch::ScanMatcherConfig;
+use tether_scip::Clock;
 
 /// Options of `tether ros2`.
 #[derive(Debug, clap::Args)]

@@ -8,12 +8,11 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tether::closed_loop::{self, RunError};
 use tether::metrics::measure;
 use tether_core::Stamp;
-use tether_io::mcap::{Header, LaserScanMsg, McapError, OdometryMsg};
-use tether_io::rosbag::{
-    self, BagWriteError, BagWriter, ConnectionId, PersonArrayMsg, PersonMsg, Pose3,
-};
 use tether_live::results::ResultWriter;
+use tether_msgs::{Header, LaserScanMsg, OdometryMsg, PersonArrayMsg, PersonMsg, Pose3};
 use tether_pipeline::Tick;
+use tether_recording::mcap::McapError;
+use tether_recording::rosbag::{BagWriteError, BagWriter, ConnectionId};
 use tether_sim::record::RunRecorder;
 use tether_sim::{Event, Scenario, SensorData, Simulation, StaticWorld, run_to_dir};
 
@@ -121,7 +120,7 @@ impl BagRecorder {
         } else {
             None
         };
-        let scan = writer.add_connection::<rosbag::LaserScanMsg>("/scan")?;
+        let scan = writer.add_connection::<LaserScanMsg>("/scan")?;
         let people = writer.add_connection::<PersonArrayMsg>("/people_truth")?;
         Ok(BagRecorder {
             writer,
@@ -163,7 +162,7 @@ impl BagRecorder {
         }
         let mut scan = scan.clone();
         scan.frame_id = BAG_LASER_FRAME.to_string();
-        let raw = rosbag::RawLaserScan::from_scan(self.seq, &scan, 0.1 / 1024.0, 0.1);
+        let raw = tether_msgs::RawLaserScan::from_scan(self.seq, &scan, 0.1 / 1024.0, 0.1);
         self.writer.write(self.scan, stamp, &raw)?;
         let laser_from_world = truth.world_from_laser.inverse();
         let people = truth
@@ -182,7 +181,7 @@ impl BagRecorder {
             self.target_id = Some(t.id);
         }
         let msg = PersonArrayMsg {
-            header: rosbag::Header {
+            header: Header {
                 seq: self.seq,
                 stamp,
                 frame_id: BAG_LASER_FRAME.to_string(),

@@ -29,13 +29,13 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use tether_control::SpringConfig;
 use tether_core::{Point2, Stamp};
-use tether_io::mcap::{
+use tether_live::ros2::camera_mount::camera_pose;
+use tether_msgs::{
     ClockMsg, Detection2DArrayMsg, Detection2DMsg, Header, LaserScanMsg, ObjectHypothesisMsg,
     OdometryMsg, Pose3, TfMessage, TransformStampedMsg, TwistMsg, TwistStampedMsg,
 };
-use tether_io::scip::{Clock, SystemClock};
-use tether_live::ros2::camera_mount::camera_pose;
 use tether_ros2::{NodeIdentity, Received, RosNode, Wire, qos, spawn_reader};
+use tether_scip::{Clock, SystemClock};
 use tether_sim::{Command, Scenario, SensorData, Simulation};
 
 /// A base stops when its commands stop for this long (simulated time), ns.

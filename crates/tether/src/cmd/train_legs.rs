@@ -6,12 +6,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
-use tether_io::rosbag::{read_labelled_scans, read_scans};
 use tether_laser::training::{
     NEGATIVE_BAG, POSITIVE_LABEL_TOPIC, POSITIVE_SCAN_TOPIC, TRAIN_NEGATIVE_TOPICS,
     TRAIN_POSITIVE_BAGS, default_adaboost_config, folds_from_scans, train_with_cross_validation,
 };
 use tether_laser::{AdaBoostConfig, DetectorConfig, LegClassifier, LegDetector};
+use tether_recording::rosbag::{read_labelled_scans, read_scans};
 
 /// Options of `tether train-legs`. The defaults reproduce the built-in model.
 #[derive(Debug, clap::Args)]

@@ -17,9 +17,7 @@ use std::sync::{Arc, Mutex};
 
 use anyhow::Context;
 use serde::{Deserialize, Serialize};
-use tether_io::scip::emulator::{
-    Emulator, EmulatorConfig, EmulatorServer, Faults, ScanSource, Stall,
-};
+use tether_scip::emulator::{Emulator, EmulatorConfig, EmulatorServer, Faults, ScanSource, Stall};
 use tether_sim::{Command, Scenario, SensorData, Simulation, Truth};
 
 /// Options of `tether urg-emulator`.
