@@ -1,5 +1,5 @@
 //! Real recordings (issue 3): leg_tracker's labelled scans in
-//! `../shared/data/laser/leg_tracker/`, read with tether-io.
+//! `../shared/data/laser/leg_tracker/`, read with tether-recording.
 //!
 //! - The labels are the centroids of the default clustering's clusters (the protocol
 //!   compares detections with exactly what the labeller labelled).

@@ -3,7 +3,7 @@
 //! the truth is known, including determinism.
 //!
 //! A zero angle increment and ranges whose number disagrees with the header cannot
-//! reach the detector: `tether_core::LaserScan` refuses them, and tether-io counts
+//! reach the detector: `tether_core::LaserScan` refuses them, and tether-msgs counts
 //! such messages as bad (its tests cover both).
 
 #![allow(

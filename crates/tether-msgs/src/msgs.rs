@@ -1,5 +1,7 @@
-//! The ROS 2 messages tether reads and writes, their CDR layout and their full `.msg`
-//! definitions (the `ros2msg` schema encoding), with conversions to tether's types.
+//! The messages tether reads and writes, each defined once with its conversions to
+//! tether's types, and their ROS 2 form: the CDR layout and the full `.msg` definitions
+//! (the `ros2msg` schema encoding). The ROS 1 form of the same types is in
+//! [`crate::ros1`].
 //!
 //! A schema's text is the message's own definition followed, for every type it uses,
 //! by a line of 80 `=` and a line `MSG: package/Type` and that type's definition
@@ -264,15 +266,7 @@ impl Ros2Message for RawLaserScan {
 
     fn write_cdr(&self, w: &mut CdrWriter) -> Result<(), EncodeError> {
         self.header.write(w)?;
-        for v in [
-            self.angle_min,
-            self.angle_max,
-            self.angle_increment,
-            self.time_increment,
-            self.scan_time,
-            self.range_min,
-            self.range_max,
-        ] {
+        for v in self.geometry() {
             w.f32(v);
         }
         w.f32_seq("ranges", &self.ranges)?;
@@ -379,6 +373,21 @@ impl RawLaserScan {
 }
 
 impl RawLaserScan {
+    /// The seven numbers between the header and the ranges, in wire order: `angle_min`,
+    /// `angle_max`, `angle_increment`, `time_increment`, `scan_time`, `range_min`,
+    /// `range_max`.
+    pub fn geometry(&self) -> [f32; 7] {
+        [
+            self.angle_min,
+            self.angle_max,
+            self.angle_increment,
+            self.time_increment,
+            self.scan_time,
+            self.range_min,
+            self.range_max,
+        ]
+    }
+
     /// Interprets the message as a tether scan (see [`LaserScanMsg`]).
     pub fn into_msg(self) -> Result<LaserScanMsg, DecodeError> {
         let scan = LaserScan::with_angle_max(

@@ -1,4 +1,5 @@
-//! Decoders of the ROS 1 messages tether reads from bags.
+//! The ROS 1 form of tether's messages: decoders of what it reads from bags, encoders and
+//! full definitions (with their MD5 sums) of what it writes into them.
 //!
 //! ROS 1 serialisation is plain little-endian: numbers at their natural width, a string
 //! or an array as a `u32` length followed by its elements, nested messages inline.
@@ -85,6 +86,12 @@ impl<'a> Wire<'a> {
         let len = self.u32(field)?;
         let bytes = self.take(field, u64::from(len))?;
         String::from_utf8(bytes.to_vec()).map_err(|_| DecodeError::NotUtf8 { field })
+    }
+
+    /// A `uint8[]`: its `u32` length, then the bytes.
+    fn bytes(&mut self, field: &'static str) -> Result<Vec<u8>, DecodeError> {
+        let len = self.u32(field)?;
+        Ok(self.take(field, u64::from(len))?.to_vec())
     }
 
     fn f32_vec(&mut self, field: &'static str) -> Result<Vec<f32>, DecodeError> {
@@ -227,8 +234,7 @@ impl RosMessage for ImageMsg {
         let encoding = w.string("encoding")?;
         let is_bigendian = w.array::<1>("is_bigendian")?[0];
         let step = w.u32("step")?;
-        let len = w.u32("data")?;
-        let pixels = w.take("data", u64::from(len))?.to_vec();
+        let pixels = w.bytes("data")?;
         w.finish()?;
         Ok(ImageMsg {
             header: Header::new(header.stamp, header.frame_id),
@@ -252,8 +258,7 @@ impl RosMessage for CompressedImageMsg {
         let mut w = Wire::new(data);
         let header = read_header(&mut w)?;
         let format = w.string("format")?;
-        let len = w.u32("data")?;
-        let bytes = w.take("data", u64::from(len))?.to_vec();
+        let bytes = w.bytes("data")?;
         w.finish()?;
         Ok(CompressedImageMsg {
             header: Header::new(header.stamp, header.frame_id),
@@ -330,6 +335,31 @@ macro_rules! section {
         )
     };
 }
+/// `std_msgs/Header` of ROS 1 (with `seq`; the ROS 2 one has none).
+macro_rules! header_section {
+    () => {
+        section!(
+            "std_msgs/Header",
+            "uint32 seq\ntime stamp\nstring frame_id\n"
+        )
+    };
+}
+/// `geometry_msgs/Pose` and the two types it uses, as ROS 1 spells them.
+macro_rules! pose_sections {
+    () => {
+        concat!(
+            section!(
+                "geometry_msgs/Pose",
+                "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n"
+            ),
+            section!("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n"),
+            section!(
+                "geometry_msgs/Quaternion",
+                "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"
+            )
+        )
+    };
+}
 
 /// Appends ROS 1 wire values.
 struct Out<'a>(&'a mut Vec<u8>);
@@ -382,24 +412,13 @@ impl RosMessageOut for RawLaserScan {
         "std_msgs/Header header\nfloat32 angle_min\nfloat32 angle_max\nfloat32 angle_increment\n",
         "float32 time_increment\nfloat32 scan_time\nfloat32 range_min\nfloat32 range_max\n",
         "float32[] ranges\nfloat32[] intensities\n",
-        section!(
-            "std_msgs/Header",
-            "uint32 seq\ntime stamp\nstring frame_id\n"
-        ),
+        header_section!(),
     );
 
     fn encode(&self, out: &mut Vec<u8>) {
         let mut o = Out(out);
         o.header(self.header.seq, self.header.stamp, &self.header.frame_id);
-        for v in [
-            self.angle_min,
-            self.angle_max,
-            self.angle_increment,
-            self.time_increment,
-            self.scan_time,
-            self.range_min,
-            self.range_max,
-        ] {
+        for v in self.geometry() {
             o.f32(v);
         }
         o.f32_array(&self.ranges);
@@ -421,19 +440,8 @@ impl RosMessageOut for LaserScanMsg {
 impl RosMessageOut for PoseArrayMsg {
     const DEFINITION: &'static str = concat!(
         "std_msgs/Header header\ngeometry_msgs/Pose[] poses\n",
-        section!(
-            "std_msgs/Header",
-            "uint32 seq\ntime stamp\nstring frame_id\n"
-        ),
-        section!(
-            "geometry_msgs/Pose",
-            "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n"
-        ),
-        section!("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n"),
-        section!(
-            "geometry_msgs/Quaternion",
-            "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"
-        ),
+        header_section!(),
+        pose_sections!(),
     );
 
     fn encode(&self, out: &mut Vec<u8>) {
@@ -450,23 +458,12 @@ impl RosMessageOut for OdometryMsg {
     const DEFINITION: &'static str = concat!(
         "std_msgs/Header header\nstring child_frame_id\n",
         "geometry_msgs/PoseWithCovariance pose\ngeometry_msgs/TwistWithCovariance twist\n",
-        section!(
-            "std_msgs/Header",
-            "uint32 seq\ntime stamp\nstring frame_id\n"
-        ),
+        header_section!(),
         section!(
             "geometry_msgs/PoseWithCovariance",
             "geometry_msgs/Pose pose\nfloat64[36] covariance\n"
         ),
-        section!(
-            "geometry_msgs/Pose",
-            "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n"
-        ),
-        section!("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n"),
-        section!(
-            "geometry_msgs/Quaternion",
-            "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"
-        ),
+        pose_sections!(),
         section!(
             "geometry_msgs/TwistWithCovariance",
             "geometry_msgs/Twist twist\nfloat64[36] covariance\n"
@@ -530,15 +527,7 @@ impl RosMessage for PersonMsg {
 impl RosMessageOut for PersonMsg {
     const DEFINITION: &'static str = concat!(
         "# Pose of a person\ngeometry_msgs/Pose pose\nuint32 id\n",
-        section!(
-            "geometry_msgs/Pose",
-            "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n"
-        ),
-        section!("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n"),
-        section!(
-            "geometry_msgs/Quaternion",
-            "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"
-        ),
+        pose_sections!(),
     );
 
     fn encode(&self, out: &mut Vec<u8>) {
@@ -566,23 +555,12 @@ impl RosMessage for PersonArrayMsg {
 impl RosMessageOut for PersonArrayMsg {
     const DEFINITION: &'static str = concat!(
         "# Array of person positions\nstd_msgs/Header header\nPerson[] people\n",
-        section!(
-            "std_msgs/Header",
-            "uint32 seq\ntime stamp\nstring frame_id\n"
-        ),
+        header_section!(),
         section!(
             "leg_tracker/Person",
             "# Pose of a person\ngeometry_msgs/Pose pose\nuint32 id\n"
         ),
-        section!(
-            "geometry_msgs/Pose",
-            "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n"
-        ),
-        section!("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n"),
-        section!(
-            "geometry_msgs/Quaternion",
-            "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"
-        ),
+        pose_sections!(),
     );
 
     fn encode(&self, out: &mut Vec<u8>) {

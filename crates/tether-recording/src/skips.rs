@@ -1,7 +1,9 @@
-//! What the container readers share: where a record sits in a chunked file, and the
-//! counted log of what they skipped.
+//! What the container readers share: where a record sits in a chunked file, what they
+//! skipped, and the counted log of it.
 
 use std::fmt;
+
+use tether_msgs::DecodeError;
 
 /// Where in a chunked recording (a ROS 1 bag or an MCAP file) something was found.
 ///
@@ -66,6 +68,27 @@ impl fmt::Display for CutShort {
             write!(f, " of the {} it needs", self.needed)
         }
     }
+}
+
+/// A message record that was skipped because it cannot be attributed to a connection
+/// (ROS 1) or a channel (MCAP), or (MCAP) its times do not fit.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SkippedRecord {
+    /// Where the record is.
+    pub at: Location,
+    /// Why it was skipped.
+    pub reason: String,
+}
+
+/// A message that was skipped because it did not decode.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BadMessage {
+    /// Its topic.
+    pub topic: String,
+    /// Where its record is.
+    pub at: Location,
+    /// Why it did not decode.
+    pub error: DecodeError,
 }
 
 /// How many skipped things are kept with their reasons; all of them are counted.

@@ -24,6 +24,8 @@ use tether_msgs::{
 };
 use tether_recording::rosbag::{Bag, BagWriter};
 
+mod support;
+
 const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/bag_writer_reference.py");
 
 fn md5_of<M: RosMessageOut>() -> String {
@@ -245,19 +247,10 @@ fn a_bag_cut_short_reads_up_to_the_cut() {
 }
 
 fn require_python() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import rosbags.rosbag1"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        let reason = "python3 with the `rosbags` package is not available (pip install rosbags)";
-        assert!(
-            std::env::var("TETHER_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs"
-        );
-        eprintln!("SKIPPED: {reason}");
-    }
-    ok
+    support::have_python(
+        "rosbags.rosbag1",
+        "python3 with the `rosbags` package is not available (pip install rosbags)",
+    )
 }
 
 #[test]
@@ -265,8 +258,10 @@ fn reads_back_with_rosbags() {
     if !require_python() {
         return;
     }
-    let path: PathBuf =
-        std::env::temp_dir().join(format!("tether-io-writer-{}.bag", std::process::id()));
+    let path: PathBuf = std::env::temp_dir().join(format!(
+        "tether-recording-writer-{}.bag",
+        std::process::id()
+    ));
     std::fs::write(&path, write_bag(4096)).unwrap();
     let out = Command::new("python3")
         .arg(SCRIPT)

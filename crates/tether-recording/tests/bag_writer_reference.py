@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reads a bag written by tether-io's BagWriter with the `rosbags` package.
+"""Reads a bag written by tether-recording's BagWriter with the `rosbags` package.
 
   bag_writer_reference.py BAG
       Prints one JSON object: per connection the topic, type, the MD5 sum stored and

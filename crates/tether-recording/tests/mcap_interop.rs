@@ -19,7 +19,6 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use serde_json::Value;
 use tether_core::{Cov2, Gaussian2, GrayImage, LaserScan, Point2, Pose2, Robot, Stamp, World};
@@ -30,45 +29,27 @@ use tether_msgs::{
 };
 use tether_recording::mcap::{McapFile, McapWriter, RawMessage};
 
+mod support;
+
 const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/mcap_reference.py");
 
 type Flat = BTreeMap<String, String>;
 
 /// Skips (prints the reason) or, when `TETHER_REQUIRE_SHARED=1`, fails.
 fn have_python() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import mcap, mcap_ros2, rosbags, numpy, lz4"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        let reason = "python3 with `mcap`, `mcap-ros2-support` and `rosbags` is not available \
-                      (python3 -m pip install mcap mcap-ros2-support rosbags)";
-        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-        }
-        eprintln!("SKIPPED: {reason}");
-    }
-    ok
+    support::have_python(
+        "mcap, mcap_ros2, rosbags, numpy, lz4",
+        "python3 with `mcap`, `mcap-ros2-support` and `rosbags` is not available \
+         (python3 -m pip install mcap mcap-ros2-support rosbags)",
+    )
 }
 
 fn scratch_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tether-io-mcap-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    support::scratch_dir(&format!("mcap-{name}"))
 }
 
 fn python(args: &[&str]) {
-    let out = Command::new("python3")
-        .arg(SCRIPT)
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "python3 {SCRIPT} {args:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    support::python(SCRIPT, args);
 }
 
 fn jsonl(path: &Path) -> Vec<Value> {

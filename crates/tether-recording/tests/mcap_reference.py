@@ -1,4 +1,4 @@
-"""Independent MCAP readers and writers for tether-io's interoperability tests (issue 7).
+"""Independent MCAP readers and writers for tether-recording's interoperability tests (issue 7).
 
 Usage:
   mcap_reference.py write-mcap OUT.mcap zstd|lz4|none VALUES.jsonl

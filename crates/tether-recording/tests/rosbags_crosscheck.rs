@@ -18,22 +18,17 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use serde_json::Value;
 use tether_core::Laser;
 use tether_msgs::{LaserScanMsg, PoseArrayMsg, RawLaserScan};
 use tether_recording::rosbag::Bag;
 
-const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/rosbags_reference.py");
+mod support;
 
-/// Skips (prints the reason) or, when `TETHER_REQUIRE_SHARED=1`, fails.
-fn skip(reason: &str) {
-    if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-        panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-    }
-    eprintln!("SKIPPED: {reason}");
-}
+use support::{scratch_dir, skip};
+
+const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/rosbags_reference.py");
 
 fn data_dir() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/laser/leg_tracker");
@@ -49,33 +44,14 @@ fn data_dir() -> Option<PathBuf> {
 }
 
 fn have_rosbags() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import rosbags.rosbag1, numpy"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        skip("python3 with the `rosbags` package is not available (pip install rosbags)");
-    }
-    ok
-}
-
-fn scratch_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tether-io-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    support::have_python(
+        "rosbags.rosbag1, numpy",
+        "python3 with the `rosbags` package is not available (pip install rosbags)",
+    )
 }
 
 fn python(args: &[&str]) {
-    let out = Command::new("python3")
-        .arg(SCRIPT)
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "python3 {SCRIPT} {args:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    support::python(SCRIPT, args);
 }
 
 /// What rosbags reads, in its order (by record time; these recordings were written in
@@ -113,7 +89,7 @@ fn hex(bytes: impl IntoIterator<Item = u8>) -> String {
     bytes.into_iter().map(|b| format!("{b:02x}")).collect()
 }
 
-/// Compares what tether-io reads from `bag` with the rosbags reference; returns the
+/// Compares what tether-recording reads from `bag` with the rosbags reference; returns the
 /// number of messages compared.
 fn compare(bag_path: &Path, reference: &Reference) -> usize {
     let name = bag_path.display();

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reference reader for tether-io's cross-check test, using the `rosbags` package.
+"""Reference reader for tether-recording's cross-check test, using the `rosbags` package.
 
   rosbags_reference.py dump BAG OUT.jsonl
       One JSON line per message of BAG, per topic in bag order: topic, record time and,

@@ -1,7 +1,7 @@
 //! tether's own CDR messages on DDS.
 //!
 //! Every ROS 2 message tether knows has one definition: the type in
-//! `tether_recording::mcap::msgs` with its hand-written CDR codec, checked byte for byte
+//! `tether_msgs` with its hand-written CDR codec, checked byte for byte
 //! against Python `rosbags`. The MCAP reader and writer use it, and so does the live
 //! node, through [`Wire`].
 //!

@@ -324,15 +324,7 @@ impl ReplyParser {
             // A SCIP 1.1 sensor answers `SCIP2.0` with a bare `0`.
             [b'0'] if request.command == Command::Scip20 => Status::OK,
             [a, b, sum] => {
-                let expected = checksum(&[*a, *b]);
-                if expected != *sum {
-                    return Err(ReplyFault::Checksum {
-                        command: symbol,
-                        line: 1,
-                        expected: char::from(expected),
-                        found: char::from(*sum),
-                    });
-                }
+                check_line(symbol, 1, &[*a, *b], *sum)?;
                 Status([*a, *b])
             }
             other => {
@@ -350,12 +342,7 @@ impl ReplyParser {
                 Ok(Reply::Fields { request, fields })
             }
             (Command::Time(TimeMode::Request), StatusKind::Ok) => {
-                let line = lines.next().ok_or_else(|| ReplyFault::BadLine {
-                    command: symbol,
-                    line: 2,
-                    problem: "time line missing".into(),
-                })?;
-                let sensor_ms = timestamp(symbol, 2, line)?;
+                let sensor_ms = second_line_timestamp(symbol, lines.next(), "time line")?;
                 Ok(Reply::Time {
                     tag: request.tag,
                     sensor_ms,
@@ -385,12 +372,7 @@ impl ReplyParser {
         tag: Option<String>,
         mut lines: impl Iterator<Item = &'a [u8]>,
     ) -> Result<ScanReply, ReplyFault> {
-        let stamp_line = lines.next().ok_or_else(|| ReplyFault::BadLine {
-            command: symbol,
-            line: 2,
-            problem: "time stamp line missing".into(),
-        })?;
-        let timestamp_ms = timestamp(symbol, 2, stamp_line)?;
+        let timestamp_ms = second_line_timestamp(symbol, lines.next(), "time stamp line")?;
         let block = &mut self.scratch;
         block.clear();
         for (i, line) in lines.enumerate() {
@@ -412,15 +394,7 @@ impl ReplyParser {
                     ),
                 });
             }
-            let expected = checksum(data);
-            if expected != sum {
-                return Err(ReplyFault::Checksum {
-                    command: symbol,
-                    line: index,
-                    expected: char::from(expected),
-                    found: char::from(sum),
-                });
-            }
+            check_line(symbol, index, data, sum)?;
             block.extend_from_slice(data);
         }
         let expected = request.value_count();
@@ -450,6 +424,35 @@ impl ReplyParser {
 }
 
 /// A 4-character time stamp line with its check character.
+/// Line `index` of a reply: `data` must have the check character `sum`.
+fn check_line(symbol: &'static str, index: usize, data: &[u8], sum: u8) -> Result<(), ReplyFault> {
+    let expected = checksum(data);
+    if expected == sum {
+        Ok(())
+    } else {
+        Err(ReplyFault::Checksum {
+            command: symbol,
+            line: index,
+            expected: char::from(expected),
+            found: char::from(sum),
+        })
+    }
+}
+
+/// The time stamp on line 2 of a reply (`what` names the line when it is missing).
+fn second_line_timestamp(
+    symbol: &'static str,
+    line: Option<&[u8]>,
+    what: &str,
+) -> Result<u32, ReplyFault> {
+    let line = line.ok_or_else(|| ReplyFault::BadLine {
+        command: symbol,
+        line: 2,
+        problem: format!("{what} missing"),
+    })?;
+    timestamp(symbol, 2, line)
+}
+
 fn timestamp(symbol: &'static str, index: usize, line: &[u8]) -> Result<u32, ReplyFault> {
     let [a, b, c, d, sum] = line else {
         return Err(ReplyFault::BadLine {
@@ -459,15 +462,7 @@ fn timestamp(symbol: &'static str, index: usize, line: &[u8]) -> Result<u32, Rep
         });
     };
     let chars = [*a, *b, *c, *d];
-    let expected = checksum(&chars);
-    if expected != *sum {
-        return Err(ReplyFault::Checksum {
-            command: symbol,
-            line: index,
-            expected: char::from(expected),
-            found: char::from(*sum),
-        });
-    }
+    check_line(symbol, index, &chars, *sum)?;
     decode(&chars).ok_or_else(|| ReplyFault::BadLine {
         command: symbol,
         line: index,
@@ -494,15 +489,7 @@ fn parse_fields<'a>(
                 "field line does not end with `;` and a check character",
             ));
         };
-        let expected = checksum(text);
-        if expected != *sum {
-            return Err(ReplyFault::Checksum {
-                command: symbol,
-                line: index,
-                expected: char::from(expected),
-                found: char::from(*sum),
-            });
-        }
+        check_line(symbol, index, text, *sum)?;
         let colon = text
             .iter()
             .position(|&b| b == b':')
@@ -707,6 +694,14 @@ mod tests {
 
     use proptest::prelude::*;
 
+    /// Parsing `bytes` cut at `cuts` gives what parsing them whole gives.
+    fn splits_do_not_matter(bytes: &[u8], mut cuts: Vec<usize>) -> Result<(), TestCaseError> {
+        cuts.sort_unstable();
+        let whole = parse_all(bytes);
+        prop_assert_eq!(parse_in_pieces(bytes, &cuts), whole);
+        Ok(())
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(400))]
 
@@ -715,21 +710,17 @@ mod tests {
         #[test]
         fn random_bytes_never_panic_and_splits_do_not_matter(
             bytes in proptest::collection::vec(any::<u8>(), 0..3000),
-            mut cuts in proptest::collection::vec(0usize..3000, 0..6),
+            cuts in proptest::collection::vec(0usize..3000, 0..6),
         ) {
-            cuts.sort_unstable();
-            let whole = parse_all(&bytes);
-            prop_assert_eq!(parse_in_pieces(&bytes, &cuts), whole);
+            splits_do_not_matter(&bytes, cuts)?;
         }
 
         #[test]
         fn scip_like_bytes_never_panic_and_splits_do_not_matter(
             bytes in scip_like(),
-            mut cuts in proptest::collection::vec(0usize..5000, 0..6),
+            cuts in proptest::collection::vec(0usize..5000, 0..6),
         ) {
-            cuts.sort_unstable();
-            let whole = parse_all(&bytes);
-            prop_assert_eq!(parse_in_pieces(&bytes, &cuts), whole);
+            splits_do_not_matter(&bytes, cuts)?;
         }
 
         /// A damaged scan is dropped or decoded, never a panic; the good scan after it

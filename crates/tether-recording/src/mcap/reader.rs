@@ -21,6 +21,7 @@ use tether_msgs::{DecodeError, Ros2Message, from_cdr, type_matches};
 
 use super::error::{CutShort, Location, McapError};
 use crate::skips::Skips;
+pub use crate::skips::{BadMessage, SkippedRecord};
 
 /// The magic at both ends of an MCAP file.
 pub const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
@@ -151,27 +152,6 @@ pub struct Message<M> {
     pub at: Location,
     /// The message.
     pub message: M,
-}
-
-/// A message record that was skipped because it cannot be attributed to a channel or
-/// its times do not fit.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct SkippedRecord {
-    /// Where the record is.
-    pub at: Location,
-    /// Why it was skipped.
-    pub reason: String,
-}
-
-/// A message that was skipped because it did not decode.
-#[derive(Debug, Clone, PartialEq)]
-pub struct BadMessage {
-    /// Its topic.
-    pub topic: String,
-    /// Where its record is.
-    pub at: Location,
-    /// Why it did not decode.
-    pub error: DecodeError,
 }
 
 /// An open MCAP file, held in memory.

@@ -15,6 +15,7 @@ use tether_msgs::{DecodeError, RosMessage};
 use super::error::{BagError, CutShort, Location};
 use super::record::{Fields, MAGIC, Op};
 use crate::skips::Skips;
+pub use crate::skips::{BadMessage, SkippedRecord};
 
 /// One connection of a bag: a topic with its message type, as the recorder saw it.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -88,26 +89,6 @@ impl RawMessage {
     }
 }
 
-/// A message record that was skipped because it cannot be attributed to a connection.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct SkippedRecord {
-    /// Where the record is.
-    pub at: Location,
-    /// Why it was skipped.
-    pub reason: String,
-}
-
-/// A message that was skipped because it did not decode.
-#[derive(Debug, Clone, PartialEq)]
-pub struct BadMessage {
-    /// Its topic.
-    pub topic: String,
-    /// Where its record is.
-    pub at: Location,
-    /// Why it did not decode.
-    pub error: DecodeError,
-}
-
 /// A decoded message with where and when it was recorded.
 #[derive(Debug, Clone)]
 pub struct BagMessage<M> {
@@ -154,12 +135,7 @@ pub struct Bag<R> {
 impl Bag<BufReader<File>> {
     /// Opens the bag at `path` and reads its header and index.
     pub fn open(path: impl AsRef<Path>) -> Result<Self, BagError> {
-        let path = path.as_ref();
-        let file = File::open(path).map_err(|source| BagError::Open {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Bag::from_reader(BufReader::with_capacity(1 << 16, file))
+        Bag::from_reader(open_buffered(path.as_ref())?)
     }
 
     /// Opens the bag at `path` like [`Bag::open`], but a bag whose index is missing or
@@ -167,13 +143,17 @@ impl Bag<BufReader<File>> {
     /// its records from the start instead of being refused; see
     /// [`Bag::from_reader_salvaging`].
     pub fn open_salvaging(path: impl AsRef<Path>) -> Result<Self, BagError> {
-        let path = path.as_ref();
-        let file = File::open(path).map_err(|source| BagError::Open {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Bag::from_reader_salvaging(BufReader::with_capacity(1 << 16, file))
+        Bag::from_reader_salvaging(open_buffered(path.as_ref())?)
     }
+}
+
+/// The file at `path`, buffered for reading records.
+fn open_buffered(path: &Path) -> Result<BufReader<File>, BagError> {
+    let file = File::open(path).map_err(|source| BagError::Open {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(BufReader::with_capacity(1 << 16, file))
 }
 
 /// A record's header as found in the file.
@@ -1040,15 +1020,16 @@ mod tests {
         let mut out = Vec::new();
         for i in 0..6i64 {
             let t = 1_000_000_000 + i * 100_000_000;
-            out.push((1, t, testbag::pose_array(0, "laser", &[(i as f64, 0.5)])));
+            out.push((1, t, testbag::pose_array(i as f64, 0.5)));
             let ranges: Vec<f32> = (0..9).map(|b| 1.0 + 0.1 * b as f32 + i as f32).collect();
-            out.push((
-                0,
-                t + 1,
-                testbag::laser_scan(t - 5, "laser", -1.0, 0.25, &ranges),
-            ));
+            out.push((0, t + 1, testbag::laser_scan(t - 5, &ranges)));
         }
         out
+    }
+
+    /// The error the first message of a bag that opens gives.
+    fn first_error(bytes: &[u8]) -> BagError {
+        open(bytes).unwrap().messages().next().unwrap().unwrap_err()
     }
 
     fn open(bytes: &[u8]) -> Result<Bag<Cursor<&[u8]>>, BagError> {
@@ -1152,12 +1133,7 @@ mod tests {
             bomb.claimed_size = Some(u32::MAX);
             let bytes = bomb.build();
             let started = std::time::Instant::now();
-            let err = open(&bytes)
-                .unwrap()
-                .messages()
-                .next()
-                .unwrap()
-                .unwrap_err();
+            let err = first_error(&bytes);
             assert!(err.to_string().contains("256 MiB"), "{compression}: {err}");
             assert!(started.elapsed().as_secs() < 2);
         }
@@ -1220,12 +1196,7 @@ mod tests {
     #[test]
     fn names_bad_chunks() {
         let bytes = TestBag::scans_and_labels(messages(), "zstd", 100).build();
-        let err = open(&bytes)
-            .unwrap()
-            .messages()
-            .next()
-            .unwrap()
-            .unwrap_err();
+        let err = first_error(&bytes);
         assert!(
             matches!(&err, BagError::UnsupportedCompression { at: 4109, compression } if compression == "zstd"),
             "{err}"
@@ -1257,12 +1228,7 @@ mod tests {
         let op_at = chunk_data + 4 + 4 + 3;
         assert_eq!(bytes[op_at], 0x07);
         bytes[op_at] = 0x09;
-        let err = open(&bytes)
-            .unwrap()
-            .messages()
-            .next()
-            .unwrap()
-            .unwrap_err();
+        let err = first_error(&bytes);
         assert_eq!(
             err.to_string(),
             "bag is corrupt: record at byte 0 of the uncompressed data of the chunk at \

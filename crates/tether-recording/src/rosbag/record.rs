@@ -158,6 +158,14 @@ impl Fields {
     }
 }
 
+/// Appends a header field `field_len: u32 LE | name=value`.
+pub(crate) fn field(out: &mut Vec<u8>, name: &str, value: &[u8]) {
+    out.extend(((name.len() + 1 + value.len()) as u32).to_le_bytes());
+    out.extend(name.as_bytes());
+    out.push(b'=');
+    out.extend(value);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,6 +3,9 @@
 
 use std::io::Write;
 
+use super::record::field;
+use super::writer;
+
 use tether_core::Stamp;
 use tether_msgs::{
     Header, LaserScanMsg, Pose3, PoseArrayMsg, RawLaserScan, RosMessage, RosMessageOut,
@@ -26,25 +29,12 @@ pub(crate) struct TestBag {
     pub claimed_size: Option<u32>,
 }
 
-fn field(out: &mut Vec<u8>, name: &str, value: &[u8]) {
-    out.extend(((name.len() + 1 + value.len()) as u32).to_le_bytes());
-    out.extend(name.as_bytes());
-    out.push(b'=');
-    out.extend(value);
-}
-
 fn time(ns: i64) -> [u8; 8] {
-    let mut b = [0u8; 8];
-    b[..4].copy_from_slice(&((ns / 1_000_000_000) as u32).to_le_bytes());
-    b[4..].copy_from_slice(&((ns % 1_000_000_000) as u32).to_le_bytes());
-    b
+    writer::time_bytes(Stamp::from_ns(ns)).unwrap()
 }
 
 fn record(out: &mut Vec<u8>, header: &[u8], data: &[u8]) {
-    out.extend((header.len() as u32).to_le_bytes());
-    out.extend(header);
-    out.extend((data.len() as u32).to_le_bytes());
-    out.extend(data);
+    writer::record(out, header, data).unwrap();
 }
 
 impl TestConnection {
@@ -176,56 +166,42 @@ impl TestBag {
             }
             record(&mut out, &h, &d);
         }
-        let mut h = Vec::new();
-        field(&mut h, "op", &[0x03]);
-        field(&mut h, "index_pos", &index_pos.to_le_bytes());
-        field(
-            &mut h,
-            "conn_count",
-            &(self.connections.len() as u32).to_le_bytes(),
-        );
-        field(
-            &mut h,
-            "chunk_count",
-            &(chunk_infos.len() as u32).to_le_bytes(),
-        );
-        let padding = 4096 - 4 - h.len() - 4;
-        let mut header_record = Vec::new();
-        record(&mut header_record, &h, &vec![b' '; padding]);
+        let header_record = writer::bag_header_record(
+            index_pos,
+            self.connections.len() as u32,
+            chunk_infos.len() as u32,
+        )
+        .unwrap();
         out[header_at..header_at + 4096].copy_from_slice(&header_record);
         out
     }
 }
 
-/// A PoseArray payload of points on the x-y plane with identity orientation (header
-/// sequence number 0).
-pub(crate) fn pose_array(stamp_ns: i64, frame_id: &str, xy: &[(f64, f64)]) -> Vec<u8> {
+/// A PoseArray payload of one point `(x, y)` on the plane of frame `laser`, identity
+/// orientation, at stamp 0 (header sequence number 0).
+pub(crate) fn pose_array(x: f64, y: f64) -> Vec<u8> {
     let msg = PoseArrayMsg {
-        header: Header::new(Stamp::from_ns(stamp_ns), frame_id),
-        poses: xy.iter().map(|&(x, y)| Pose3::planar(x, y, 0.0)).collect(),
+        header: Header::new(Stamp::ZERO, "laser"),
+        poses: vec![Pose3::planar(x, y, 0.0)],
     };
     let mut out = Vec::new();
     msg.encode(&mut out);
     out
 }
 
-/// A LaserScan payload with the given geometry and ranges (header sequence number 7).
-pub(crate) fn laser_scan(
-    stamp_ns: i64,
-    frame_id: &str,
-    angle_min: f32,
-    angle_increment: f32,
-    ranges: &[f32],
-) -> Vec<u8> {
+/// A LaserScan payload in frame `laser` from -1 rad in steps of 0.25 rad (header
+/// sequence number 7). Written with the codec, where tether-msgs' own tests write bytes
+/// by hand to check it.
+pub(crate) fn laser_scan(stamp_ns: i64, ranges: &[f32]) -> Vec<u8> {
     let raw = RawLaserScan {
         header: Header {
             seq: 7,
             stamp: Stamp::from_ns(stamp_ns),
-            frame_id: frame_id.into(),
+            frame_id: "laser".into(),
         },
-        angle_min,
-        angle_max: angle_min + angle_increment * (ranges.len() as f32 - 1.0),
-        angle_increment,
+        angle_min: -1.0,
+        angle_max: -1.0 + 0.25 * (ranges.len() as f32 - 1.0),
+        angle_increment: 0.25,
         time_increment: 1e-4,
         scan_time: 0.1,
         range_min: 0.02,

@@ -22,7 +22,7 @@ use thiserror::Error;
 
 use tether_msgs::{DefinitionError, RosMessageOut, definition_md5};
 
-use super::record::MAGIC;
+use super::record::{MAGIC, field};
 
 /// Bytes the bag header record takes, padding included (as rosbag reserves).
 const HEADER_RECORD_LEN: usize = 4096;
@@ -127,15 +127,8 @@ pub struct BagWriter<W: Write + Seek> {
     scratch: Vec<u8>,
 }
 
-fn field(out: &mut Vec<u8>, name: &str, value: &[u8]) {
-    out.extend(((name.len() + 1 + value.len()) as u32).to_le_bytes());
-    out.extend(name.as_bytes());
-    out.push(b'=');
-    out.extend(value);
-}
-
 /// A ROS time as a bag stores it: `sec: u32, nsec: u32`.
-fn time_bytes(t: Stamp) -> Result<[u8; 8], BagWriteError> {
+pub(super) fn time_bytes(t: Stamp) -> Result<[u8; 8], BagWriteError> {
     let ns = t.ns();
     if ns < 0 || ns / NS_PER_S > i64::from(u32::MAX) {
         return Err(BagWriteError::TimeOutOfRange(t));
@@ -151,7 +144,25 @@ fn len_u32(what: &'static str, len: usize) -> Result<u32, BagWriteError> {
 }
 
 /// Appends a record: header length, header, data length, data.
-fn record(out: &mut Vec<u8>, header: &[u8], data: &[u8]) -> Result<(), BagWriteError> {
+/// The bag header record (`op` 0x03) pointing at the index, padded with spaces to
+/// [`HEADER_RECORD_LEN`] bytes as `rosbag record` writes it.
+pub(super) fn bag_header_record(
+    index_pos: u64,
+    conn_count: u32,
+    chunk_count: u32,
+) -> Result<Vec<u8>, BagWriteError> {
+    let mut h = Vec::new();
+    field(&mut h, "op", &[0x03]);
+    field(&mut h, "index_pos", &index_pos.to_le_bytes());
+    field(&mut h, "conn_count", &conn_count.to_le_bytes());
+    field(&mut h, "chunk_count", &chunk_count.to_le_bytes());
+    let mut header = Vec::with_capacity(HEADER_RECORD_LEN);
+    let padding = HEADER_RECORD_LEN - 4 - h.len() - 4;
+    record(&mut header, &h, &vec![b' '; padding])?;
+    Ok(header)
+}
+
+pub(super) fn record(out: &mut Vec<u8>, header: &[u8], data: &[u8]) -> Result<(), BagWriteError> {
     out.extend(len_u32("record header", header.len())?.to_le_bytes());
     out.extend(header);
     out.extend(len_u32("record", data.len())?.to_le_bytes());
@@ -349,22 +360,11 @@ impl<W: Write + Seek> BagWriter<W> {
             record(&mut out, &h, &d)?;
         }
         self.out.write_all(&out)?;
-        let mut h = Vec::new();
-        field(&mut h, "op", &[0x03]);
-        field(&mut h, "index_pos", &index_pos.to_le_bytes());
-        field(
-            &mut h,
-            "conn_count",
-            &len_u32("connections", self.connections.len())?.to_le_bytes(),
-        );
-        field(
-            &mut h,
-            "chunk_count",
-            &len_u32("chunks", self.chunks.len())?.to_le_bytes(),
-        );
-        let mut header = Vec::with_capacity(HEADER_RECORD_LEN);
-        let padding = HEADER_RECORD_LEN - 4 - h.len() - 4;
-        record(&mut header, &h, &vec![b' '; padding])?;
+        let header = bag_header_record(
+            index_pos,
+            len_u32("connections", self.connections.len())?,
+            len_u32("chunks", self.chunks.len())?,
+        )?;
         self.out.seek(SeekFrom::Start(MAGIC.len() as u64))?;
         self.out.write_all(&header)?;
         self.out.seek(SeekFrom::End(0))?;
