@@ -1,13 +1,14 @@
 //! The MCAP reader on arbitrary files: opening (summary, or the linear scan of a file
 //! without one), walking every record and chunk (zstd and lz4 under the size caps of
-//! `tether_recording::limits`) and decoding every message as a scan must never panic, and a
-//! walk yields at most one error, as its last item.
+//! `tether_recording::limits`) and decoding every message as a scan and as an image
+//! (converted to grey) must never panic, and a walk yields at most one error, as its last
+//! item.
 
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
+use tether_msgs::{ImageMsg, LaserScanMsg};
 use tether_recording::mcap::{MAGIC, McapFile};
-use tether_msgs::LaserScanMsg;
 
 fuzz_target!(|data: &[u8]| {
     let mut bytes = Vec::with_capacity(data.len() + 8);
@@ -32,5 +33,8 @@ fuzz_target!(|data: &[u8]| {
     let names: Vec<&str> = topics.iter().map(String::as_str).collect();
     for m in file.decoded::<LaserScanMsg>(&names) {
         let _ = m;
+    }
+    for m in file.decoded::<ImageMsg>(&names).take(10_000) {
+        let _ = m.map(|m| m.message.to_gray());
     }
 });

@@ -5,7 +5,11 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use tether_msgs::{ClockMsg, CompressedImageMsg, Detection2DArrayMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg, OdometryMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, Ros2Message, StringMsg, TfMessage, TwistMsg, TwistStampedMsg, from_cdr, to_cdr};
+use tether_msgs::{
+    ClockMsg, CompressedImageMsg, Detection2DArrayMsg, ImageMsg, LaserScanMsg, MarkerArrayMsg,
+    OdometryMsg, PoseArrayMsg, PoseWithCovarianceStampedMsg, Ros2Message, StringMsg, TfMessage,
+    TwistMsg, TwistStampedMsg, from_cdr, to_cdr,
+};
 
 fn check<M: Ros2Message>(payload: &[u8]) {
     if let Ok(msg) = from_cdr::<M>(payload) {

@@ -8,8 +8,8 @@
 use std::io::Cursor;
 
 use libfuzzer_sys::fuzz_target;
-use tether_recording::rosbag::{Bag, BagError};
 use tether_msgs::{LaserScanMsg, OdometryMsg, PersonArrayMsg, PoseArrayMsg};
+use tether_recording::rosbag::{Bag, BagError};
 
 fn walk(bag: Result<Bag<Cursor<&[u8]>>, BagError>) {
     let Ok(mut bag) = bag else {
