@@ -794,7 +794,7 @@ mod tests {
                 1..6,
             ),
         ) {
-            // Parallel to the other parsers' damage tests (tether-io, tether-ros2, track)
+            // Parallel to the other parsers' damage tests (tether-recording, tether-ros2, track)
             // on purpose: the crates share no test support.
             let mut bytes = DEFAULT_MODEL_JSON.as_bytes().to_vec();
             for (at, byte, op) in edits {

@@ -383,7 +383,7 @@ mod tests {
                 1..6,
             ),
         ) {
-            // Parallel to the other parsers' damage tests (tether-io, tether-ros2,
+            // Parallel to the other parsers' damage tests (tether-recording, tether-ros2,
             // tether-laser) on purpose: the crates share no test support.
             let mut text: Vec<char> = defaults().chars().collect();
             for (at, c, op) in edits {
