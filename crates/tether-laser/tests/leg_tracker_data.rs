@@ -26,19 +26,7 @@ use tether_laser::training::*;
 use tether_laser::{DetectorConfig, LegClassifier, LegDetector};
 
 fn data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/laser/leg_tracker");
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    let reason = format!(
-        "{} is absent (it sits beside the checkout for developers and CI)",
-        dir.display()
-    );
-    if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-        panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-    }
-    eprintln!("SKIPPED: {reason}");
-    None
+    tether_testkit::shared("data/laser/leg_tracker")
 }
 
 type Labelled = Vec<(LaserScan, Vec<Point2<Laser>>)>;

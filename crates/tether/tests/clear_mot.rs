@@ -117,19 +117,11 @@ fn sequence(seed: u64, frames: usize, n: usize) -> Vec<Frame> {
 }
 
 fn have_motmetrics() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import motmetrics"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        let reason = "python3 with `motmetrics` is not available (pip install motmetrics)";
-        assert!(
-            std::env::var("TETHER_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs"
-        );
-        eprintln!("SKIPPED: {reason}");
-    }
-    ok
+    tether_testkit::or_skip(tether_testkit::python_modules(
+        &["motmetrics"],
+        "motmetrics",
+    ))
+    .is_some()
 }
 
 #[test]

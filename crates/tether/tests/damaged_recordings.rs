@@ -23,24 +23,9 @@ use std::process::{Command, Output, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use common::{scratch, tether, text};
+use common::{leg_tracker, scratch, tether, text};
 use tether_core::Stamp;
 use tether_io::rosbag::{BagWriter, Header, RawLaserScan};
-
-fn leg_tracker(name: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/laser/leg_tracker")
-        .join(name);
-    if path.is_file() {
-        return Some(path);
-    }
-    let reason = format!("{} is missing", path.display());
-    if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-        panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-    }
-    eprintln!("SKIPPED: {reason}");
-    None
-}
 
 fn p(path: &Path) -> &str {
     path.to_str().unwrap()

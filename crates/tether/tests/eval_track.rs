@@ -252,22 +252,6 @@ fn refuses_a_labels_topic_that_is_not_labels() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-fn shared_bag(name: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/laser/leg_tracker")
-        .join(name);
-    if p.is_file() {
-        return Some(p);
-    }
-    let reason = format!("{} is absent (it sits beside the checkout)", p.display());
-    assert!(
-        std::env::var("TETHER_REQUIRE_SHARED").as_deref() != Ok("1"),
-        "{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs"
-    );
-    eprintln!("SKIPPED: {reason}");
-    None
-}
-
 #[test]
 fn leg_tracker_test_split() {
     // (bag, labelled scans, stretches)
@@ -275,7 +259,7 @@ fn leg_tracker_test_split() {
         ("positive_6_extracted.bag", 187, 3),
         ("positive_7_extracted.bag", 267, 4),
     ] {
-        let Some(bag) = shared_bag(name) else {
+        let Some(bag) = common::leg_tracker(name) else {
             return;
         };
         let dir = scratch(&format!("eval-track-{name}"));

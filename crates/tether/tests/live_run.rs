@@ -19,6 +19,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use common::{scratch, tether, text};
+use tether_testkit::{opencv_cascade, or_skip};
 
 /// A child process killed when the test ends, however it ends.
 struct Proc {
@@ -523,26 +524,11 @@ fn run_names_the_wrong_key_of_its_config() {
     }
 }
 
-/// Skips (printing why) unless `TETHER_REQUIRE_SHARED=1` demands the test.
-fn skip_unless(ok: bool, reason: &str) -> bool {
-    if !ok {
-        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-        }
-        eprintln!("skipped: {reason}");
-    }
-    ok
-}
-
 #[test]
 fn camera_frames_from_a_folder_reach_the_pipeline() {
-    let cascade = Path::new("/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml");
-    if !skip_unless(
-        cascade.is_file(),
-        "Debian's opencv-data cascades are not installed",
-    ) {
+    let Some(cascade) = or_skip(opencv_cascade("haarcascade_upperbody.xml")) else {
         return;
-    }
+    };
     let dir = scratch("live-camera");
     let frames = dir.join("frames");
     std::fs::create_dir_all(&frames).unwrap();
@@ -644,13 +630,9 @@ cascade = "{}"
 
 #[test]
 fn a_bad_camera_frame_is_skipped_and_a_dead_camera_leaves_the_laser_in_charge() {
-    let cascade = Path::new("/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml");
-    if !skip_unless(
-        cascade.is_file(),
-        "Debian's opencv-data cascades are not installed",
-    ) {
+    let Some(cascade) = or_skip(opencv_cascade("haarcascade_upperbody.xml")) else {
         return;
-    }
+    };
     // Two good frames around a truncated one and one of the wrong size: the two bad
     // ones are skipped and counted, the camera goes on to its last frame.
     let dir = scratch("live-bad-frame");
@@ -664,7 +646,7 @@ fn a_bad_camera_frame_is_skipped_and_a_dead_camera_leaves_the_laser_in_charge() 
     write_png(&frames.join("frame3.png"), 640, 480, 30);
     let (mut emu, pty) = emulator(&dir);
     let feed = emu.child.stdin.take().unwrap();
-    let config = config_with(&dir, &pty, &camera_section(&frames, cascade, 10.0, false));
+    let config = config_with(&dir, &pty, &camera_section(&frames, &cascade, 10.0, false));
     let (mut first, _) = run(&dir, &config, &["--duration", "2"], feed);
     let status = first.wait_for(Duration::from_secs(60)).unwrap();
     let stderr = first.stderr();
@@ -684,7 +666,7 @@ fn a_bad_camera_frame_is_skipped_and_a_dead_camera_leaves_the_laser_in_charge() 
     std::fs::write(frames.join("frame0.png"), &whole[..whole.len() / 3]).unwrap();
     let (mut emu, pty) = emulator(&dir);
     let feed = emu.child.stdin.take().unwrap();
-    let config = config_with(&dir, &pty, &camera_section(&frames, cascade, 30.0, true));
+    let config = config_with(&dir, &pty, &camera_section(&frames, &cascade, 30.0, true));
     let (mut second, lines) = run(&dir, &config, &["--duration", "8"], feed);
     let status = second.wait_for(Duration::from_secs(90)).unwrap();
     let stderr = second.stderr();

@@ -28,13 +28,10 @@ fn chromium() -> Option<&'static str> {
 /// Chromium, or `None` (and the test skips, unless `TETHER_REQUIRE_SHARED=1`).
 fn chromium_or_skip() -> Option<&'static str> {
     let browser = chromium();
-    if browser.is_none() {
-        assert!(
-            std::env::var("TETHER_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "no Chromium (apt-get install chromium); TETHER_REQUIRE_SHARED=1 demands that this test runs"
-        );
-        eprintln!("SKIPPED: no Chromium found (apt-get install chromium)");
-    }
+    tether_testkit::skip_unless(
+        browser.is_some(),
+        "no Chromium found (apt-get install chromium)",
+    );
     browser
 }
 

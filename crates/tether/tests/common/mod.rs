@@ -13,17 +13,37 @@ pub fn tether(args: &[&str]) -> Output {
         .expect("the tether binary runs")
 }
 
-/// A fresh folder under the temporary directory, unique to this process and `name`.
-pub fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tether-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("the temporary directory is writable");
-    dir
+#[allow(unused_imports, reason = "each test file uses a part")]
+pub use tether_testkit::{scratch, text};
+
+/// `name` in leg_tracker's recordings under `../shared`, or `None` after a printed
+/// reason (a failure under `TETHER_REQUIRE_SHARED=1`).
+pub fn leg_tracker(name: &str) -> Option<PathBuf> {
+    tether_testkit::shared(&format!("data/laser/leg_tracker/{name}"))
 }
 
-/// Output bytes as text.
-pub fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
+/// `tether COMMAND RECORDING --scan-topic TOPIC EXTRA... --out OUT` (`track`, `replay`).
+pub fn on_recording(
+    command: &str,
+    recording: &Path,
+    topic: &str,
+    extra: &[&str],
+    out: &Path,
+) -> Output {
+    let mut args = vec![
+        command,
+        recording.to_str().expect("a UTF-8 path"),
+        "--scan-topic",
+        topic,
+    ];
+    args.extend(extra);
+    args.extend(["--out", out.to_str().expect("a UTF-8 path")]);
+    tether(&args)
+}
+
+/// `configs/robot.example.toml`, the robot config the README documents.
+pub fn example_config() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robot.example.toml")
 }
 
 /// A simulated laser-only `corridor` run of `seconds` (seed 1) as a ROS 1 bag
