@@ -164,6 +164,18 @@ fn violations(members: &BTreeSet<String>, arrows: &[Arrow]) -> Vec<String> {
     out
 }
 
+/// One package of `cargo metadata`'s JSON: `name` and its dependencies with their kind
+/// (`None` for a normal one, `"dev"`, `"build"`).
+fn crate_json(name: &str, deps: &[(&str, Option<&str>)]) -> Value {
+    serde_json::json!({
+        "name": name,
+        "dependencies": deps
+            .iter()
+            .map(|(to, kind)| serde_json::json!({"name": to, "kind": kind}))
+            .collect::<Vec<_>>(),
+    })
+}
+
 #[test]
 fn every_dependency_points_down_a_tier() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
@@ -203,15 +215,6 @@ fn every_dependency_points_down_a_tier() {
 
 #[test]
 fn the_check_catches_arrows_up_and_within_a_tier_and_cycles_through_tests() {
-    let crate_json = |name: &str, deps: &[(&str, Option<&str>)]| {
-        serde_json::json!({
-            "name": name,
-            "dependencies": deps
-                .iter()
-                .map(|(to, kind)| serde_json::json!({"name": to, "kind": kind}))
-                .collect::<Vec<_>>(),
-        })
-    };
     let metadata = serde_json::json!({
         "packages": [
             crate_json("tether-core", &[("serde", None), ("tether-laser", Some("dev"))]),
@@ -255,15 +258,6 @@ fn the_check_catches_arrows_up_and_within_a_tier_and_cycles_through_tests() {
 
 #[test]
 fn test_support_is_a_dev_dependency_of_any_crate_and_a_dependency_of_none() {
-    let crate_json = |name: &str, deps: &[(&str, Option<&str>)]| {
-        serde_json::json!({
-            "name": name,
-            "dependencies": deps
-                .iter()
-                .map(|(to, kind)| serde_json::json!({"name": to, "kind": kind}))
-                .collect::<Vec<_>>(),
-        })
-    };
     let metadata = serde_json::json!({
         "packages": [
             crate_json("tether-testkit", &[("serde_json", None)]),

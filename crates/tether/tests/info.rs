@@ -234,20 +234,7 @@ fn a_simulated_mcap_matches_python_mcap() {
         return;
     }
     let dir = scratch("info-mcap");
-    let mcap = dir.join("x.mcap");
-    let out = tether(&[
-        "sim",
-        "--scenario",
-        "corridor",
-        "--duration",
-        "3",
-        "--laser-only",
-        "--out",
-        dir.to_str().unwrap(),
-        "--record",
-        mcap.to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "sim: {}", text(&out.stderr));
+    let mcap = common::record_corridor(&dir, 3, &["--laser-only"], "--record", "x.mcap");
     let info = info_json(&mcap);
     assert_eq!(
         tether_topics(&info),
