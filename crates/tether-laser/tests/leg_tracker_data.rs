@@ -172,6 +172,7 @@ fn precision_and_recall_on_the_test_split() {
     .unwrap());
     for (name, e) in [("arc", &arc), ("learned", &learned)] {
         let t = e.total();
+        // Parallel to eval-legs' table row (src/cmd/eval_legs.rs), which tests cannot call.
         println!(
             "{name}: TP {} FP {} + {} FN {} precision {:.3} recall {:.3}",
             t.true_positives,

@@ -39,7 +39,8 @@ pub fn decide(reason: &str, required: bool) -> Result<String, String> {
 }
 
 /// Prints why a test does not run (`SKIPPED: reason`, on standard error), or panics
-/// with the reason under `TETHER_REQUIRE_SHARED=1`.
+/// with the reason under `TETHER_REQUIRE_SHARED=1` (at the test's line).
+#[track_caller]
 pub fn skip(reason: &str) {
     match decide(reason, required()) {
         Ok(line) => eprintln!("{line}"),
@@ -48,6 +49,7 @@ pub fn skip(reason: &str) {
 }
 
 /// `ok`, after [`skip`] with `reason` when it is false.
+#[track_caller]
 pub fn skip_unless(ok: bool, reason: &str) -> bool {
     if !ok {
         skip(reason);
@@ -56,8 +58,15 @@ pub fn skip_unless(ok: bool, reason: &str) -> bool {
 }
 
 /// The value, or `None` after [`skip`] with the reason.
+#[track_caller]
 pub fn or_skip<T>(prerequisite: Result<T, String>) -> Option<T> {
-    prerequisite.map_err(|reason| skip(&reason)).ok()
+    match prerequisite {
+        Ok(value) => Some(value),
+        Err(reason) => {
+            skip(&reason);
+            None
+        }
+    }
 }
 
 /// The shared folder: `../shared` beside the workspace (the design, the real recordings
@@ -82,6 +91,7 @@ pub fn shared_missing(paths: &[&str]) -> Result<(), String> {
 }
 
 /// `path` under the shared folder, or `None` after [`skip`] when it is absent.
+#[track_caller]
 pub fn shared(path: &str) -> Option<PathBuf> {
     or_skip(shared_missing(&[path]).map(|()| shared_dir().join(path)))
 }

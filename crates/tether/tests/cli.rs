@@ -33,6 +33,7 @@ fn scenarios_lists_every_builtin_with_one_line() {
     let stdout = text(&out.stdout);
     let lines: Vec<&str> = stdout.lines().collect();
     assert_eq!(lines.len(), 7, "{stdout}");
+    // Kept apart from tether-sim's BUILTIN_NAMES: read from it, a lost scenario would pass.
     for name in [
         "corridor",
         "office",

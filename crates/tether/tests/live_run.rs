@@ -137,6 +137,28 @@ fn wait_until(
     }
 }
 
+/// Waits until one of the `recent` last lines `run` printed drives forward faster than
+/// `mps`; fails the test with `failure` after 60 s.
+fn wait_until_driving(
+    run: &mut Proc,
+    lines: &Mutex<Vec<String>>,
+    recent: usize,
+    mps: f64,
+    failure: &str,
+) {
+    wait_until(
+        run,
+        lines,
+        |l| {
+            l.iter()
+                .rev()
+                .take(recent)
+                .any(|l| json(l)["v_mps"].as_f64().unwrap_or(0.0) > mps)
+        },
+        failure,
+    );
+}
+
 /// Waits until `run` has printed `n` lines.
 fn wait_for_lines(run: &mut Proc, lines: &Mutex<Vec<String>>, n: usize) {
     wait_until(
@@ -296,15 +318,11 @@ fn sigterm_on_a_driving_run_ends_it_with_a_final_stop() {
     // Ctrl-C, while the robot drives.
     let dir = scratch("live-sigterm");
     let (_emu, mut run, lines) = following(&dir, "", &[]);
-    wait_until(
+    wait_until_driving(
         &mut run,
         &lines,
-        |l| {
-            l.iter()
-                .rev()
-                .take(5)
-                .any(|l| json(l)["v_mps"].as_f64().unwrap_or(0.0) > 0.1)
-        },
+        5,
+        0.1,
         "the robot did not drive within 60 s",
     );
     run.signal("-TERM");
@@ -590,15 +608,7 @@ fn a_run_killed_while_driving_leaves_the_base_stopped_by_its_guard() {
     let dir = scratch("live-kill");
     let (_emu, mut run, lines) = following(&dir, "", &[]);
     // Until the robot drives.
-    wait_until(
-        &mut run,
-        &lines,
-        |l| {
-            l.iter()
-                .any(|l| json(l)["v_mps"].as_f64().unwrap_or(0.0) > 0.2)
-        },
-        "the robot never drove",
-    );
+    wait_until_driving(&mut run, &lines, usize::MAX, 0.2, "the robot never drove");
     let wheels = dir.join("wheels.txt");
     let last = || {
         std::fs::read_to_string(&wheels)

@@ -20,6 +20,7 @@ pub use tether_testkit::{scratch, text};
 
 /// `name` in leg_tracker's recordings under `../shared`, or `None` after a printed
 /// reason (a failure under `TETHER_REQUIRE_SHARED=1`).
+#[track_caller]
 pub fn leg_tracker(name: &str) -> Option<PathBuf> {
     tether_testkit::shared(&format!("data/laser/leg_tracker/{name}"))
 }

@@ -36,7 +36,8 @@ from rosbags.rosbag1 import Reader
 from rosbags.typesys import Stores, get_typestore
 
 
-# The ROS 2 messages as IDL, named as rosidl names them on DDS.
+# The ROS 2 messages as IDL, named as rosidl names them on DDS (one declaration a type:
+# alike in shape, they stay apart because each is its own message).
 @dataclass
 class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
     sec: int32
