@@ -12,76 +12,24 @@
 //! (`pip install opencv-python-headless==4.14.0.94 numpy`); without them the test prints
 //! why and passes, unless `TETHER_REQUIRE_SHARED=1` (CI) makes that a failure.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
 use serde_json::Value;
 use tether_cascade::train::{Silent, TrainConfig, TrainingData, train};
 use tether_cascade::xml::to_xml;
 use tether_image::imread_gray;
 use tether_vision::{Cascade, DetectParams, Detector, Rect};
 
-fn shared_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared")
-}
-
-/// Skips (prints the reason) or, when `TETHER_REQUIRE_SHARED=1`, fails.
-fn skip(reason: &str) {
-    if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-        panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-    }
-    eprintln!("skipped: {reason}");
-}
-
-fn missing_prerequisite() -> Option<String> {
-    let shared = shared_dir();
-    if !shared.join("data/vtest/train.txt").is_file()
-        || !shared.join("tools/opencv_reference.py").is_file()
-    {
-        return Some(format!(
-            "{} is absent (it sits beside the repository for developers and CI)",
-            shared.display()
-        ));
-    }
-    match Command::new("python3")
-        .args(["-c", "import cv2; print(cv2.__version__)"])
-        .output()
-    {
-        Ok(out)
-            if out.status.success() && String::from_utf8_lossy(&out.stdout).starts_with('4') =>
-        {
-            None
-        }
-        Ok(out) => Some(format!(
-            "python3 has no OpenCV 4.x ({}{}); pip install opencv-python-headless==4.14.0.94 numpy",
-            String::from_utf8_lossy(&out.stdout).trim(),
-            String::from_utf8_lossy(&out.stderr).trim()
-        )),
-        Err(e) => Some(format!("python3 cannot run: {e}")),
-    }
-}
-
-fn python(args: &[&str]) -> String {
-    let out = Command::new("python3")
-        .args(args)
-        .output()
-        .expect("run python3");
-    assert!(
-        out.status.success(),
-        "python3 {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
+/// Why the test cannot run here, if it cannot.
+fn missing_prerequisite() -> Result<(), String> {
+    tether_testkit::shared_missing(&["data/vtest/train.txt", "tools/opencv_reference.py"])?;
+    tether_testkit::python_cv2().map(|_| ())
 }
 
 #[test]
 fn opencv_loads_the_trained_cascade_and_finds_the_same_boxes() {
-    if let Some(reason) = missing_prerequisite() {
-        skip(&reason);
+    if tether_testkit::or_skip(missing_prerequisite()).is_none() {
         return;
     }
-    let shared = shared_dir();
-    let vtest = shared.join("data/vtest");
+    let vtest = tether_testkit::shared_dir().join("data/vtest");
     let started = std::time::Instant::now();
     let data = TrainingData::load(&vtest.join("train.txt"), &[]).expect("load train.txt");
     // An unoptimised build trains a smaller cascade to keep `cargo test` short.
@@ -105,8 +53,7 @@ fn opencv_loads_the_trained_cascade_and_finds_the_same_boxes() {
         assert!(r.false_alarm <= config.max_false_alarm, "{r:?}");
     }
 
-    let dir = std::env::temp_dir().join(format!("tether-cascade-vtest-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temporary folder");
+    let dir = tether_testkit::scratch("cascade-vtest");
     let xml = dir.join("cascade.xml");
     std::fs::write(&xml, to_xml(&state.cascade, &config.stage_params())).expect("write XML");
 
@@ -120,7 +67,7 @@ fn opencv_loads_the_trained_cascade_and_finds_the_same_boxes() {
     let mut pngs = Vec::new();
     for f in frames {
         let png = dir.join(f.replace(".jpg", ".png"));
-        python(&[
+        tether_testkit::python(&[
             "-c",
             "import cv2, sys; cv2.imwrite(sys.argv[2], cv2.imread(sys.argv[1], cv2.IMREAD_GRAYSCALE))",
             &vtest.join("frames").join(f).display().to_string(),
@@ -129,19 +76,14 @@ fn opencv_loads_the_trained_cascade_and_finds_the_same_boxes() {
         pngs.push(png);
     }
     let detector = Detector::new(Cascade::load(&xml).expect("tether-vision loads the XML"));
-    let tool = shared.join("tools/opencv_reference.py");
     let mut raw_windows = 0;
     for min_neighbors in [0u32, 3] {
-        let mut args = vec![
-            tool.display().to_string(),
-            "--cascade".into(),
-            xml.display().to_string(),
-            "--min-neighbors".into(),
-            min_neighbors.to_string(),
-        ];
-        args.extend(pngs.iter().map(|p| p.display().to_string()));
-        let args: Vec<&str> = args.iter().map(String::as_str).collect();
-        let reference: Value = serde_json::from_str(&python(&args)).expect("reference JSON");
+        let reference: Value = serde_json::from_str(&tether_testkit::opencv_reference(
+            &xml,
+            min_neighbors,
+            &pngs,
+        ))
+        .expect("reference JSON");
         let images = reference["images"].as_array().expect("images");
         for (png, image) in pngs.iter().zip(images) {
             let want: Vec<Rect> = image["boxes"]

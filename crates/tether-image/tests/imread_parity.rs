@@ -9,20 +9,11 @@
 //! why and passes without checking. The JPEG decoder is measured by `jpeg_parity` (and
 //! by tether-vision's `opencv_parity`).
 
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use png::{BitDepth, ColorType, ScaledFloat, SrgbRenderingIntent};
 use tether_image::imread_gray;
-
-fn python_cv2() -> Option<String> {
-    let out = Command::new("python3")
-        .args(["-c", "import cv2; print(cv2.__version__)"])
-        .output()
-        .ok()?;
-    let version = String::from_utf8_lossy(&out.stdout).trim().to_string();
-    (out.status.success() && version.starts_with('4')).then_some(version)
-}
 
 /// One test file: how it is encoded.
 struct Variant {
@@ -161,19 +152,10 @@ fn write(variant: &Variant, dir: &Path, seed: u64) -> PathBuf {
 
 #[test]
 fn png_grey_equals_opencv() {
-    let Some(version) = python_cv2() else {
-        assert!(
-            std::env::var("TETHER_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "python3 with OpenCV 4.x is absent; TETHER_REQUIRE_SHARED=1 demands that this test runs"
-        );
-        println!(
-            "SKIPPED imread_parity: python3 with OpenCV 4.x is absent \
-             (pip install opencv-python-headless==4.14.0.94 numpy)"
-        );
+    let Some(version) = tether_testkit::or_skip(tether_testkit::python_cv2()) else {
         return;
     };
-    let dir = std::env::temp_dir().join(format!("tether-image-imread-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = tether_testkit::scratch("image-imread");
     let files: Vec<(String, PathBuf)> = variants()
         .iter()
         .enumerate()
@@ -181,16 +163,9 @@ fn png_grey_equals_opencv() {
         .collect();
     // OpenCV's decode of each file, as raw bytes beside it.
     let script = "import sys, cv2\nfor p in sys.argv[1:]:\n    g = cv2.imread(p, cv2.IMREAD_GRAYSCALE)\n    assert g is not None, p\n    open(p + '.cv', 'wb').write(g.tobytes())\n";
-    let out = Command::new("python3")
-        .args(["-c", script])
-        .args(files.iter().map(|(_, p)| p))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let mut args = vec![OsStr::new("-c"), OsStr::new(script)];
+    args.extend(files.iter().map(|(_, p)| p.as_os_str()));
+    tether_testkit::python(&args);
     let mut failures = Vec::new();
     for (name, path) in &files {
         let ours = imread_gray(path).unwrap();

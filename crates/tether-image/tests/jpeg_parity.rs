@@ -25,41 +25,11 @@
 //! the 4096-byte `fread` buffer boundaries fall. tether decodes such an MCU as the exact
 //! path does (see `tether_image::jpeg`).
 
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use tether_image::imread_gray;
-
-fn shared_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared")
-}
-
-fn python_cv2() -> Result<String, String> {
-    let out = Command::new("python3")
-        .args(["-c", "import cv2; print(cv2.__version__)"])
-        .output()
-        .map_err(|e| format!("python3 cannot run: {e}"))?;
-    let version = String::from_utf8_lossy(&out.stdout).trim().to_string();
-    if out.status.success() && version.starts_with('4') {
-        Ok(version)
-    } else {
-        Err(format!(
-            "python3 has no OpenCV 4.x ({version}{}); pip install \
-             opencv-python-headless==4.14.0.94 numpy",
-            String::from_utf8_lossy(&out.stderr).trim()
-        ))
-    }
-}
-
-fn is_jpeg(p: &Path) -> bool {
-    matches!(
-        p.extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .as_deref(),
-        Some("jpg" | "jpeg")
-    )
-}
 
 fn jpegs_under(dir: &Path, out: &mut Vec<PathBuf>) {
     let Ok(entries) = std::fs::read_dir(dir) else {
@@ -70,7 +40,7 @@ fn jpegs_under(dir: &Path, out: &mut Vec<PathBuf>) {
     for p in paths {
         if p.is_dir() {
             jpegs_under(&p, out);
-        } else if is_jpeg(&p) {
+        } else if tether_testkit::is_jpeg(&p) {
             out.push(p);
         }
     }
@@ -78,16 +48,9 @@ fn jpegs_under(dir: &Path, out: &mut Vec<PathBuf>) {
 
 /// Runs a Python snippet; panics with its stderr if it fails.
 fn python(script: &str, args: &[&Path]) {
-    let out = Command::new("python3")
-        .args(["-c", script])
-        .args(args)
-        .output()
-        .expect("python3");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let mut all = vec![OsStr::new("-c"), OsStr::new(script)];
+    all.extend(args.iter().map(|p| p.as_os_str()));
+    tether_testkit::python(&all);
 }
 
 /// OpenCV writes variants of each source image into `dir`.
@@ -224,23 +187,12 @@ fn damage(src: &Path, dir: &Path, seed: u64, out: &mut Vec<PathBuf>) {
 
 #[test]
 fn jpeg_gray_equals_opencv() {
-    let shared = shared_dir();
-    let prerequisite = if shared.join("data/images").is_dir() {
-        python_cv2().map(|_| ())
-    } else {
-        Err(format!(
-            "{} is absent (it sits beside the repository for developers and CI)",
-            shared.display()
-        ))
-    };
-    if let Err(why) = prerequisite {
-        assert!(
-            std::env::var("TETHER_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "{why}; TETHER_REQUIRE_SHARED=1 demands that this test runs"
-        );
-        println!("SKIPPED jpeg_parity: {why}");
+    let prerequisite = tether_testkit::shared_missing(&["data/images"])
+        .and_then(|()| tether_testkit::python_cv2().map(|_| ()));
+    if tether_testkit::or_skip(prerequisite).is_none() {
         return;
     }
+    let shared = tether_testkit::shared_dir();
 
     let mut originals = Vec::new();
     jpegs_under(&shared.join("data/images"), &mut originals);
@@ -249,8 +201,7 @@ fn jpeg_gray_equals_opencv() {
     let frames: Vec<PathBuf> = frames.into_iter().step_by(10).collect();
     assert!(!originals.is_empty(), "no JPEG under data/images");
 
-    let tmp = std::env::temp_dir().join(format!("tether-jpeg-parity-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).expect("temporary folder");
+    let tmp = tether_testkit::scratch("jpeg-parity");
     let sources: Vec<&Path> = originals
         .iter()
         .filter(|p| {
@@ -290,7 +241,7 @@ fn jpeg_gray_equals_opencv() {
         Ok(files) => files,
         Err(why) => {
             assert!(
-                std::env::var("TETHER_REQUIRE_SHARED").as_deref() != Ok("1"),
+                !tether_testkit::required(),
                 "{why}; TETHER_REQUIRE_SHARED=1 demands the arithmetic-coded files"
             );
             println!("arithmetic-coded files SKIPPED: {why}");

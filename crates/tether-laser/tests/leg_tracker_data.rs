@@ -26,19 +26,7 @@ use tether_laser::{DetectorConfig, LegClassifier, LegDetector};
 use tether_recording::rosbag::{read_labelled_scans, read_scans};
 
 fn data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/laser/leg_tracker");
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    let reason = format!(
-        "{} is absent (it sits beside the checkout for developers and CI)",
-        dir.display()
-    );
-    if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-        panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-    }
-    eprintln!("SKIPPED: {reason}");
-    None
+    tether_testkit::shared("data/laser/leg_tracker")
 }
 
 type Labelled = Vec<(LaserScan, Vec<Point2<Laser>>)>;
@@ -184,6 +172,7 @@ fn precision_and_recall_on_the_test_split() {
     .unwrap());
     for (name, e) in [("arc", &arc), ("learned", &learned)] {
         let t = e.total();
+        // Parallel to eval-legs' table row (src/cmd/eval_legs.rs), which tests cannot call.
         println!(
             "{name}: TP {} FP {} + {} FN {} precision {:.3} recall {:.3}",
             t.true_positives,

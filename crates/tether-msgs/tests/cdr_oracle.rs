@@ -24,10 +24,7 @@ fn rosbags_payloads() -> Option<Vec<Vec<u8>>> {
             "python3 with `rosbags` is not available (python3 -m pip install rosbags): {}",
             String::from_utf8_lossy(&out.stderr)
         );
-        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-        }
-        eprintln!("SKIPPED: {reason}");
+        tether_testkit::skip(&reason);
         return None;
     }
     let text = String::from_utf8(out.stdout).unwrap();

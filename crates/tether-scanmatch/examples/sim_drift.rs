@@ -6,9 +6,14 @@
 
 #![allow(clippy::unwrap_used, reason = "a tuning tool: fail loudly")]
 
-use tether_core::{Pose2, Robot, World};
-use tether_scanmatch::{ExclusionZone, MotionPrior, ScanMatcher, ScanMatcherConfig, ScanPoints};
-use tether_sim::{Scenario, SensorData, Simulation};
+#[path = "../tests/support/sim_drive.rs"]
+#[allow(
+    dead_code,
+    reason = "shared by the drift test and the tuning example, which use different parts"
+)]
+mod sim_drive;
+
+use tether_scanmatch::ScanMatcherConfig;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -47,82 +52,33 @@ fn main() {
             _ => eprintln!("unknown key {k}"),
         }
     }
-    let scenario = Scenario::builtin(name).unwrap();
-    let mut sim = Simulation::new(&scenario, seed).unwrap();
-    let mut driver = tether_sim::driver::driver_for(&scenario);
-    let robot_from_laser = scenario.laser.robot_from_laser();
-    let mut matcher = ScanMatcher::new(config);
-    let mut points = ScanPoints::default();
-    let mut start: Option<Pose2<World, Robot>> = None;
-    let mut last: Option<Pose2<World, Robot>> = None;
-    let mut distance_m = 0.0;
-    let mut command = tether_sim::Command::STOP;
     let mut err = (0.0, 0.0);
-    while let Some(event) = sim.advance() {
-        if let Some(c) = driver.on_event(&event) {
-            sim.set_command(c);
-            command = c;
-        }
-        let SensorData::Scan(scan) = &event.data else {
-            continue;
-        };
-        let truth = event.truth.world_from_robot;
-        let s = *start.get_or_insert(truth);
-        if let Some(l) = last {
-            distance_m += (truth.x - l.x).hypot(truth.y - l.y);
-        }
-        last = Some(truth);
-        let robot_from_world = truth.inverse();
-        let zones: Vec<ExclusionZone> = if exclude {
-            event
-                .truth
-                .people
-                .iter()
-                .flat_map(|p| p.legs)
-                .map(|leg| ExclusionZone {
-                    center: robot_from_world * leg.center,
-                    radius_m: leg.radius_m + 0.15,
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
-        points.fill_from_scan(scan, robot_from_laser).unwrap();
-        let prior = if commanded {
-            MotionPrior::Velocity {
-                v_mps: command.v_mps,
-                w_radps: command.w_radps,
-            }
-        } else {
-            MotionPrior::ConstantVelocity
-        };
-        let e = matcher.update(scan.stamp, &points, prior, &zones);
-        let t = s.inverse() * truth;
-        let w = e.world_from_robot;
-        let new_err = (
-            (w.x - t.x).hypot(w.y - t.y),
-            tether_core::wrap_angle_rad(w.yaw - t.yaw),
-        );
-        if std::env::var("VERBOSE").is_ok() && (new_err.0 - err.0).abs() > 0.02 {
+    let mut distance_m = 0.0;
+    let verbose = std::env::var("VERBOSE").is_ok();
+    let matcher = sim_drive::drive(name, seed, config, exclude, commanded, |step| {
+        distance_m = step.distance_m;
+        let new_err = step.error();
+        let e = step.estimate;
+        if verbose && (new_err.0 - err.0).abs() > 0.02 {
             println!(
                 "t {:.1}: error {:.3} -> {:.3} m; {} pts, matched {}, resid {:.4}, it {}, {:?}, kf {}, eig_min {:.4} speed {:.2} est step {:.3} true v {:.3}",
-                scan.stamp.secs_f64(),
+                step.scan.stamp.secs_f64(),
                 err.0,
                 new_err.0,
-                points.len(),
+                step.points.len(),
                 e.matched_points,
                 e.mean_residual_m,
                 e.iterations,
                 e.quality,
                 e.new_keyframe,
                 e.min_eigenvalue,
-                event.truth.robot_velocity.v_mps,
+                step.event.truth.robot_velocity.v_mps,
                 e.robot_from_robot.x,
-                event.truth.robot_velocity.v_mps * 0.1
+                step.event.truth.robot_velocity.v_mps * 0.1
             );
         }
         err = new_err;
-    }
+    });
     println!(
         "{name} seed {seed}: driven {distance_m:.2} m, final error {:.3} m ({:.2} %), yaw {:.2} deg, {:?}",
         err.0,

@@ -9,8 +9,6 @@
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly on bad data")]
 
-use std::path::Path;
-
 use tether_core::{Point2, Pose2, RangeNoiseModel};
 use tether_laser::{DetectorConfig, LegClassifier, LegDetector};
 use tether_recording::rosbag::read_scans;
@@ -18,20 +16,7 @@ use tether_scanmatch::{
     ExclusionZone, MotionPrior, Quality, ScanMatcher, ScanMatcherConfig, ScanPoints,
 };
 
-const BAG: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../../shared/data/laser/leg_tracker/demo_stationary_simple_environment.bag"
-);
-
-fn skip_unless(ok: bool, reason: &str) -> bool {
-    if !ok {
-        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-        }
-        eprintln!("SKIPPED: {reason}");
-    }
-    ok
-}
+const BAG: &str = "data/laser/leg_tracker/demo_stationary_simple_environment.bag";
 
 #[derive(Debug)]
 struct Run {
@@ -88,10 +73,10 @@ fn run(scans: &[tether_msgs::LaserScanMsg], exclude_legs: bool) -> Run {
 
 #[test]
 fn a_static_robot_stays_put() {
-    if !skip_unless(Path::new(BAG).is_file(), &format!("{BAG} is missing")) {
+    let Some(bag) = tether_testkit::shared(BAG) else {
         return;
-    }
-    let set = read_scans(BAG, "/scan").unwrap();
+    };
+    let set = read_scans(&bag, "/scan").unwrap();
     assert!(set.scans.len() > 1000, "{} scans", set.scans.len());
     for exclude in [false, true] {
         let r = run(&set.scans, exclude);

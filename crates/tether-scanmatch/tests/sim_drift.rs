@@ -9,11 +9,15 @@
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
 
-use tether_core::{Pose2, Robot, World};
-use tether_scanmatch::{
-    ExclusionZone, MotionPrior, Quality, ScanMatcher, ScanMatcherConfig, ScanPoints,
-};
-use tether_sim::{BUILTIN_NAMES, Scenario, SensorData, Simulation};
+#[path = "support/sim_drive.rs"]
+#[allow(
+    dead_code,
+    reason = "shared by the drift test and the tuning example, which use different parts"
+)]
+mod sim_drive;
+
+use tether_scanmatch::{Quality, ScanMatcherConfig};
+use tether_sim::BUILTIN_NAMES;
 
 #[derive(Debug)]
 struct Drift {
@@ -36,74 +40,34 @@ impl Drift {
 }
 
 fn drive(name: &str, seed: u64, exclude_people: bool, commanded: bool) -> Drift {
-    let scenario = Scenario::builtin(name).unwrap();
-    let mut sim = Simulation::new(&scenario, seed).unwrap();
-    let mut driver = tether_sim::driver::driver_for(&scenario);
-    let robot_from_laser = scenario.laser.robot_from_laser();
-    let mut matcher = ScanMatcher::new(ScanMatcherConfig::default());
-    let mut points = ScanPoints::default();
-    let mut world_from_start: Option<Pose2<World, Robot>> = None;
-    let mut last_truth: Option<Pose2<World, Robot>> = None;
     let mut distance_m = 0.0;
     let mut max_error_m: f64 = 0.0;
     let mut final_error = (0.0, 0.0);
     let mut scans = 0;
-    let mut command = tether_sim::Command::STOP;
-    while let Some(event) = sim.advance() {
-        if let Some(c) = driver.on_event(&event) {
-            sim.set_command(c);
-            command = c;
-        }
-        let SensorData::Scan(scan) = &event.data else {
-            continue;
-        };
-        scans += 1;
-        let truth = event.truth.world_from_robot;
-        let start = *world_from_start.get_or_insert(truth);
-        if let Some(l) = last_truth {
-            distance_m += (truth.x - l.x).hypot(truth.y - l.y);
-        }
-        last_truth = Some(truth);
-        let robot_from_world = truth.inverse();
-        let zones: Vec<ExclusionZone> = if exclude_people {
-            event
-                .truth
-                .people
-                .iter()
-                .flat_map(|p| p.legs)
-                .map(|leg| ExclusionZone {
-                    center: robot_from_world * leg.center,
-                    radius_m: leg.radius_m + 0.15,
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
-        points.fill_from_scan(scan, robot_from_laser).unwrap();
-        let prior = if commanded {
-            MotionPrior::Velocity {
-                v_mps: command.v_mps,
-                w_radps: command.w_radps,
+    let matcher = sim_drive::drive(
+        name,
+        seed,
+        ScanMatcherConfig::default(),
+        exclude_people,
+        commanded,
+        |step| {
+            scans = step.scans;
+            distance_m = step.distance_m;
+            let error = step.error();
+            max_error_m = max_error_m.max(error.0);
+            final_error = error;
+            if matches!(step.estimate.quality, Quality::PriorOnly(_)) && step.scans > 1 {
+                println!(
+                    "{name}: scan {}: {} points ({} returns), keyframe {}: {:?}",
+                    step.scans,
+                    step.points.len(),
+                    step.scan.returns(),
+                    step.matcher.keyframe().len(),
+                    step.estimate.quality
+                );
             }
-        } else {
-            MotionPrior::ConstantVelocity
-        };
-        let e = matcher.update(scan.stamp, &points, prior, &zones);
-        let true_rel = start.inverse() * truth;
-        let est = e.world_from_robot;
-        let err_m = (est.x - true_rel.x).hypot(est.y - true_rel.y);
-        max_error_m = max_error_m.max(err_m);
-        final_error = (err_m, tether_core::wrap_angle_rad(est.yaw - true_rel.yaw));
-        if matches!(e.quality, Quality::PriorOnly(_)) && scans > 1 {
-            println!(
-                "{name}: scan {scans}: {} points ({} returns), keyframe {}: {:?}",
-                points.len(),
-                scan.returns(),
-                matcher.keyframe().len(),
-                e.quality
-            );
-        }
-    }
+        },
+    );
     let c = matcher.counts();
     Drift {
         distance_m,

@@ -4,26 +4,21 @@
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly on bad data")]
 
+#[path = "support/still_laser.rs"]
+mod still_laser;
+
 use tether_sim::laser::Hit;
 use tether_sim::{Scenario, SensorData, Simulation};
 
 /// People walking back and forth 1-3 m in front of a still robot, across and along the
 /// beams, with body sizes drawn from the seed.
-const SCENE: &str = r#"
-name = "leg_statistics"
-description = "people walking 1-3 m in front of a still laser"
-duration_s = 60.0
-
-[world]
-rooms = [{ min = [-7.0, -7.0], max = [7.0, 7.0] }]
-
-[robot]
-start = { x = 0.0, y = 0.0 }
-driver = "still"
-
-[camera_sim]
-enabled = false
-
+fn scene() -> String {
+    still_laser::still_laser_scene(
+        "leg_statistics",
+        "people walking 1-3 m in front of a still laser",
+        [-7.0, -7.0],
+        [7.0, 7.0],
+        r#"
 [[people]]
 name = "across_near"
 path = [[1.4, -1.6], [1.4, 1.6]]
@@ -59,7 +54,9 @@ name = "diagonal"
 path = [[1.2, 1.2], [2.4, 2.2]]
 speed_mps = 1.0
 repeat = true
-"#;
+"#,
+    )
+}
 
 struct Cluster {
     width_m: f64,
@@ -77,7 +74,7 @@ fn simulated_legs_match_real_urg_04lx_statistics() {
     let mut clusters = Vec::new();
     let mut separations = Vec::new();
     for seed in 0..6 {
-        let scenario = Scenario::from_toml_str(SCENE, "realism").unwrap();
+        let scenario = Scenario::from_toml_str(&scene(), "realism").unwrap();
         let mut sim = Simulation::new(&scenario, seed).unwrap();
         while let Some(event) = sim.advance() {
             let SensorData::Scan(scan) = &event.data else {

@@ -26,6 +26,8 @@
     reason = "shared with tether-laser's test, which uses the rest"
 )]
 mod real_statistics;
+#[path = "support/still_laser.rs"]
+mod still_laser;
 
 use tether_core::{Laser, Point2};
 use tether_laser::statistics::{
@@ -99,21 +101,13 @@ fn simulated(scenario: &Scenario, seeds: std::ops::Range<u64>) -> DetectorStatis
 /// People walking 0.5-5 m in front of a still laser, as in the recordings of
 /// leg_tracker's `positive_*` bags (a still scanner, one or more people walking in
 /// front of it, towards it, away and across).
-const WALKERS: &str = r#"
-name = "walkers"
-description = "people walking 0.5-5 m in front of a still laser, like the real recordings"
-duration_s = 60.0
-
-[world]
-rooms = [{ min = [-2.0, -5.0], max = [7.0, 5.0] }]
-
-[robot]
-start = { x = 0.0, y = 0.0 }
-driver = "still"
-
-[camera_sim]
-enabled = false
-
+fn walkers() -> String {
+    still_laser::still_laser_scene(
+        "walkers",
+        "people walking 0.5-5 m in front of a still laser, like the real recordings",
+        [-2.0, -5.0],
+        [7.0, 5.0],
+        r#"
 [[people]]
 name = "towards_and_away"
 path = [[0.8, 0.2], [4.8, -0.3]]
@@ -125,7 +119,9 @@ name = "across"
 path = [[2.2, -1.2], [2.6, 1.2], [3.6, 0.9], [3.4, -1.0]]
 speed_mps = 1.1
 repeat = true
-"#;
+"#,
+    )
+}
 
 /// Longest simulated time of a scenario in the comparison, s (`outdoor_follow` lasts
 /// ten minutes; its first two stand for it, so that it does not outweigh the others).
@@ -152,7 +148,7 @@ fn simulated_detector_statistics_match_the_real_training_split() {
     let mut ideal = DetectorStatistics::new();
     let mut columns: Vec<(String, StatisticsSummary)> = Vec::new();
     let mut scenarios = builtins();
-    scenarios.push(Scenario::from_toml_str(WALKERS, "walkers").unwrap());
+    scenarios.push(Scenario::from_toml_str(&walkers(), "walkers").unwrap());
     for scenario in scenarios {
         let s = simulated(&scenario, 0..SEEDS);
         columns.push((scenario.name.clone(), s.summary()));

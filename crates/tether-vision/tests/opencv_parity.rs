@@ -20,7 +20,6 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use serde::Deserialize;
 use tether_core::GrayImage;
@@ -57,49 +56,24 @@ struct ReferenceImage {
     boxes: Vec<[i32; 4]>,
 }
 
-fn shared_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared")
-}
-
 /// Why the test cannot run here, if it cannot.
-fn missing_prerequisite() -> Option<String> {
-    let shared = shared_dir();
-    if !shared.join("data/images").is_dir() || !shared.join("tools/opencv_reference.py").is_file() {
-        return Some(format!(
-            "{} is absent (it sits beside the repository for developers and CI)",
-            shared.display()
-        ));
-    }
+fn missing_prerequisite() -> Result<(), String> {
+    tether_testkit::shared_missing(&["data/images", "tools/opencv_reference.py"])?;
     if let Some(c) = CASCADES
         .iter()
         .find(|c| !Path::new(CASCADE_DIR).join(c).is_file())
     {
-        return Some(format!(
+        return Err(format!(
             "{CASCADE_DIR}/{c} is absent (apt-get install opencv-data)"
         ));
     }
-    match Command::new("python3")
-        .args(["-c", "import cv2; print(cv2.__version__)"])
-        .output()
-    {
-        Ok(out)
-            if out.status.success() && String::from_utf8_lossy(&out.stdout).starts_with('4') =>
-        {
-            None
-        }
-        Ok(out) => Some(format!(
-            "python3 has no OpenCV 4.x ({}{}); pip install opencv-python-headless==4.14.0.94 numpy",
-            String::from_utf8_lossy(&out.stdout).trim(),
-            String::from_utf8_lossy(&out.stderr).trim()
-        )),
-        Err(e) => Some(format!("python3 cannot run: {e}")),
-    }
+    tether_testkit::python_cv2().map(|_| ())
 }
 
 fn images() -> Vec<PathBuf> {
     let mut out = Vec::new();
     for sub in ["people", "no_people"] {
-        let dir = shared_dir().join("data/images").join(sub);
+        let dir = tether_testkit::shared_dir().join("data/images").join(sub);
         let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
             .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
             .map(|e| e.expect("list the images").path())
@@ -111,38 +85,14 @@ fn images() -> Vec<PathBuf> {
     out
 }
 
-fn is_jpeg(p: &Path) -> bool {
-    matches!(
-        p.extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .as_deref(),
-        Some("jpg" | "jpeg")
-    )
-}
-
-/// Runs the reference script (OpenCV on 2 threads; its result does not depend on them).
+/// Runs the reference script.
 fn opencv_reference(cascade: &Path, min_neighbors: u32, images: &[PathBuf]) -> Reference {
-    let script = shared_dir().join("tools/opencv_reference.py");
-    let out = Command::new("python3")
-        .arg(&script)
-        .arg("--cascade")
-        .arg(cascade)
-        .args([
-            "--min-neighbors",
-            &min_neighbors.to_string(),
-            "--threads",
-            "2",
-        ])
-        .args(images)
-        .output()
-        .expect("run opencv_reference.py");
-    assert!(
-        out.status.success(),
-        "opencv_reference.py failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("opencv_reference.py JSON")
+    serde_json::from_str(&tether_testkit::opencv_reference(
+        cascade,
+        min_neighbors,
+        images,
+    ))
+    .expect("opencv_reference.py JSON")
 }
 
 /// OpenCV's grey decode of each file, written as PNG into `dir` (for the JPEG files).
@@ -172,15 +122,7 @@ fn opencv_decoded_as_png(files: &[PathBuf], dir: &Path) -> Vec<PathBuf> {
         "import cv2\nfor src, dst in [{}]:\n    g = cv2.imread(src, cv2.IMREAD_GRAYSCALE)\n    assert g is not None, src\n    assert cv2.imwrite(dst, g), dst\n",
         pairs.join(", ")
     );
-    let out = Command::new("python3")
-        .args(["-c", &script])
-        .output()
-        .expect("python3");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    tether_testkit::python(&["-c", &script]);
     outs
 }
 
@@ -220,12 +162,7 @@ const FULL: bool = !cfg!(debug_assertions);
 
 #[test]
 fn same_boxes_as_opencv() {
-    if let Some(why) = missing_prerequisite() {
-        assert!(
-            std::env::var("TETHER_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "{why}; TETHER_REQUIRE_SHARED=1 demands that this test runs"
-        );
-        println!("SKIPPED opencv_parity: {why}");
+    if tether_testkit::or_skip(missing_prerequisite()).is_none() {
         return;
     }
     let mut files = images();
@@ -248,8 +185,7 @@ fn same_boxes_as_opencv() {
         );
         vec![CASCADES[0], CASCADES[8]]
     };
-    let tmp = std::env::temp_dir().join(format!("tether-vision-parity-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).expect("temporary folder");
+    let tmp = tether_testkit::scratch("vision-parity");
     let opencv_png = opencv_decoded_as_png(&files, &tmp);
 
     // The pixels the detector sees: tether's own decode, which must equal OpenCV's.
@@ -332,7 +268,7 @@ fn same_boxes_as_opencv() {
                 );
                 let ours = sorted(group_and_clip(&raw[k], *mn, image.width(), image.height()));
                 total_boxes += theirs.boxes.len();
-                if is_jpeg(file) {
+                if tether_testkit::is_jpeg(file) {
                     jpeg_boxes += theirs.boxes.len();
                 }
                 let (only_ours, only_theirs) = difference(&ours, &theirs.boxes);

@@ -12,7 +12,7 @@
     reason = "test code: a failed unwrap is a failed test"
 )]
 
-use std::process::Command;
+use std::ffi::OsStr;
 
 use serde_json::{Value, json};
 use tether_core::{Point2, World};
@@ -117,19 +117,11 @@ fn sequence(seed: u64, frames: usize, n: usize) -> Vec<Frame> {
 }
 
 fn have_motmetrics() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import motmetrics"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        let reason = "python3 with `motmetrics` is not available (pip install motmetrics)";
-        assert!(
-            std::env::var("TETHER_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs"
-        );
-        eprintln!("SKIPPED: {reason}");
-    }
-    ok
+    tether_testkit::or_skip(tether_testkit::python_modules(
+        &["motmetrics"],
+        "motmetrics",
+    ))
+    .is_some()
 }
 
 #[test]
@@ -156,18 +148,10 @@ fn clear_mot_agrees_with_motmetrics() {
             std::process::id()
         ));
         std::fs::write(&path, serde_json::to_string(&doc).unwrap()).unwrap();
-        let out = Command::new("python3")
-            .arg(SCRIPT)
-            .arg(&path)
-            .output()
-            .unwrap();
+        // motmetrics's figures; the run must succeed.
+        let out = tether_testkit::python(&[OsStr::new(SCRIPT), path.as_os_str()]);
         let _ = std::fs::remove_file(&path);
-        assert!(
-            out.status.success(),
-            "motmetrics failed:\n{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let r: Value = serde_json::from_slice(&out.stdout).unwrap();
+        let r: Value = serde_json::from_str(&out).unwrap();
         let f = |k: &str| r[k].as_f64().unwrap();
         let what = format!("seed {seed}: tether {s:?} vs motmetrics {r}");
         assert_eq!(s.objects as f64, f("num_objects"), "{what}");

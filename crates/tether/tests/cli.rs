@@ -6,7 +6,25 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{scratch, tether, text};
+use common::{on_recording, scratch, tether, text};
+
+/// tether's own upper-body cascade, trained on vtest.
+fn upperbody_model() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tether-cascade/models/vtest_upperbody.xml")
+}
+
+/// `tether track` on a 2 s corridor recording in `dir` reads `config` and succeeds.
+fn tracks_with(dir: &Path, config: &Path) {
+    let bag = common::corridor_bag(dir, 2);
+    let out = on_recording(
+        "track",
+        &bag,
+        "/scan",
+        &["--config", config.to_str().unwrap()],
+        &dir.join("t.jsonl"),
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+}
 
 #[test]
 fn scenarios_lists_every_builtin_with_one_line() {
@@ -15,6 +33,7 @@ fn scenarios_lists_every_builtin_with_one_line() {
     let stdout = text(&out.stdout);
     let lines: Vec<&str> = stdout.lines().collect();
     assert_eq!(lines.len(), 7, "{stdout}");
+    // Kept apart from tether-sim's BUILTIN_NAMES: read from it, a lost scenario would pass.
     for name in [
         "corridor",
         "office",
@@ -119,58 +138,45 @@ fn bad_scenario(
 #[test]
 fn bad_scenario_files_are_refused_with_file_line_and_field() {
     let dir = scratch("bad");
-    let (err, path, line) = bad_scenario(
-        &dir,
-        "unknown_key.toml",
-        ("speed_mps = 1.0", "speed_mps = 1.0\nsped_mps = 2.0"),
-        "sped_mps",
-    );
-    assert!(
-        err.contains(&format!(
-            "{}:{line}:1: unknown field `sped_mps`",
-            path.display()
-        )),
-        "{err}"
-    );
-
-    let (err, path, line) = bad_scenario(
-        &dir,
-        "negative_radius.toml",
-        ("[robot]\n", "[robot]\nradius_m = -0.2\n"),
-        "radius_m",
-    );
-    assert!(
-        err.contains(&format!(
-            "{}:{line}:12: field `robot.radius_m`",
-            path.display()
-        )),
-        "{err}"
-    );
-
-    let (err, path, line) = bad_scenario(
-        &dir,
-        "outside.toml",
-        ("[22.5, 1.2]", "[30.0, 1.2]"),
-        "[30.0, 1.2]",
-    );
-    assert!(
-        err.contains(&format!(
-            "{}:{line}:21: field `people[0].path[1]`",
-            path.display()
-        )),
-        "{err}"
-    );
-    assert!(err.contains("outside the walls"), "{err}");
-
-    // A missing top-level field is reported at the start of the document.
-    let (err, path, _) = bad_scenario(&dir, "missing.toml", ("duration_s = 26.0\n", ""), "");
-    assert!(
-        err.contains(&format!(
-            "{}:1:1: missing field `duration_s`",
-            path.display()
-        )),
-        "{err}"
-    );
+    // (file, edit, the text on the line the error names, "COLUMN: message" after the line)
+    let cases = [
+        (
+            "unknown_key.toml",
+            ("speed_mps = 1.0", "speed_mps = 1.0\nsped_mps = 2.0"),
+            "sped_mps",
+            "1: unknown field `sped_mps`",
+        ),
+        (
+            "negative_radius.toml",
+            ("[robot]\n", "[robot]\nradius_m = -0.2\n"),
+            "radius_m",
+            "12: field `robot.radius_m`",
+        ),
+        (
+            "outside.toml",
+            ("[22.5, 1.2]", "[30.0, 1.2]"),
+            "[30.0, 1.2]",
+            "21: field `people[0].path[1]`",
+        ),
+        // A missing top-level field is reported at the start of the document (line 1:
+        // every line contains "").
+        (
+            "missing.toml",
+            ("duration_s = 26.0\n", ""),
+            "",
+            "1: missing field `duration_s`",
+        ),
+    ];
+    for (name, edit, marker, column_and_message) in cases {
+        let (err, path, line) = bad_scenario(&dir, name, edit, marker);
+        assert!(
+            err.contains(&format!("{}:{line}:{column_and_message}", path.display())),
+            "{err}"
+        );
+        if name == "outside.toml" {
+            assert!(err.contains("outside the walls"), "{err}");
+        }
+    }
 
     let out = tether(&[
         "sim",
@@ -270,45 +276,23 @@ fn a_failed_track_or_replay_leaves_the_earlier_result_as_it_was() {
     // Results of an earlier, good run.
     let track_out = dir.join("t.jsonl");
     let replay_out = dir.join("r.mcap");
-    let out = tether(&[
-        "track",
-        bag.to_str().unwrap(),
-        "--scan-topic",
-        "/scan",
-        "--out",
-        track_out.to_str().unwrap(),
-    ]);
+    let out = on_recording("track", &bag, "/scan", &[], &track_out);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let out = tether(&[
-        "replay",
-        bag.to_str().unwrap(),
-        "--scan-topic",
-        "/scan",
-        "--out",
-        replay_out.to_str().unwrap(),
-    ]);
+    let out = on_recording("replay", &bag, "/scan", &[], &replay_out);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let tracked = std::fs::read(&track_out).unwrap();
     let replayed = std::fs::read(&replay_out).unwrap();
     assert!(!tracked.is_empty() && !replayed.is_empty());
     // A wrong topic, a missing recording: the commands fail, and the results stay.
-    let out = tether(&[
-        "track",
-        bag.to_str().unwrap(),
-        "--scan-topic",
-        "/nope",
-        "--out",
-        track_out.to_str().unwrap(),
-    ]);
+    let out = on_recording("track", &bag, "/nope", &[], &track_out);
     assert!(!out.status.success());
-    let out = tether(&[
+    let out = on_recording(
         "replay",
-        dir.join("missing.bag").to_str().unwrap(),
-        "--scan-topic",
+        &dir.join("missing.bag"),
         "/scan",
-        "--out",
-        replay_out.to_str().unwrap(),
-    ]);
+        &[],
+        &replay_out,
+    );
     assert!(!out.status.success());
     assert_eq!(std::fs::read(&track_out).unwrap(), tracked);
     assert_eq!(std::fs::read(&replay_out).unwrap(), replayed);
@@ -322,19 +306,11 @@ fn a_failed_track_or_replay_leaves_the_earlier_result_as_it_was() {
 
 #[test]
 fn detect_names_each_bad_image_and_goes_on_when_asked() {
-    let jpeg =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/images/people/messi5.jpg");
-    if !jpeg.is_file() {
-        let reason = "../shared/data/images is missing";
-        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-        }
-        eprintln!("SKIPPED: {reason}");
+    let Some(jpeg) = tether_testkit::shared("data/images/people/messi5.jpg") else {
         return;
-    }
+    };
     let dir = scratch("detect-bad");
-    let cascade =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tether-cascade/models/vtest_upperbody.xml");
+    let cascade = upperbody_model();
     let cascade = cascade.to_str().unwrap();
     let bytes = std::fs::read(&jpeg).unwrap();
     let cut = dir.join("cut.jpg");
@@ -418,10 +394,7 @@ fn the_small_things_a_user_trips_on() {
     // `--out -` is standard output: the JSON lines there, the summary in the log.
     let out = tether(&["track", bag, "--scan-topic", "/scan", "--out", "-"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let lines: Vec<serde_json::Value> = text(&out.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+    let lines = tether_testkit::json_lines(&text(&out.stdout));
     assert!(lines.len() >= 30, "{} lines", lines.len());
     let err = text(&out.stderr);
     assert!(err.contains("-> stdout"), "{err}");
@@ -466,13 +439,13 @@ fn the_small_things_a_user_trips_on() {
 fn the_robots_own_config_tunes_a_replay() {
     let dir = scratch("robot-config");
     let bag = common::corridor_bag(&dir, 4);
-    let bag = bag.to_str().unwrap();
-    let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robot.example.toml");
+    let config = common::example_config();
     let config = config.to_str().unwrap();
+    let bag_arg = bag.to_str().unwrap();
     let out = tether(&[
         "-v",
         "track",
-        bag,
+        bag_arg,
         "--scan-topic",
         "/scan",
         "--config",
@@ -486,16 +459,13 @@ fn the_robots_own_config_tunes_a_replay() {
         err.contains("not used here: [base], [output], laser.serial, laser.baud"),
         "{err}"
     );
-    let out = tether(&[
+    let out = on_recording(
         "replay",
-        bag,
-        "--scan-topic",
+        &bag,
         "/scan",
-        "--config",
-        config,
-        "--out",
-        dir.join("r.mcap").to_str().unwrap(),
-    ]);
+        &["--config", config],
+        &dir.join("r.mcap"),
+    );
     assert!(out.status.success(), "{}", text(&out.stderr));
     // A robot config with a mistake is refused by name, as `tether run` would.
     let bad = dir.join("bad.toml");
@@ -506,16 +476,13 @@ fn the_robots_own_config_tunes_a_replay() {
             .replace("max_speed_mps = 0.5 ", "max_speed_mps = 1e300 "),
     )
     .unwrap();
-    let out = tether(&[
+    let out = on_recording(
         "track",
-        bag,
-        "--scan-topic",
+        &bag,
         "/scan",
-        "--config",
-        bad.to_str().unwrap(),
-        "--out",
-        dir.join("t2.jsonl").to_str().unwrap(),
-    ]);
+        &["--config", bad.to_str().unwrap()],
+        &dir.join("t2.jsonl"),
+    );
     assert!(!out.status.success());
     assert!(
         text(&out.stderr).contains("robot.max_speed_mps"),
@@ -527,19 +494,11 @@ fn the_robots_own_config_tunes_a_replay() {
 
 #[test]
 fn detect_draws_its_boxes() {
-    let image =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/images/people/messi5.jpg");
-    if !image.is_file() {
-        let reason = "../shared/data/images is missing";
-        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-        }
-        eprintln!("SKIPPED: {reason}");
+    let Some(image) = tether_testkit::shared("data/images/people/messi5.jpg") else {
         return;
-    }
+    };
     let dir = scratch("detect-draw");
-    let cascade =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tether-cascade/models/vtest_upperbody.xml");
+    let cascade = upperbody_model();
     let drawn = dir.join("drawn");
     let out = tether(&[
         "detect",
@@ -609,24 +568,10 @@ fn calibrate_laser_prints_the_block_that_pastes_into_the_robots_config() {
     let stdout = text(&out.stdout);
     let block = &stdout[stdout.find("[pipeline.laser.noise]").expect(&stdout)..];
     // Pasted at the end of the example robot config, it is read by the commands.
-    let example = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robot.example.toml"),
-    )
-    .unwrap();
+    let example = std::fs::read_to_string(common::example_config()).unwrap();
     let config = dir.join("robot.toml");
     std::fs::write(&config, format!("{example}\n{block}")).unwrap();
-    let bag = common::corridor_bag(&dir, 2);
-    let out = tether(&[
-        "track",
-        bag.to_str().unwrap(),
-        "--scan-topic",
-        "/scan",
-        "--config",
-        config.to_str().unwrap(),
-        "--out",
-        dir.join("t.jsonl").to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
+    tracks_with(&dir, &config);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -655,10 +600,7 @@ fn calibrate_camera_prints_what_goes_into_the_robots_config() {
     assert!(vision.contains("box_margin_frac = "), "{stdout}");
     // The mount line replaces the example's, the table goes at the end: the commands
     // read the result.
-    let example = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robot.example.toml"),
-    )
-    .unwrap();
+    let example = std::fs::read_to_string(common::example_config()).unwrap();
     let old = example
         .lines()
         .find(|l| l.starts_with("mount = { x_m = 0.05"))
@@ -669,18 +611,7 @@ fn calibrate_camera_prints_what_goes_into_the_robots_config() {
         format!("{}\n{vision}", example.replace(old, mount)),
     )
     .unwrap();
-    let bag = common::corridor_bag(&dir, 2);
-    let out = tether(&[
-        "track",
-        bag.to_str().unwrap(),
-        "--scan-topic",
-        "/scan",
-        "--config",
-        config.to_str().unwrap(),
-        "--out",
-        dir.join("t.jsonl").to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
+    tracks_with(&dir, &config);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -743,17 +674,6 @@ fn config_defaults_prints_a_config_the_commands_read() {
     assert!(defaults.contains("\n[safety]\n"), "{defaults}");
     let config = dir.join("defaults.toml");
     std::fs::write(&config, &defaults).unwrap();
-    let bag = common::corridor_bag(&dir, 2);
-    let out = tether(&[
-        "track",
-        bag.to_str().unwrap(),
-        "--scan-topic",
-        "/scan",
-        "--config",
-        config.to_str().unwrap(),
-        "--out",
-        dir.join("t.jsonl").to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
+    tracks_with(&dir, &config);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -19,29 +19,14 @@ mod common;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::sync::mpsc;
+use std::process::{Output, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{scratch, tether, text};
+use common::live::{Proc, pty_path, tether_command, wheels_config};
+use common::{leg_tracker, scratch, tether, text};
 use tether_core::Stamp;
 use tether_msgs::{Header, RawLaserScan};
 use tether_recording::rosbag::BagWriter;
-
-fn leg_tracker(name: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/laser/leg_tracker")
-        .join(name);
-    if path.is_file() {
-        return Some(path);
-    }
-    let reason = format!("{} is missing", path.display());
-    if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-        panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-    }
-    eprintln!("SKIPPED: {reason}");
-    None
-}
 
 fn p(path: &Path) -> &str {
     path.to_str().unwrap()
@@ -225,21 +210,7 @@ fn a_topic_without_scans_is_an_error_naming_the_scan_topics() {
 
 /// A simulated corridor run recorded as MCAP (`/scan`, `/odom`, ...), `seconds` long.
 fn sim_mcap(dir: &Path, seconds: u32) -> PathBuf {
-    let record = dir.join("sim.mcap");
-    ok(&tether(&[
-        "sim",
-        "--scenario",
-        "corridor",
-        "--seed",
-        "3",
-        "--duration",
-        &seconds.to_string(),
-        "--out",
-        p(&dir.join("sim")),
-        "--record",
-        p(&record),
-    ]));
-    record
+    common::record_corridor(dir, seconds, &["--seed", "3"], "--record", "sim.mcap")
 }
 
 #[test]
@@ -364,93 +335,27 @@ fn an_mcap_cut_short_is_read_up_to_its_last_complete_chunk() {
     assert!(stderr.contains("holds nothing readable"), "{stderr}");
 }
 
-/// A child process killed when the test ends, however it ends.
-struct Proc(std::process::Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 #[test]
 fn the_recording_of_a_killed_live_run_replays() {
     let dir = scratch("killed-run");
-    let mut emu = Proc(
-        Command::new(env!("CARGO_BIN_EXE_tether"))
-            .args(["urg-emulator", "--pty", "--scenario", "corridor"])
+    let mut emu = Proc::start(
+        "emulator",
+        &dir,
+        tether_command(&["urg-emulator", "--pty", "--scenario", "corridor"])
             .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(std::fs::File::create(dir.join("emulator.stderr")).unwrap())
-            .spawn()
-            .unwrap(),
+            .stdout(Stdio::piped()),
     );
-    let (tx, rx) = mpsc::channel();
-    let stdout = emu.0.stdout.take().unwrap();
-    std::thread::spawn(move || {
-        let mut line = String::new();
-        let _ = BufReader::new(stdout).read_line(&mut line);
-        let _ = tx.send(line);
-    });
-    let line = rx.recv_timeout(Duration::from_secs(30)).unwrap();
-    let pty = line
-        .trim()
-        .rsplit(" on ")
-        .next()
-        .filter(|p| p.starts_with("/dev/"))
-        .unwrap_or_else(|| panic!("no pty path in {line:?}"))
-        .to_owned();
-    let config = dir.join("robot.toml");
-    std::fs::write(
-        &config,
-        format!(
-            r#"[robot]
-radius_m = 0.2
-track_width_m = 0.3
-max_speed_mps = 1.4
-max_wheel_speed_mps = 1.6
-max_accel_mps2 = 1.2
-
-[laser]
-serial = "{pty}"
-mount = {{ x_m = 0.10, y_m = 0.0, yaw_rad = 0.0, height_m = 0.30 }}
-
-[follow]
-follow_distance_m = 1.0
-attach_ahead_m = 0.3
-distance_omega_radps = 4.0
-bearing_omega_radps = 3.0
-
-[base]
-kind = "wheels"
-device = "{wheels}"
-format = "text"
-
-[output]
-stdout = true
-record = "{record}"
-
-[pipeline.safety]
-laser_timeout_s = 0.5
-target_timeout_s = 0.8
-"#,
-            wheels = dir.join("wheels.txt").display(),
-            record = dir.join("run.mcap").display(),
-        ),
-    )
-    .unwrap();
-    let mut run = Proc(
-        Command::new(env!("CARGO_BIN_EXE_tether"))
-            .args(["run", "--config", p(&config)])
+    let pty = pty_path(&mut emu);
+    let config = wheels_config(&dir, &pty, "");
+    let mut run = Proc::start(
+        "run",
+        &dir,
+        tether_command(&["run", "--config", p(&config)])
             .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(std::fs::File::create(dir.join("run.stderr")).unwrap())
-            .spawn()
-            .unwrap(),
+            .stdout(Stdio::piped()),
     );
     // Three seconds of commands (10 Hz), then SIGKILL: no chance to finish the file.
-    let stdout = run.0.stdout.take().unwrap();
+    let stdout = run.child.stdout.take().unwrap();
     let mut reader = BufReader::new(stdout);
     let started = Instant::now();
     let mut first_line = None;
@@ -461,16 +366,12 @@ target_timeout_s = 0.8
         assert!(
             n > 0 && started.elapsed() < Duration::from_secs(60),
             "tether run stopped early: {}",
-            std::fs::read_to_string(dir.join("run.stderr")).unwrap_or_default()
+            run.stderr()
         );
         first_line.get_or_insert_with(Instant::now);
     }
-    let status = Command::new("kill")
-        .args(["-KILL", &run.0.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let _ = run.0.wait();
+    run.signal("-KILL");
+    let _ = run.child.wait();
     drop(emu);
     // The recording (whatever name the run gave it) is readable up to the kill.
     let recordings: Vec<PathBuf> = std::fs::read_dir(&dir)

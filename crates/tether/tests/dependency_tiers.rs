@@ -2,7 +2,8 @@
 //! has a tier, and a crate's dependencies on other workspace crates point down, to a
 //! lower tier, never sideways or up. Tests and benchmarks may reach sideways or up
 //! (dev-dependencies: a simulated world or a recording as input) but never onto a crate
-//! that depends on the crate itself.
+//! that depends on the crate itself. A test-support crate ([`TEST_SUPPORT`]) sits in the
+//! bottom tier, so that every crate's tests may use it, and is a dev-dependency only.
 //!
 //! The arrows are read from `cargo metadata --no-deps` (the `Cargo.toml` files), so a
 //! new arrow that points up fails here, in CI, before it takes root. A crate that is not
@@ -18,7 +19,10 @@ use serde_json::Value;
 /// The tiers, bottom up: the crates of each and what they are for. A crate may use the
 /// crates of lower tiers only.
 const TIERS: &[(&str, &[&str])] = &[
-    ("shared types", &["tether-core"]),
+    (
+        "shared types and test support",
+        &["tether-core", "tether-testkit"],
+    ),
     (
         "image decoding and ROS messages",
         &["tether-image", "tether-msgs"],
@@ -44,6 +48,10 @@ const TIERS: &[(&str, &[&str])] = &[
     ("the live runtime", &["tether-live"]),
     ("the command line", &["tether"]),
 ];
+
+/// Crates for tests only: no crate's `[dependencies]` or `[build-dependencies]` may name
+/// them, only its `[dev-dependencies]`.
+const TEST_SUPPORT: &[&str] = &["tether-testkit"];
 
 /// The tier of each crate in [`TIERS`].
 fn tier_of() -> BTreeMap<&'static str, usize> {
@@ -126,6 +134,14 @@ fn violations(members: &BTreeSet<String>, arrows: &[Arrow]) -> Vec<String> {
         }
         false
     };
+    for a in arrows.iter().filter(|a| !a.dev) {
+        if TEST_SUPPORT.contains(&a.to.as_str()) {
+            out.push(format!(
+                "{} -> {}: test support, for [dev-dependencies] only",
+                a.from, a.to
+            ));
+        }
+    }
     for a in arrows {
         let (Some(&from), Some(&to)) = (tiers.get(a.from.as_str()), tiers.get(a.to.as_str()))
         else {
@@ -150,6 +166,18 @@ fn violations(members: &BTreeSet<String>, arrows: &[Arrow]) -> Vec<String> {
         }
     }
     out
+}
+
+/// One package of `cargo metadata`'s JSON: `name` and its dependencies with their kind
+/// (`None` for a normal one, `"dev"`, `"build"`).
+fn crate_json(name: &str, deps: &[(&str, Option<&str>)]) -> Value {
+    serde_json::json!({
+        "name": name,
+        "dependencies": deps
+            .iter()
+            .map(|(to, kind)| serde_json::json!({"name": to, "kind": kind}))
+            .collect::<Vec<_>>(),
+    })
 }
 
 #[test]
@@ -191,15 +219,6 @@ fn every_dependency_points_down_a_tier() {
 
 #[test]
 fn the_check_catches_arrows_up_and_within_a_tier_and_cycles_through_tests() {
-    let crate_json = |name: &str, deps: &[(&str, Option<&str>)]| {
-        serde_json::json!({
-            "name": name,
-            "dependencies": deps
-                .iter()
-                .map(|(to, kind)| serde_json::json!({"name": to, "kind": kind}))
-                .collect::<Vec<_>>(),
-        })
-    };
     let metadata = serde_json::json!({
         "packages": [
             crate_json("tether-core", &[("serde", None), ("tether-laser", Some("dev"))]),
@@ -239,4 +258,29 @@ fn the_check_catches_arrows_up_and_within_a_tier_and_cycles_through_tests() {
         found(&["tether-core (tests) -> tether-laser: a cycle"]),
         "{problems:#?}"
     );
+}
+
+#[test]
+fn test_support_is_a_dev_dependency_of_any_crate_and_a_dependency_of_none() {
+    let metadata = serde_json::json!({
+        "packages": [
+            crate_json("tether-testkit", &[("serde_json", None)]),
+            crate_json("tether-core", &[("tether-testkit", Some("dev"))]),
+            crate_json("tether", &[("tether-core", None), ("tether-testkit", Some("dev"))]),
+            crate_json("tether-laser", &[("tether-core", None), ("tether-testkit", None)]),
+            crate_json("tether-fusion", &[("tether-testkit", Some("build"))]),
+        ]
+    });
+    let (members, arrows) = arrows(&metadata);
+    let problems = violations(&members, &arrows);
+    // The tests of the bottom tier and of the top one may use it; a normal or a build
+    // dependency on it is refused, though it points down.
+    assert_eq!(problems.len(), 2, "{problems:#?}");
+    for user in ["tether-laser", "tether-fusion"] {
+        assert!(
+            problems.iter().any(|p| p
+                == &format!("{user} -> tether-testkit: test support, for [dev-dependencies] only")),
+            "{problems:#?}"
+        );
+    }
 }

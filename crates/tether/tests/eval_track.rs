@@ -220,53 +220,29 @@ fn mcap_with_world_frame_pose_labels() {
 fn refuses_a_labels_topic_that_is_not_labels() {
     let dir = scratch("eval-track-bad");
     let bag = sim_bag(&dir, "corridor", "1", &["--duration", "3"]);
-    let out = tether(&[
-        "eval-track",
-        bag.to_str().unwrap(),
-        "--scan-topic",
-        "/scan",
-        "--labels-topic",
-        "/odom",
-    ]);
-    assert!(!out.status.success());
-    let err = text(&out.stderr);
+    // `tether eval-track BAG --labels-topic LABELS`, which must fail; its stderr.
+    let refused = |labels: &str| {
+        let out = tether(&[
+            "eval-track",
+            bag.to_str().unwrap(),
+            "--scan-topic",
+            "/scan",
+            "--labels-topic",
+            labels,
+        ]);
+        assert!(!out.status.success());
+        text(&out.stderr)
+    };
+    let err = refused("/odom");
     // Refused before any scan is read, naming the type and the topics with labels.
     assert!(
         err.contains("holds nav_msgs/Odometry, not labels")
             && err.contains("the topics with labels are: /people_truth"),
         "{err}"
     );
-    let out = tether(&[
-        "eval-track",
-        bag.to_str().unwrap(),
-        "--scan-topic",
-        "/scan",
-        "--labels-topic",
-        "/nope",
-    ]);
-    assert!(!out.status.success());
-    assert!(
-        text(&out.stderr).contains("has no topic \"/nope\""),
-        "{}",
-        text(&out.stderr)
-    );
+    let err = refused("/nope");
+    assert!(err.contains("has no topic \"/nope\""), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-fn shared_bag(name: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/laser/leg_tracker")
-        .join(name);
-    if p.is_file() {
-        return Some(p);
-    }
-    let reason = format!("{} is absent (it sits beside the checkout)", p.display());
-    assert!(
-        std::env::var("TETHER_REQUIRE_SHARED").as_deref() != Ok("1"),
-        "{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs"
-    );
-    eprintln!("SKIPPED: {reason}");
-    None
 }
 
 #[test]
@@ -276,7 +252,7 @@ fn leg_tracker_test_split() {
         ("positive_6_extracted.bag", 187, 3),
         ("positive_7_extracted.bag", 267, 4),
     ] {
-        let Some(bag) = shared_bag(name) else {
+        let Some(bag) = common::leg_tracker(name) else {
             return;
         };
         let dir = scratch(&format!("eval-track-{name}"));

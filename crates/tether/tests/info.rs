@@ -24,24 +24,11 @@ use std::process::Command;
 use common::{scratch, tether, text};
 use serde_json::Value;
 
-const SHARED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared");
 const REFERENCE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/info_reference.py");
-
-/// Prints why a test does not run, or fails under `TETHER_REQUIRE_SHARED=1`.
-fn skip(reason: &str) {
-    if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-        panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-    }
-    eprintln!("SKIPPED: {reason}");
-}
 
 /// leg_tracker's bags, or `None` (skipped) when `../shared` is missing.
 fn leg_tracker_bags() -> Option<Vec<PathBuf>> {
-    let dir = Path::new(SHARED).join("data/laser/leg_tracker");
-    if !dir.is_dir() {
-        skip(&format!("{} is missing", dir.display()));
-        return None;
-    }
+    let dir = tether_testkit::shared("data/laser/leg_tracker")?;
     let mut bags = Vec::new();
     for folder in [dir.clone(), dir.join("positive_not_extracted")] {
         let Ok(entries) = std::fs::read_dir(&folder) else {
@@ -64,10 +51,10 @@ fn have_python() -> bool {
         .args([REFERENCE, "check"])
         .output()
         .is_ok_and(|o| o.status.success());
-    if !ok {
-        skip("python3 with `rosbags` and `mcap` is not available (pip install rosbags mcap)");
-    }
-    ok
+    tether_testkit::skip_unless(
+        ok,
+        "python3 with `rosbags` and `mcap` is not available (pip install rosbags mcap)",
+    )
 }
 
 /// `tether info FILE --json`, parsed; the command must succeed.
@@ -247,20 +234,7 @@ fn a_simulated_mcap_matches_python_mcap() {
         return;
     }
     let dir = scratch("info-mcap");
-    let mcap = dir.join("x.mcap");
-    let out = tether(&[
-        "sim",
-        "--scenario",
-        "corridor",
-        "--duration",
-        "3",
-        "--laser-only",
-        "--out",
-        dir.to_str().unwrap(),
-        "--record",
-        mcap.to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "sim: {}", text(&out.stderr));
+    let mcap = common::record_corridor(&dir, 3, &["--laser-only"], "--record", "x.mcap");
     let info = info_json(&mcap);
     assert_eq!(
         tether_topics(&info),

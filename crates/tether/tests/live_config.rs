@@ -11,126 +11,42 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
-use std::sync::mpsc;
-use std::time::{Duration, Instant};
+use std::process::{ExitStatus, Stdio};
+use std::time::Duration;
 
+use common::live::{Proc, config_text, pty_path, tether_command};
 use common::scratch;
 
-/// A child process killed when the test ends, however it ends.
-struct Proc {
-    child: Child,
-    stderr: PathBuf,
-}
-
-impl Proc {
-    /// `tether ARGS`, its stderr in `DIR/NAME.stderr`, its log filter the default one
-    /// (the warnings are what is checked).
-    fn spawn(name: &str, dir: &Path, args: &[&str], stdout: Stdio) -> Proc {
-        let stderr = dir.join(format!("{name}.stderr"));
-        let child = Command::new(env!("CARGO_BIN_EXE_tether"))
-            .args(args)
+/// `tether ARGS`, its stderr in `DIR/NAME.stderr`, its log filter the default one
+/// (the warnings are what is checked).
+fn spawn(name: &str, dir: &Path, args: &[&str], stdout: Stdio) -> Proc {
+    Proc::start(
+        name,
+        dir,
+        tether_command(args)
             .env_remove("RUST_LOG")
             .stdin(Stdio::piped())
-            .stdout(stdout)
-            .stderr(std::fs::File::create(&stderr).unwrap())
-            .spawn()
-            .unwrap_or_else(|e| panic!("cannot start {name}: {e}"));
-        Proc { child, stderr }
-    }
-
-    fn stderr(&self) -> String {
-        std::fs::read_to_string(&self.stderr).unwrap_or_default()
-    }
-
-    /// Waits up to `limit` for the process to exit; fails the test after it.
-    fn wait(&mut self, limit: Duration, what: &str) -> ExitStatus {
-        let started = Instant::now();
-        loop {
-            if let Some(status) = self.child.try_wait().unwrap() {
-                return status;
-            }
-            assert!(
-                started.elapsed() < limit,
-                "{what} did not end within {limit:?}; stderr:\n{}",
-                self.stderr()
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
+            .stdout(stdout),
+    )
 }
 
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
+/// Waits up to `limit` for `proc` to exit; fails the test after it.
+fn wait(proc: &mut Proc, limit: Duration, what: &str) -> ExitStatus {
+    proc.wait_or_fail(limit, &format!("{what} did not end within {limit:?}"))
 }
 
 /// The emulator serving `corridor` on a new pty (its robot stands still); returns it
 /// with the pty's path.
 fn emulator(dir: &Path, name: &str) -> (Proc, String) {
-    let mut emu = Proc::spawn(
+    let mut emu = spawn(
         name,
         dir,
         &["urg-emulator", "--pty", "--scenario", "corridor"],
         Stdio::piped(),
     );
-    let stdout = emu.child.stdout.take().unwrap();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        let mut line = String::new();
-        let _ = BufReader::new(stdout).read_line(&mut line);
-        let _ = tx.send(line);
-    });
-    let line = rx
-        .recv_timeout(Duration::from_secs(30))
-        .unwrap_or_else(|_| {
-            panic!(
-                "the emulator printed no pty path in 30 s; stderr:\n{}",
-                emu.stderr()
-            )
-        });
-    let pty = line
-        .trim()
-        .rsplit(" on ")
-        .next()
-        .filter(|p| p.starts_with("/dev/"))
-        .unwrap_or_else(|| panic!("no pty path in {line:?}; stderr:\n{}", emu.stderr()))
-        .to_owned();
+    let pty = pty_path(&mut emu);
     (emu, pty)
-}
-
-/// A robot's config with its laser on `serial`, then `base` (the `[base]` table's
-/// keys), `output` (the `[output]` table's) and `extra` tables.
-fn config_text(serial: &str, base: &str, output: &str, extra: &str) -> String {
-    format!(
-        r#"[robot]
-radius_m = 0.2
-track_width_m = 0.3
-max_speed_mps = 1.4
-max_wheel_speed_mps = 1.6
-max_accel_mps2 = 1.2
-
-[laser]
-serial = "{serial}"
-mount = {{ x_m = 0.10, y_m = 0.0, yaw_rad = 0.0, height_m = 0.30 }}
-
-[follow]
-follow_distance_m = 1.0
-attach_ahead_m = 0.3
-distance_omega_radps = 4.0
-bearing_omega_radps = 3.0
-
-[base]
-{base}
-
-[output]
-{output}
-{extra}"#
-    )
 }
 
 /// Writes `text` to `DIR/NAME`, returns the path.
@@ -150,13 +66,13 @@ fn short_run(
 ) -> (bool, String) {
     let (_emu, pty) = emulator(dir, &format!("{name}-emulator"));
     let config = write(dir, &format!("{name}.toml"), &config_for(&pty));
-    let mut run = Proc::spawn(
+    let mut run = spawn(
         name,
         dir,
         &["run", "--config", config.to_str().unwrap(), "--duration", s],
         Stdio::null(),
     );
-    let status = run.wait(Duration::from_secs(60), "tether run");
+    let status = wait(&mut run, Duration::from_secs(60), "tether run");
     (status.success(), run.stderr())
 }
 
@@ -230,13 +146,13 @@ fn a_safety_key_that_switches_safety_off_is_refused_by_name_before_any_device_op
     let output = format!("stdout = true\nrecord = \"{}\"", record.display());
     let refuse = |name: &str, text: &str, key: &str, says: &str| {
         let path = write(&dir, &format!("{name}.toml"), text);
-        let mut run = Proc::spawn(
+        let mut run = spawn(
             name,
             &dir,
             &["run", "--config", path.to_str().unwrap()],
             Stdio::piped(),
         );
-        let status = run.wait(Duration::from_secs(30), "tether run");
+        let status = wait(&mut run, Duration::from_secs(30), "tether run");
         let stderr = run.stderr();
         assert!(!status.success(), "{key}: accepted:\n{stderr}");
         assert!(
@@ -281,13 +197,13 @@ fn a_safety_key_that_switches_safety_off_is_refused_by_name_before_any_device_op
             "[pipeline.safety]\nlaser_timeout_s = 0.5\n",
         ),
     );
-    let mut run = Proc::spawn(
+    let mut run = spawn(
         "safe",
         &dir,
         &["run", "--config", path.to_str().unwrap()],
         Stdio::null(),
     );
-    let status = run.wait(Duration::from_secs(30), "tether run");
+    let status = wait(&mut run, Duration::from_secs(30), "tether run");
     let stderr = run.stderr();
     assert!(!status.success(), "{stderr}");
     assert!(stderr.contains("ttyACM9"), "{stderr}");

@@ -13,69 +13,21 @@ mod common;
 
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
-use std::sync::mpsc;
+use std::process::{ChildStdin, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use common::live::{Proc, pty_path, tether_command, wheels_config};
 use common::{scratch, tether, text};
+use tether_testkit::{opencv_cascade, or_skip};
 
-/// A child process killed when the test ends, however it ends.
-struct Proc {
-    name: &'static str,
-    child: Child,
-    stderr: PathBuf,
-}
-
-impl Proc {
-    fn spawn(name: &'static str, dir: &Path, args: &[&str], stdin: Stdio) -> Proc {
-        let stderr = dir.join(format!("{name}.stderr"));
-        let child = Command::new(env!("CARGO_BIN_EXE_tether"))
-            .args(args)
-            .stdin(stdin)
-            .stdout(Stdio::piped())
-            .stderr(std::fs::File::create(&stderr).unwrap())
-            .spawn()
-            .unwrap_or_else(|e| panic!("cannot start {name}: {e}"));
-        Proc {
-            name,
-            child,
-            stderr,
-        }
-    }
-
-    fn stderr(&self) -> String {
-        std::fs::read_to_string(&self.stderr).unwrap_or_default()
-    }
-
-    /// Waits up to `limit` for the process to exit.
-    fn wait_for(&mut self, limit: Duration) -> Option<ExitStatus> {
-        let started = Instant::now();
-        loop {
-            if let Some(status) = self.child.try_wait().unwrap() {
-                return Some(status);
-            }
-            if started.elapsed() > limit {
-                return None;
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-
-    fn signal(&self, signal: &str) {
-        let status = Command::new("kill")
-            .args([signal, &self.child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(status.success(), "kill {signal} {}", self.name);
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
+/// `tether ARGS` with `stdin`, its stdout piped.
+fn spawn(name: &str, dir: &Path, args: &[&str], stdin: Stdio) -> Proc {
+    Proc::start(
+        name,
+        dir,
+        tether_command(args).stdin(stdin).stdout(Stdio::piped()),
+    )
 }
 
 /// The emulator on a new pty serving `corridor`, its robot driven by the commands on its
@@ -91,29 +43,8 @@ fn emulator_reading(dir: &Path, commands: &[&str]) -> (Proc, String) {
     let mut args = vec!["urg-emulator", "--pty", "--scenario", "corridor"];
     args.extend_from_slice(commands);
     args.extend(["--truth", truth.to_str().unwrap()]);
-    let mut emu = Proc::spawn("urg-emulator", dir, &args, Stdio::piped());
-    let stdout = emu.child.stdout.take().unwrap();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        let mut line = String::new();
-        let _ = BufReader::new(stdout).read_line(&mut line);
-        let _ = tx.send(line);
-    });
-    let line = rx
-        .recv_timeout(Duration::from_secs(30))
-        .unwrap_or_else(|_| {
-            panic!(
-                "the emulator printed no pty path in 30 s; stderr:\n{}",
-                emu.stderr()
-            )
-        });
-    let pty = line
-        .trim()
-        .rsplit(" on ")
-        .next()
-        .filter(|p| p.starts_with("/dev/"))
-        .unwrap_or_else(|| panic!("no pty path in {line:?}; stderr:\n{}", emu.stderr()))
-        .to_owned();
+    let mut emu = spawn("urg-emulator", dir, &args, Stdio::piped());
+    let pty = pty_path(&mut emu);
     (emu, pty)
 }
 
@@ -124,44 +55,7 @@ fn config(dir: &Path, pty: &str) -> PathBuf {
 
 /// [`config`] with `extra` tables.
 fn config_with(dir: &Path, pty: &str, extra: &str) -> PathBuf {
-    let path = dir.join("robot.toml");
-    let text = format!(
-        r#"[robot]
-radius_m = 0.2
-track_width_m = 0.3
-max_speed_mps = 1.4
-max_wheel_speed_mps = 1.6
-max_accel_mps2 = 1.2
-
-[laser]
-serial = "{pty}"
-mount = {{ x_m = 0.10, y_m = 0.0, yaw_rad = 0.0, height_m = 0.30 }}
-
-[follow]
-follow_distance_m = 1.0
-attach_ahead_m = 0.3
-distance_omega_radps = 4.0
-bearing_omega_radps = 3.0
-
-[base]
-kind = "wheels"
-device = "{wheels}"
-format = "text"
-
-[output]
-stdout = true
-record = "{record}"
-
-# A loaded test machine may delay a scan now and then.
-[pipeline.safety]
-laser_timeout_s = 0.5
-target_timeout_s = 0.8
-{extra}"#,
-        wheels = dir.join("wheels.txt").display(),
-        record = dir.join("run.mcap").display(),
-    );
-    std::fs::write(&path, text).unwrap();
-    path
+    wheels_config(dir, pty, extra)
 }
 
 /// `tether run` with its stdout lines kept and passed on to `feed` (the emulator's
@@ -174,7 +68,7 @@ fn run(
 ) -> (Proc, Arc<Mutex<Vec<String>>>) {
     let mut args = vec!["run", "--config", config.to_str().unwrap()];
     args.extend_from_slice(extra);
-    let mut run = Proc::spawn("run", dir, &args, Stdio::null());
+    let mut run = spawn("run", dir, &args, Stdio::null());
     let stdout = run.child.stdout.take().unwrap();
     let lines = Arc::new(Mutex::new(Vec::new()));
     let kept = Arc::clone(&lines);
@@ -193,24 +87,86 @@ fn run(
     (run, lines)
 }
 
+/// `tether run` with `extra` arguments and the config's `tables` on a fresh emulator's
+/// pty, its commands driving the emulator's robot: the emulator, the run and the lines
+/// it printed so far.
+fn following(dir: &Path, tables: &str, extra: &[&str]) -> (Proc, Proc, Arc<Mutex<Vec<String>>>) {
+    following_with(dir, &["--commands-stdin"], tables, |text| text, extra)
+}
+
+/// [`following`] with the emulator's `commands` arguments (which must keep
+/// `--commands-stdin`) and the config's text passed through `edit`.
+fn following_with(
+    dir: &Path,
+    commands: &[&str],
+    tables: &str,
+    edit: impl FnOnce(String) -> String,
+    extra: &[&str],
+) -> (Proc, Proc, Arc<Mutex<Vec<String>>>) {
+    let (mut emu, pty) = emulator_reading(dir, commands);
+    let feed = emu.child.stdin.take().unwrap();
+    let config = config_with(dir, &pty, tables);
+    std::fs::write(&config, edit(std::fs::read_to_string(&config).unwrap())).unwrap();
+    let (run, lines) = run(dir, &config, extra, feed);
+    (emu, run, lines)
+}
+
 fn json(line: &str) -> serde_json::Value {
     serde_json::from_str(line).unwrap_or_else(|e| panic!("not JSON ({e}): {line}"))
 }
 
-/// Waits until `run` has printed `n` lines.
-fn wait_for_lines(run: &mut Proc, lines: &Mutex<Vec<String>>, n: usize) {
+/// Waits until `ready` holds for the lines `run` has printed; fails the test when the
+/// run exits first, or with `failure` after 60 s.
+fn wait_until(
+    run: &mut Proc,
+    lines: &Mutex<Vec<String>>,
+    ready: impl Fn(&[String]) -> bool,
+    failure: &str,
+) {
     let started = Instant::now();
-    while lines.lock().unwrap().len() < n {
+    while !ready(&lines.lock().unwrap()) {
         if let Some(status) = run.child.try_wait().unwrap() {
             panic!("tether run exited early ({status}):\n{}", run.stderr());
         }
         assert!(
             started.elapsed() < Duration::from_secs(60),
-            "tether run printed fewer than {n} lines in 60 s; stderr:\n{}",
+            "{failure}; stderr:\n{}",
             run.stderr()
         );
-        std::thread::sleep(Duration::from_millis(50));
+        std::thread::sleep(Duration::from_millis(20));
     }
+}
+
+/// Waits until one of the `recent` last lines `run` printed drives forward faster than
+/// `mps`; fails the test with `failure` after 60 s.
+fn wait_until_driving(
+    run: &mut Proc,
+    lines: &Mutex<Vec<String>>,
+    recent: usize,
+    mps: f64,
+    failure: &str,
+) {
+    wait_until(
+        run,
+        lines,
+        |l| {
+            l.iter()
+                .rev()
+                .take(recent)
+                .any(|l| json(l)["v_mps"].as_f64().unwrap_or(0.0) > mps)
+        },
+        failure,
+    );
+}
+
+/// Waits until `run` has printed `n` lines.
+fn wait_for_lines(run: &mut Proc, lines: &Mutex<Vec<String>>, n: usize) {
+    wait_until(
+        run,
+        lines,
+        |l| l.len() >= n,
+        &format!("tether run printed fewer than {n} lines in 60 s"),
+    );
 }
 
 /// The last line, checked to be the final stop for `why`.
@@ -239,16 +195,11 @@ fn assert_final_stop(lines: &Mutex<Vec<String>>, why: &str, stderr: &str) {
 #[test]
 fn run_follows_the_emulators_person() {
     let dir = scratch("live-follow");
-    let (mut emu, pty) = emulator(&dir);
-    let feed = emu.child.stdin.take().unwrap();
-    let config = config(&dir, &pty);
-    let (mut run, lines) = run(&dir, &config, &["--duration", "12"], feed);
-    let status = run.wait_for(Duration::from_secs(90)).unwrap_or_else(|| {
-        panic!(
-            "tether run did not end within 90 s; stderr:\n{}",
-            run.stderr()
-        )
-    });
+    let (emu, mut run, lines) = following(&dir, "", &["--duration", "12"]);
+    let status = run.wait_or_fail(
+        Duration::from_secs(90),
+        "tether run did not end within 90 s",
+    );
     assert!(status.success(), "tether run failed:\n{}", run.stderr());
     assert_final_stop(&lines, "duration", &run.stderr());
     drop(emu);
@@ -350,18 +301,13 @@ fn run_follows_the_emulators_person() {
 #[test]
 fn ctrl_c_ends_the_run_with_a_final_stop() {
     let dir = scratch("live-ctrl-c");
-    let (mut emu, pty) = emulator(&dir);
-    let feed = emu.child.stdin.take().unwrap();
-    let config = config(&dir, &pty);
-    let (mut run, lines) = run(&dir, &config, &[], feed);
+    let (_emu, mut run, lines) = following(&dir, "", &[]);
     wait_for_lines(&mut run, &lines, 30);
     run.signal("-INT");
-    let status = run.wait_for(Duration::from_secs(20)).unwrap_or_else(|| {
-        panic!(
-            "tether run ignored Ctrl-C for 20 s; stderr:\n{}",
-            run.stderr()
-        )
-    });
+    let status = run.wait_or_fail(
+        Duration::from_secs(20),
+        "tether run ignored Ctrl-C for 20 s",
+    );
     assert!(status.success(), "{status}:\n{}", run.stderr());
     assert_final_stop(&lines, "interrupted", &run.stderr());
 }
@@ -371,39 +317,19 @@ fn sigterm_on_a_driving_run_ends_it_with_a_final_stop() {
     // What a service manager (systemd, docker stop) sends: the same clean end as
     // Ctrl-C, while the robot drives.
     let dir = scratch("live-sigterm");
-    let (mut emu, pty) = emulator(&dir);
-    let feed = emu.child.stdin.take().unwrap();
-    let config = config(&dir, &pty);
-    let (mut run, lines) = run(&dir, &config, &[], feed);
-    let started = Instant::now();
-    loop {
-        let driving = lines
-            .lock()
-            .unwrap()
-            .iter()
-            .rev()
-            .take(5)
-            .any(|l| json(l)["v_mps"].as_f64().unwrap_or(0.0) > 0.1);
-        if driving {
-            break;
-        }
-        if let Some(status) = run.child.try_wait().unwrap() {
-            panic!("tether run exited early ({status}):\n{}", run.stderr());
-        }
-        assert!(
-            started.elapsed() < Duration::from_secs(60),
-            "the robot did not drive within 60 s; stderr:\n{}",
-            run.stderr()
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let (_emu, mut run, lines) = following(&dir, "", &[]);
+    wait_until_driving(
+        &mut run,
+        &lines,
+        5,
+        0.1,
+        "the robot did not drive within 60 s",
+    );
     run.signal("-TERM");
-    let status = run.wait_for(Duration::from_secs(20)).unwrap_or_else(|| {
-        panic!(
-            "tether run ignored SIGTERM for 20 s; stderr:\n{}",
-            run.stderr()
-        )
-    });
+    let status = run.wait_or_fail(
+        Duration::from_secs(20),
+        "tether run ignored SIGTERM for 20 s",
+    );
     let stderr = run.stderr();
     assert!(status.success(), "{status}:\n{stderr}");
     assert_final_stop(&lines, "interrupted", &stderr);
@@ -420,7 +346,7 @@ fn a_stdout_nobody_reads_holds_up_neither_the_base_nor_ctrl_c() {
     let dir = scratch("live-stalled-stdout");
     let (_emu, pty) = emulator(&dir);
     let config = config(&dir, &pty);
-    let mut run = Proc::spawn(
+    let mut run = spawn(
         "run",
         &dir,
         &["run", "--config", config.to_str().unwrap()],
@@ -450,12 +376,10 @@ fn a_stdout_nobody_reads_holds_up_neither_the_base_nor_ctrl_c() {
     );
     let interrupted = Instant::now();
     run.signal("-INT");
-    let status = run.wait_for(Duration::from_secs(5)).unwrap_or_else(|| {
-        panic!(
-            "tether run ignored Ctrl-C for 5 s with stdout stalled; stderr:\n{}",
-            run.stderr()
-        )
-    });
+    let status = run.wait_or_fail(
+        Duration::from_secs(5),
+        "tether run ignored Ctrl-C for 5 s with stdout stalled",
+    );
     let stderr = run.stderr();
     eprintln!(
         "base lines at 10 s {at_10_s}, at 15 s {at_15_s}; exit {:.2} s after Ctrl-C",
@@ -477,18 +401,13 @@ fn a_stdout_nobody_reads_holds_up_neither_the_base_nor_ctrl_c() {
 #[test]
 fn a_vanished_laser_stops_the_robot_and_fails_clearly() {
     let dir = scratch("live-unplugged");
-    let (mut emu, pty) = emulator(&dir);
-    let feed = emu.child.stdin.take().unwrap();
-    let config = config(&dir, &pty);
-    let (mut run, lines) = run(&dir, &config, &[], feed);
+    let (emu, mut run, lines) = following(&dir, "", &[]);
     wait_for_lines(&mut run, &lines, 30);
     emu.signal("-KILL");
-    let status = run.wait_for(Duration::from_secs(30)).unwrap_or_else(|| {
-        panic!(
-            "tether run went on for 30 s without its laser; stderr:\n{}",
-            run.stderr()
-        )
-    });
+    let status = run.wait_or_fail(
+        Duration::from_secs(30),
+        "tether run went on for 30 s without its laser",
+    );
     assert!(!status.success(), "a lost laser must fail the run");
     let stderr = run.stderr();
     assert!(stderr.contains("the laser failed"), "{stderr}");
@@ -523,26 +442,11 @@ fn run_names_the_wrong_key_of_its_config() {
     }
 }
 
-/// Skips (printing why) unless `TETHER_REQUIRE_SHARED=1` demands the test.
-fn skip_unless(ok: bool, reason: &str) -> bool {
-    if !ok {
-        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-        }
-        eprintln!("skipped: {reason}");
-    }
-    ok
-}
-
 #[test]
 fn camera_frames_from_a_folder_reach_the_pipeline() {
-    let cascade = Path::new("/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml");
-    if !skip_unless(
-        cascade.is_file(),
-        "Debian's opencv-data cascades are not installed",
-    ) {
+    let Some(cascade) = or_skip(opencv_cascade("haarcascade_upperbody.xml")) else {
         return;
-    }
+    };
     let dir = scratch("live-camera");
     let frames = dir.join("frames");
     std::fs::create_dir_all(&frames).unwrap();
@@ -560,8 +464,6 @@ fn camera_frames_from_a_folder_reach_the_pipeline() {
             .write_image_data(&pixels)
             .unwrap();
     }
-    let (mut emu, pty) = emulator(&dir);
-    let feed = emu.child.stdin.take().unwrap();
     let camera = format!(
         r#"
 [camera]
@@ -574,14 +476,11 @@ cascade = "{}"
         frames.display(),
         cascade.display()
     );
-    let config = config_with(&dir, &pty, &camera);
-    let (mut run, lines) = run(&dir, &config, &["--duration", "3"], feed);
-    let status = run.wait_for(Duration::from_secs(60)).unwrap_or_else(|| {
-        panic!(
-            "tether run did not end within 60 s; stderr:\n{}",
-            run.stderr()
-        )
-    });
+    let (_emu, mut run, lines) = following(&dir, &camera, &["--duration", "3"]);
+    let status = run.wait_or_fail(
+        Duration::from_secs(60),
+        "tether run did not end within 60 s",
+    );
     let stderr = run.stderr();
     assert!(status.success(), "{stderr}");
     assert!(stderr.contains("5 camera frames"), "{stderr}");
@@ -644,13 +543,9 @@ cascade = "{}"
 
 #[test]
 fn a_bad_camera_frame_is_skipped_and_a_dead_camera_leaves_the_laser_in_charge() {
-    let cascade = Path::new("/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml");
-    if !skip_unless(
-        cascade.is_file(),
-        "Debian's opencv-data cascades are not installed",
-    ) {
+    let Some(cascade) = or_skip(opencv_cascade("haarcascade_upperbody.xml")) else {
         return;
-    }
+    };
     // Two good frames around a truncated one and one of the wrong size: the two bad
     // ones are skipped and counted, the camera goes on to its last frame.
     let dir = scratch("live-bad-frame");
@@ -662,10 +557,11 @@ fn a_bad_camera_frame_is_skipped_and_a_dead_camera_leaves_the_laser_in_charge() 
     std::fs::write(frames.join("frame1.png"), &whole[..whole.len() / 3]).unwrap();
     write_png(&frames.join("frame2.png"), 320, 240, 20);
     write_png(&frames.join("frame3.png"), 640, 480, 30);
-    let (mut emu, pty) = emulator(&dir);
-    let feed = emu.child.stdin.take().unwrap();
-    let config = config_with(&dir, &pty, &camera_section(&frames, cascade, 10.0, false));
-    let (mut first, _) = run(&dir, &config, &["--duration", "2"], feed);
+    let (emu, mut first, _) = following(
+        &dir,
+        &camera_section(&frames, &cascade, 10.0, false),
+        &["--duration", "2"],
+    );
     let status = first.wait_for(Duration::from_secs(60)).unwrap();
     let stderr = first.stderr();
     assert!(status.success(), "{stderr}");
@@ -682,10 +578,11 @@ fn a_bad_camera_frame_is_skipped_and_a_dead_camera_leaves_the_laser_in_charge() 
     let frames = dir.join("frames");
     std::fs::create_dir_all(&frames).unwrap();
     std::fs::write(frames.join("frame0.png"), &whole[..whole.len() / 3]).unwrap();
-    let (mut emu, pty) = emulator(&dir);
-    let feed = emu.child.stdin.take().unwrap();
-    let config = config_with(&dir, &pty, &camera_section(&frames, cascade, 30.0, true));
-    let (mut second, lines) = run(&dir, &config, &["--duration", "8"], feed);
+    let (emu, mut second, lines) = following(
+        &dir,
+        &camera_section(&frames, &cascade, 30.0, true),
+        &["--duration", "8"],
+    );
     let status = second.wait_for(Duration::from_secs(90)).unwrap();
     let stderr = second.stderr();
     assert!(status.success(), "{stderr}");
@@ -709,31 +606,9 @@ fn a_bad_camera_frame_is_skipped_and_a_dead_camera_leaves_the_laser_in_charge() 
 #[test]
 fn a_run_killed_while_driving_leaves_the_base_stopped_by_its_guard() {
     let dir = scratch("live-kill");
-    let (mut emu, pty) = emulator(&dir);
-    let feed = emu.child.stdin.take().unwrap();
-    let config = config(&dir, &pty);
-    let (mut run, lines) = run(&dir, &config, &[], feed);
+    let (_emu, mut run, lines) = following(&dir, "", &[]);
     // Until the robot drives.
-    let started = Instant::now();
-    loop {
-        let driving = lines
-            .lock()
-            .unwrap()
-            .iter()
-            .any(|l| json(l)["v_mps"].as_f64().unwrap_or(0.0) > 0.2);
-        if driving {
-            break;
-        }
-        if let Some(status) = run.child.try_wait().unwrap() {
-            panic!("tether run exited early ({status}):\n{}", run.stderr());
-        }
-        assert!(
-            started.elapsed() < Duration::from_secs(60),
-            "the robot never drove; stderr:\n{}",
-            run.stderr()
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    wait_until_driving(&mut run, &lines, usize::MAX, 0.2, "the robot never drove");
     let wheels = dir.join("wheels.txt");
     let last = || {
         std::fs::read_to_string(&wheels)
@@ -811,7 +686,7 @@ fn the_readme_walk_through_follows_through_a_fifo_and_stops_when_its_terminal_di
             .replace("\"run.mcap\"", &format!("{:?}", dir.join("run.mcap"))),
     )
     .unwrap();
-    let mut run = Proc::spawn(
+    let mut run = spawn(
         "run",
         &dir,
         &[
@@ -890,15 +765,16 @@ fn the_readme_walk_through_follows_through_a_fifo_and_stops_when_its_terminal_di
 fn a_robot_too_slow_for_its_person_says_so_and_says_when_it_loses_them() {
     // The example config's 0.5 m/s (a Create 2) behind the emulator's 1.0 m/s walker.
     let dir = scratch("live-too-slow");
-    let (mut emu, pty) = emulator(&dir);
-    let feed = emu.child.stdin.take().unwrap();
-    let config = config(&dir, &pty);
-    let text = std::fs::read_to_string(&config)
-        .unwrap()
-        .replace("max_speed_mps = 1.4", "max_speed_mps = 0.5")
-        .replace("max_wheel_speed_mps = 1.6", "max_wheel_speed_mps = 0.5");
-    std::fs::write(&config, text).unwrap();
-    let (mut run, _) = run(&dir, &config, &["--duration", "16"], feed);
+    let (_emu, mut run, _) = following_with(
+        &dir,
+        &["--commands-stdin"],
+        "",
+        |text| {
+            text.replace("max_speed_mps = 1.4", "max_speed_mps = 0.5")
+                .replace("max_wheel_speed_mps = 1.6", "max_wheel_speed_mps = 0.5")
+        },
+        &["--duration", "16"],
+    );
     let status = run.wait_for(Duration::from_secs(90)).unwrap();
     let stderr = run.stderr();
     assert!(status.success(), "{stderr}");
@@ -921,7 +797,7 @@ fn a_laser_that_sends_garbage_and_stalls_mid_scan_stops_the_robot_and_it_drives_
     // takes about 1.3 s (0.5 s to call the laser stale, then braking at the jerk and
     // deceleration limits); 1.5 s left a loaded CI machine too little margin.
     let dir = scratch("live-laser-faults");
-    let (mut emu, pty) = emulator_reading(
+    let (_emu, mut run, lines) = following_with(
         &dir,
         &[
             "--commands-stdin",
@@ -936,10 +812,10 @@ fn a_laser_that_sends_garbage_and_stalls_mid_scan_stops_the_robot_and_it_drives_
             "--stall-ms",
             "2500",
         ],
+        "",
+        |text| text,
+        &["--duration", "15"],
     );
-    let feed = emu.child.stdin.take().unwrap();
-    let config = config(&dir, &pty);
-    let (mut run, lines) = run(&dir, &config, &["--duration", "15"], feed);
     let status = run.wait_for(Duration::from_secs(90)).unwrap();
     let stderr = run.stderr();
     assert!(status.success(), "{stderr}");
@@ -1012,11 +888,8 @@ fn a_soak_run_holds_its_memory_flat() {
     let soak_s = env("TETHER_SOAK_S", 120).max(70);
     let sample_s = env("TETHER_SOAK_SAMPLE_S", 10).max(1);
     let dir = scratch("live-soak");
-    let (mut emu, pty) = emulator(&dir);
-    let feed = emu.child.stdin.take().unwrap();
-    let config = config(&dir, &pty);
     let duration = soak_s.to_string();
-    let (mut run, lines) = run(&dir, &config, &["--duration", &duration], feed);
+    let (_emu, mut run, lines) = following(&dir, "", &["--duration", &duration]);
     let pid = run.child.id();
     let started = Instant::now();
     let mut samples: Vec<(u64, u64)> = Vec::new();

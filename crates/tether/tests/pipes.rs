@@ -7,12 +7,9 @@
 mod common;
 
 use std::io::{BufRead, BufReader};
-use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
 use common::{scratch, text};
-
-const SHARED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared");
 
 /// Runs tether with its stdout on a pipe whose reader takes the first line and then
 /// closes it, as `| head -1` does; returns the first line and the finished process.
@@ -57,30 +54,18 @@ fn a_closed_stdout_ends_demo_and_scenarios_cleanly() {
 
 #[test]
 fn a_closed_stdout_ends_eval_legs_cleanly() {
-    let data = Path::new(SHARED).join("data/laser/leg_tracker");
-    if !data.is_dir() {
-        let reason = "../shared/data/laser/leg_tracker is missing";
-        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-        }
-        eprintln!("SKIPPED: {reason}");
+    let Some(data) = tether_testkit::shared("data/laser/leg_tracker") else {
         return;
-    }
+    };
     let (line, out) = first_line_then_close(&["eval-legs", "--data", data.to_str().unwrap()]);
     assert_clean_end("eval-legs", &line, &out);
 }
 
 #[test]
 fn a_training_whose_stdout_closes_saves_the_stage_it_was_on_and_stops() {
-    let train = Path::new(SHARED).join("data/vtest/train.txt");
-    if !train.is_file() {
-        let reason = "../shared/data/vtest is missing";
-        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-        }
-        eprintln!("SKIPPED: {reason}");
+    let Some(train) = tether_testkit::shared("data/vtest/train.txt") else {
         return;
-    }
+    };
     // A small training on six annotated frames (absolute paths, so the info file can
     // live in the scratch folder).
     let dir = scratch("pipes-train");

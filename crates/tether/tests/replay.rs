@@ -27,23 +27,15 @@ fn path(p: &Path) -> &str {
 #[test]
 fn a_recorded_run_replays_identically_and_finds_the_target() {
     let dir = scratch("sim");
-    let record = dir.join("run.mcap");
-    ok(&tether(&[
-        "sim",
-        "--scenario",
-        "corridor",
-        "--seed",
-        "3",
-        "--duration",
-        "10",
+    let record = common::record_corridor(
+        &dir,
+        10,
         // Replay's bookkeeping on the ideal laser (the realistic one's effect on the
         // target is measured by `target_lock_realistic`).
-        "--ideal-laser",
-        "--out",
-        path(&dir.join("sim")),
+        &["--seed", "3", "--ideal-laser"],
         "--record",
-        path(&record),
-    ]));
+        "run.mcap",
+    );
     let recorded = McapFile::open(&record).unwrap();
     for topic in ["/scan", "/odom", "/truth/people", "/tether/cmd_vel"] {
         assert!(recorded.message_count(topic) > 0, "{topic} missing");

@@ -28,13 +28,10 @@ fn chromium() -> Option<&'static str> {
 /// Chromium, or `None` (and the test skips, unless `TETHER_REQUIRE_SHARED=1`).
 fn chromium_or_skip() -> Option<&'static str> {
     let browser = chromium();
-    if browser.is_none() {
-        assert!(
-            std::env::var("TETHER_REQUIRE_SHARED").as_deref() != Ok("1"),
-            "no Chromium (apt-get install chromium); TETHER_REQUIRE_SHARED=1 demands that this test runs"
-        );
-        eprintln!("SKIPPED: no Chromium found (apt-get install chromium)");
-    }
+    tether_testkit::skip_unless(
+        browser.is_some(),
+        "no Chromium found (apt-get install chromium)",
+    );
     browser
 }
 
@@ -59,44 +56,22 @@ fn headless(browser: &str, dir: &Path, html: &Path, extra: &[String]) -> Output 
         .unwrap()
 }
 
-#[test]
-fn report_renders_in_headless_chromium() {
-    let Some(browser) = chromium_or_skip() else {
-        return;
-    };
-    let dir = std::env::temp_dir().join(format!("tether-report-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let out = Command::new(env!("CARGO_BIN_EXE_tether"))
-        .args([
-            "demo",
-            "--scenario",
-            "corridor",
-            "--out",
-            dir.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let html = dir.join("report.html");
-    let text = std::fs::read_to_string(&html).unwrap();
-    // Self-contained: inline SVG, nothing fetched.
-    assert!(text.contains("<svg"));
-    assert!(
-        !text.contains("src=\"http") && !text.contains("href=\"http"),
-        "no network resources"
-    );
-    assert!(!text.contains("<script"), "self-contained: no scripts");
+/// A screenshot of `html` in a `width` x `height` window, as grey pixels; fails the
+/// test when Chromium wrote none.
+fn screenshot(
+    browser: &str,
+    dir: &Path,
+    html: &Path,
+    width: usize,
+    height: usize,
+) -> tether_core::GrayImage {
     let png = dir.join("shot.png");
     let shot = headless(
         browser,
-        &dir,
-        &html,
+        dir,
+        html,
         &[
-            "--window-size=1100,1800".to_owned(),
+            format!("--window-size={width},{height}"),
             format!("--screenshot={}", png.display()),
         ],
     );
@@ -105,14 +80,48 @@ fn report_renders_in_headless_chromium() {
         "no screenshot: {}",
         String::from_utf8_lossy(&shot.stderr)
     );
-    let img = tether_image::imread_gray(&png).unwrap();
+    tether_image::imread_gray(&png).unwrap()
+}
+
+/// How many grey levels `pixels` use.
+fn grey_levels(pixels: &[u8]) -> usize {
+    let mut seen = [false; 256];
+    pixels.iter().for_each(|p| seen[*p as usize] = true);
+    seen.iter().filter(|s| **s).count()
+}
+
+/// The page fetches nothing and runs no script.
+fn assert_self_contained(text: &str) {
+    assert!(
+        !text.contains("src=\"http") && !text.contains("href=\"http"),
+        "no network resources"
+    );
+    assert!(!text.contains("<script"), "self-contained: no scripts");
+}
+
+#[test]
+fn report_renders_in_headless_chromium() {
+    let Some(browser) = chromium_or_skip() else {
+        return;
+    };
+    let dir = std::env::temp_dir().join(format!("tether-report-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    tether_ok(&[
+        "demo",
+        "--scenario",
+        "corridor",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    let html = dir.join("report.html");
+    let text = std::fs::read_to_string(&html).unwrap();
+    // Self-contained: inline SVG, nothing fetched.
+    assert!(text.contains("<svg"));
+    assert_self_contained(&text);
+    let img = screenshot(browser, &dir, &html, 1100, 1800);
     let pixels = img.pixels();
     let dark = pixels.iter().filter(|p| **p < 128).count() as f64 / pixels.len() as f64;
-    let distinct = {
-        let mut seen = [false; 256];
-        pixels.iter().for_each(|p| seen[*p as usize] = true);
-        seen.iter().filter(|s| **s).count()
-    };
+    let distinct = grey_levels(pixels);
     println!(
         "screenshot {}x{}: {:.1} % dark pixels, {distinct} grey levels",
         img.width(),
@@ -365,9 +374,7 @@ fn replay_report_renders_in_headless_chromium() {
     let Some(browser) = chromium_or_skip() else {
         return;
     };
-    let dir = std::env::temp_dir().join(format!("tether-replay-report-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = tether_testkit::scratch("replay-report");
     let record = dir.join("run.mcap");
     tether_ok(&[
         "sim",
@@ -387,11 +394,7 @@ fn replay_report_renders_in_headless_chromium() {
     ]);
     let html = dir.join("r.html");
     let text = std::fs::read_to_string(&html).unwrap();
-    assert!(
-        !text.contains("src=\"http") && !text.contains("href=\"http"),
-        "no network resources"
-    );
-    assert!(!text.contains("<script"), "self-contained: no scripts");
+    assert_self_contained(&text);
 
     // The DOM as Chromium parsed it.
     let dom = headless(browser, &dir, &html, &["--dump-dom".to_owned()]);
@@ -427,22 +430,7 @@ fn replay_report_renders_in_headless_chromium() {
     assert!(table.contains("yes"), "the target's track: {table}");
 
     // The picture.
-    let png = dir.join("shot.png");
-    let shot = headless(
-        browser,
-        &dir,
-        &html,
-        &[
-            "--window-size=1400,4000".to_owned(),
-            format!("--screenshot={}", png.display()),
-        ],
-    );
-    assert!(
-        png.is_file(),
-        "no screenshot: {}",
-        String::from_utf8_lossy(&shot.stderr)
-    );
-    let img = tether_image::imread_gray(&png).unwrap();
+    let img = screenshot(browser, &dir, &html, 1400, 4000);
     assert_eq!((img.width(), img.height()), (1400, 4000));
     let pixels = img.pixels();
     let at = |x: usize, y: usize| pixels[y * img.width() + x];
@@ -458,11 +446,7 @@ fn replay_report_renders_in_headless_chromium() {
         println!("band {band}: {:.2} % dark", 100.0 * dark);
         assert!(dark > 0.001 && dark < 0.3, "band {band}: {dark}");
     }
-    let distinct = {
-        let mut seen = [false; 256];
-        pixels.iter().for_each(|p| seen[*p as usize] = true);
-        seen.iter().filter(|s| **s).count()
-    };
+    let distinct = grey_levels(pixels);
     assert!(distinct > 40, "{distinct}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -16,17 +16,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use common::{scratch, text};
-
-/// Skips (printing why) unless `TETHER_REQUIRE_SHARED=1` demands the test.
-fn skip_unless(ok: bool, reason: &str) -> bool {
-    if !ok {
-        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-        }
-        eprintln!("skipped: {reason}");
-    }
-    ok
-}
+use tether_testkit::{opencv_cascade, or_skip, python_modules, skip_unless};
 
 fn runs(program: &str, args: &[&str]) -> bool {
     Command::new(program)
@@ -41,10 +31,11 @@ fn peer_available() -> bool {
     skip_unless(
         runs("unshare", &["-n", "true"]),
         "cannot make a private network namespace (`unshare -n` needs root)",
-    ) && skip_unless(
-        runs("python3", &["-c", "import cyclonedds, rosbags"]),
-        "the Python peer needs `pip install cyclonedds rosbags`",
-    )
+    ) && or_skip(python_modules(
+        &["cyclonedds", "rosbags"],
+        "cyclonedds rosbags",
+    ))
+    .is_some()
 }
 
 /// Runs `sh -c SCRIPT` in a fresh network namespace once its loopback is up (with
@@ -350,13 +341,7 @@ fn count_before(text: &str, what: &str) -> u64 {
 
 #[test]
 fn camera_frames_at_30_hz_arrive_without_loss_beside_the_scans() {
-    let cascade = Path::new("/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml");
-    if !peer_available()
-        || !skip_unless(
-            cascade.is_file(),
-            "Debian's opencv-data cascades are not installed",
-        )
-    {
+    if !peer_available() || or_skip(opencv_cascade("haarcascade_upperbody.xml")).is_none() {
         return;
     }
     let dir = scratch("ros2-camera");
@@ -477,16 +462,10 @@ fn a_node_renamed_in_a_namespace_on_another_domain_with_a_remapped_scan_follows(
 
 #[test]
 fn compressed_camera_frames_arrive_and_are_decoded() {
-    let cascade = Path::new("/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml");
     if !peer_available()
-        || !skip_unless(
-            cascade.is_file(),
-            "Debian's opencv-data cascades are not installed",
-        )
-        || !skip_unless(
-            runs("python3", &["-c", "import cv2"]),
-            "the Python peer encodes JPEG with OpenCV (`pip install opencv-python-headless`)",
-        )
+        || or_skip(opencv_cascade("haarcascade_upperbody.xml")).is_none()
+        // The Python peer encodes JPEG with OpenCV.
+        || or_skip(python_modules(&["cv2"], "opencv-python-headless")).is_none()
     {
         return;
     }

@@ -11,37 +11,17 @@
 mod common;
 
 use std::collections::BTreeSet;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use common::{scratch, tether, text};
+use common::{scratch, text};
 
-const SHARED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared");
-
-fn demo_bag() -> Option<String> {
-    let bag =
-        Path::new(SHARED).join("data/laser/leg_tracker/demo_stationary_simple_environment.bag");
-    if bag.is_file() {
-        return Some(bag.display().to_string());
-    }
-    let reason =
-        "../shared/data/laser/leg_tracker/demo_stationary_simple_environment.bag is missing";
-    if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-        panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-    }
-    eprintln!("SKIPPED: {reason}");
-    None
+fn demo_bag() -> Option<PathBuf> {
+    common::leg_tracker("demo_stationary_simple_environment.bag")
 }
 
 /// Runs `tether COMMAND BAG --scan-topic /scan --out OUT`; its standard output.
-fn on_demo_bag(command: &str, bag: &str, out: &Path) -> String {
-    let run = tether(&[
-        command,
-        bag,
-        "--scan-topic",
-        "/scan",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+fn on_demo_bag(command: &str, bag: &Path, out: &Path) -> String {
+    let run = common::on_recording(command, bag, "/scan", &[], out);
     assert!(run.status.success(), "{}", text(&run.stderr));
     text(&run.stdout)
 }
@@ -53,11 +33,7 @@ fn the_target_never_moves_to_another_track_while_its_own_is_tracked() {
     let out = dir.join("t.jsonl");
     let stdout = on_demo_bag("track", &bag, &out);
     assert!(stdout.contains("target locked"), "{stdout}");
-    let lines: Vec<serde_json::Value> = std::fs::read_to_string(&out)
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+    let lines = tether_testkit::json_lines(&std::fs::read_to_string(&out).unwrap());
     assert_eq!(lines.len(), 1265);
     let (mut locked, mut losses) = (0, 0);
     let mut followed: Option<u64> = None;

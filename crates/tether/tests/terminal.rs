@@ -4,45 +4,31 @@
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
 
-use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn tether() -> &'static str {
     env!("CARGO_BIN_EXE_tether")
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tether-terminal-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 /// `tether ARGS` on a pseudo-terminal: what the terminal showed (stdout and stderr as
-/// one stream), or `None` (with the reason printed) where `script` is missing.
+/// one stream), or `None` (with the reason printed, a failure under
+/// `TETHER_REQUIRE_SHARED=1`) where `script` is missing.
 fn on_a_terminal(args: &[&str]) -> Option<Output> {
     let line = std::iter::once(tether())
         .chain(args.iter().copied())
         .collect::<Vec<_>>()
         .join(" ");
-    match Command::new("script")
+    let run = Command::new("script")
         .args(["-qefc", &line, "/dev/null"])
-        .output()
-    {
-        Ok(out) => Some(out),
-        Err(e) if std::env::var_os("TETHER_REQUIRE_SHARED").is_some() => {
-            panic!("util-linux's `script` is required here: {e}")
-        }
-        Err(e) => {
-            eprintln!("skipped: no `script` to give tether a terminal ({e})");
-            None
-        }
-    }
+        .output();
+    tether_testkit::or_skip(
+        run.map_err(|e| format!("no util-linux `script` to give tether a terminal ({e})")),
+    )
 }
 
 #[test]
 fn a_long_command_shows_progress_and_colour_on_a_terminal_and_neither_in_a_pipe() {
-    let dir = scratch("sim");
+    let dir = tether_testkit::scratch("terminal-sim");
     let terminal_out = dir.join("terminal");
     let args = [
         "sim",

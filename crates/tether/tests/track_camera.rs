@@ -9,24 +9,12 @@
 
 mod common;
 
-use std::path::Path;
 use std::process::Command;
 
-use common::{scratch, tether, text};
+use common::{on_recording, scratch, tether, text};
+use tether_testkit::{opencv_cascade, or_skip, python_modules, skip_unless};
 
-const SHARED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared");
-const CASCADE: &str = "/usr/share/opencv4/haarcascades/haarcascade_upperbody.xml";
 const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/camera_bag.py");
-
-fn skip_unless(ok: bool, reason: &str) -> bool {
-    if !ok {
-        if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-            panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-        }
-        eprintln!("SKIPPED: {reason}");
-    }
-    ok
-}
 
 /// Boxes `tether detect` finds in one image.
 fn boxes_in(image: &str) -> usize {
@@ -38,7 +26,7 @@ fn boxes_in(image: &str) -> usize {
 
 #[test]
 fn tracks_a_bag_with_camera_frames_raw_and_compressed() {
-    let shared = Path::new(SHARED);
+    let shared = tether_testkit::shared_dir();
     let source = shared.join("data/laser/leg_tracker/demo_stationary_simple_environment.bag");
     let pngs = [
         shared.join("data/images/people/basketball1.png"),
@@ -47,21 +35,13 @@ fn tracks_a_bag_with_camera_frames_raw_and_compressed() {
     if !skip_unless(
         source.is_file() && pngs.iter().all(|p| p.is_file()),
         &format!("{} is missing its recordings or images", shared.display()),
-    ) || !skip_unless(
-        Path::new(CASCADE).is_file(),
-        "Debian's opencv-data cascades are not installed (apt-get install opencv-data)",
-    ) {
-        return;
-    }
-    let python_ok = Command::new("python3")
-        .args(["-c", "import rosbags, numpy, cv2"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !skip_unless(
-        python_ok,
-        "python3 with rosbags, numpy and OpenCV is not available \
-         (python3 -m pip install rosbags numpy opencv-python-headless)",
-    ) {
+    ) || or_skip(opencv_cascade("haarcascade_upperbody.xml")).is_none()
+        || or_skip(python_modules(
+            &["rosbags", "numpy", "cv2"],
+            "rosbags numpy opencv-python-headless",
+        ))
+        .is_none()
+    {
         return;
     }
     let dir = scratch("track-camera");
@@ -85,7 +65,6 @@ fn tracks_a_bag_with_camera_frames_raw_and_compressed() {
     assert_eq!(stamps.len(), n_scans);
     let frames = made["frames"].as_array().unwrap();
     let bag = dir.join("camera.bag");
-    let bag = bag.to_str().unwrap();
 
     for (topic, file_key) in [
         ("/camera/image", "png"),
@@ -98,16 +77,7 @@ fn tracks_a_bag_with_camera_frames_raw_and_compressed() {
             .sum();
         assert!(expected > 0, "the people images should give detections");
         let out_path = dir.join("track.jsonl");
-        let out = tether(&[
-            "track",
-            bag,
-            "--scan-topic",
-            "/scan",
-            "--image-topic",
-            topic,
-            "--out",
-            out_path.to_str().unwrap(),
-        ]);
+        let out = on_recording("track", &bag, "/scan", &["--image-topic", topic], &out_path);
         let stdout = text(&out.stdout);
         let stderr = text(&out.stderr);
         assert!(out.status.success(), "{stdout}{stderr}");
@@ -119,11 +89,7 @@ fn tracks_a_bag_with_camera_frames_raw_and_compressed() {
             "{topic}: {stdout}"
         );
         // One line per scan, in bag order, with the scans' own stamps.
-        let lines: Vec<serde_json::Value> = std::fs::read_to_string(&out_path)
-            .unwrap()
-            .lines()
-            .map(|l| serde_json::from_str(l).unwrap())
-            .collect();
+        let lines = tether_testkit::json_lines(&std::fs::read_to_string(&out_path).unwrap());
         let got: Vec<i64> = lines
             .iter()
             .map(|l| l["stamp_ns"].as_i64().unwrap())
@@ -143,16 +109,13 @@ fn tracks_a_bag_with_camera_frames_raw_and_compressed() {
         .map(|f| boxes_in(f["png"].as_str().unwrap()))
         .sum();
     let result = dir.join("replay.mcap");
-    let out = tether(&[
+    let out = on_recording(
         "replay",
-        bag,
-        "--scan-topic",
+        &bag,
         "/scan",
-        "--image-topic",
-        "/camera/image",
-        "--out",
-        result.to_str().unwrap(),
-    ]);
+        &["--image-topic", "/camera/image"],
+        &result,
+    );
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "{stdout}{}", text(&out.stderr));
     assert!(

@@ -29,19 +29,7 @@ pub const NEGATIVE_TOPICS: [&str; 3] = ["/left_scan", "/right_scan", "/rear_scan
 /// The shared data directory, or `None` with a printed reason (a failure with
 /// `TETHER_REQUIRE_SHARED=1`).
 pub fn shared_data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/laser/leg_tracker");
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    let reason = format!(
-        "{} is absent (it sits beside the checkout for developers and CI)",
-        dir.display()
-    );
-    if std::env::var("TETHER_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-        panic!("{reason}; TETHER_REQUIRE_SHARED=1 demands that this test runs");
-    }
-    eprintln!("SKIPPED: {reason}");
-    None
+    tether_testkit::shared("data/laser/leg_tracker")
 }
 
 /// tether's default leg detector (the learned one with the built-in model).

@@ -22,14 +22,9 @@ from peer import (
     Header,
     LaserScan,
     Odometry,
-    Point,
-    Pose,
-    PoseWithCovariance,
-    Quaternion,
     Time,
     Twist,
-    TwistWithCovariance,
-    Vector3,
+    odometry,
     qos,
     stamp_now,
     valid,
@@ -90,26 +85,7 @@ def main():
         sent["scans"] += 1
         if k % 4 == 0:
             nan = float("nan")
-            odom.write(
-                Odometry(
-                    header=Header(stamp=stamp, frame_id="odom"),
-                    child_frame_id="base_link",
-                    pose=PoseWithCovariance(
-                        pose=Pose(
-                            position=Point(x=nan, y=0.0, z=0.0),
-                            orientation=Quaternion(x=0.0, y=0.0, z=nan, w=1.0),
-                        ),
-                        covariance=[0.0] * 36,
-                    ),
-                    twist=TwistWithCovariance(
-                        twist=Twist(
-                            linear=Vector3(x=1e308, y=0.0, z=0.0),
-                            angular=Vector3(x=0.0, y=0.0, z=nan),
-                        ),
-                        covariance=[0.0] * 36,
-                    ),
-                )
-            )
+            odom.write(odometry(stamp, (nan, 0.0, 0.0), (0.0, 0.0, nan, 1.0), 1e308, nan))
             sent["odometry"] += 1
         k += 1
         if k % 50 == 0:

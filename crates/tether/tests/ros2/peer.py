@@ -36,7 +36,8 @@ from rosbags.rosbag1 import Reader
 from rosbags.typesys import Stores, get_typestore
 
 
-# The ROS 2 messages as IDL, named as rosidl names them on DDS.
+# The ROS 2 messages as IDL, named as rosidl names them on DDS (one declaration a type:
+# alike in shape, they stay apart because each is its own message).
 @dataclass
 class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
     sec: int32
@@ -335,6 +336,51 @@ def stamp_now():
     return now, Time(sec=now // 1_000_000_000, nanosec=now % 1_000_000_000)
 
 
+def odometry(stamp, position, orientation, v_x, w_z):
+    """nav_msgs/Odometry of base_link in odom: the pose at `position` (x, y, z) turned by
+    `orientation` (x, y, z, w), moving at `v_x` along x and turning at `w_z` about z,
+    with zero covariances."""
+    return Odometry(
+        header=Header(stamp=stamp, frame_id="odom"),
+        child_frame_id="base_link",
+        pose=PoseWithCovariance(
+            pose=Pose(
+                position=Point(x=position[0], y=position[1], z=position[2]),
+                orientation=Quaternion(
+                    x=orientation[0], y=orientation[1], z=orientation[2], w=orientation[3]
+                ),
+            ),
+            covariance=[0.0] * 36,
+        ),
+        twist=TwistWithCovariance(
+            twist=Twist(
+                linear=Vector3(x=v_x, y=0.0, z=0.0),
+                angular=Vector3(x=0.0, y=0.0, z=w_z),
+            ),
+            covariance=[0.0] * 36,
+        ),
+    )
+
+
+def transform(stamp, parent, child, translation, rotation):
+    """tf2_msgs/TFMessage with the one transform `parent` -> `child`: `translation`
+    (x, y, z) and `rotation` (x, y, z, w)."""
+    return TFMessage(
+        transforms=[
+            TransformStamped(
+                header=Header(stamp=stamp, frame_id=parent),
+                child_frame_id=child,
+                transform=Transform(
+                    translation=Vector3(x=translation[0], y=translation[1], z=translation[2]),
+                    rotation=Quaternion(
+                        x=rotation[0], y=rotation[1], z=rotation[2], w=rotation[3]
+                    ),
+                ),
+            )
+        ]
+    )
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--tether", required=True, help="the tether binary")
@@ -502,19 +548,12 @@ def main():
         )
         _, stamp = stamp_now()
         tf_writer.write(
-            TFMessage(
-                transforms=[
-                    TransformStamped(
-                        header=Header(stamp=stamp, frame_id="base_link"),
-                        child_frame_id="laser",
-                        transform=Transform(
-                            translation=Vector3(x=x, y=y, z=z),
-                            rotation=Quaternion(
-                                x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2)
-                            ),
-                        ),
-                    )
-                ]
+            transform(
+                stamp,
+                "base_link",
+                "laser",
+                (x, y, z),
+                (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)),
             )
         )
 
@@ -611,39 +650,19 @@ def main():
             p, q = m.pose.pose.position, m.pose.pose.orientation
             if tf_writer_dyn is not None:
                 tf_writer_dyn.write(
-                    TFMessage(
-                        transforms=[
-                            TransformStamped(
-                                header=Header(stamp=stamp, frame_id="odom"),
-                                child_frame_id="base_link",
-                                transform=Transform(
-                                    translation=Vector3(x=p.x, y=p.y, z=p.z),
-                                    rotation=Quaternion(x=q.x, y=q.y, z=q.z, w=q.w),
-                                ),
-                            )
-                        ]
+                    transform(
+                        stamp, "odom", "base_link", (p.x, p.y, p.z), (q.x, q.y, q.z, q.w)
                     )
                 )
                 odom_sent += 1
                 continue
             odom_writer.write(
-                Odometry(
-                    header=Header(stamp=stamp, frame_id="odom"),
-                    child_frame_id="base_link",
-                    pose=PoseWithCovariance(
-                        pose=Pose(
-                            position=Point(x=p.x, y=p.y, z=p.z),
-                            orientation=Quaternion(x=q.x, y=q.y, z=q.z, w=q.w),
-                        ),
-                        covariance=[0.0] * 36,
-                    ),
-                    twist=TwistWithCovariance(
-                        twist=Twist(
-                            linear=Vector3(x=m.twist.twist.linear.x, y=0.0, z=0.0),
-                            angular=Vector3(x=0.0, y=0.0, z=m.twist.twist.angular.z),
-                        ),
-                        covariance=[0.0] * 36,
-                    ),
+                odometry(
+                    stamp,
+                    (p.x, p.y, p.z),
+                    (q.x, q.y, q.z, q.w),
+                    m.twist.twist.linear.x,
+                    m.twist.twist.angular.z,
                 )
             )
             odom_sent += 1
