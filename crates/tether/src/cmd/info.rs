@@ -149,20 +149,9 @@ struct ScanGeometry {
 }
 
 impl ScanGeometry {
-    fn from_ros1(m: &tether_msgs::RawLaserScan) -> Self {
-        ScanGeometry {
-            beams: m.ranges.len(),
-            angle_min_rad: f64::from(m.angle_min),
-            angle_max_rad: f64::from(m.angle_max),
-            angle_increment_rad: f64::from(m.angle_increment),
-            range_min_m: f64::from(m.range_min),
-            range_max_m: f64::from(m.range_max),
-            scan_time_s: f64::from(m.scan_time),
-            frame_id: m.header.frame_id.clone(),
-        }
-    }
-
-    fn from_ros2(m: &tether_msgs::RawLaserScan) -> Self {
+    /// The geometry of a scan as either recording holds it (ROS 1 or CDR, decoded to
+    /// the same raw form).
+    fn of(m: &tether_msgs::RawLaserScan) -> Self {
         ScanGeometry {
             beams: m.ranges.len(),
             angle_min_rad: f64::from(m.angle_min),
@@ -546,10 +535,10 @@ fn add_message(
         let scan = match reading.encoding {
             Encoding::Ros1 => tether_msgs::RawLaserScan::decode(data)
                 .ok()
-                .map(|m| ScanGeometry::from_ros1(&m)),
+                .map(|m| ScanGeometry::of(&m)),
             Encoding::Cdr => tether_msgs::from_cdr::<tether_msgs::RawLaserScan>(data)
                 .ok()
-                .map(|m| ScanGeometry::from_ros2(&m)),
+                .map(|m| ScanGeometry::of(&m)),
             Encoding::Other => None,
         };
         match scan {
