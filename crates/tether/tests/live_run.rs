@@ -17,7 +17,7 @@ use std::process::{ChildStdin, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use common::live::{Proc, pty_path, tether_command, wheels_config};
+use common::live::{Proc, announced_endpoint, pty_path, tether_command, wheels_config};
 use common::{scratch, tether, text};
 use tether_testkit::{opencv_cascade, or_skip};
 
@@ -401,7 +401,19 @@ fn a_stdout_nobody_reads_holds_up_neither_the_base_nor_ctrl_c() {
 #[test]
 fn a_vanished_laser_stops_the_robot_and_fails_clearly() {
     let dir = scratch("live-unplugged");
-    let (emu, mut run, lines) = following(&dir, "", &[]);
+    // Tried again for 2 s (the default is 10 s), then given up.
+    let (emu, mut run, lines) = following_with(
+        &dir,
+        &["--commands-stdin"],
+        "",
+        |text| {
+            text.replace(
+                "mount = { x_m = 0.10",
+                "reconnect_s = 2\nmount = { x_m = 0.10",
+            )
+        },
+        &[],
+    );
     wait_for_lines(&mut run, &lines, 30);
     emu.signal("-KILL");
     let status = run.wait_or_fail(
@@ -410,8 +422,90 @@ fn a_vanished_laser_stops_the_robot_and_fails_clearly() {
     );
     assert!(!status.success(), "a lost laser must fail the run");
     let stderr = run.stderr();
+    assert!(
+        stderr.contains("the laser stopped answering") && stderr.contains("for up to 2.0 s"),
+        "{stderr}"
+    );
     assert!(stderr.contains("the laser failed"), "{stderr}");
     assert_final_stop(&lines, "laser_failed", &stderr);
+}
+
+/// A free TCP port on loopback (bound, then let go).
+fn free_loopback_address() -> String {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    listener.local_addr().unwrap().to_string()
+}
+
+/// The emulator serving `corridor` on `address` (TCP), its robot driven by its stdin.
+fn emulator_on_tcp(dir: &Path, name: &str, address: &str) -> Proc {
+    let mut emu = spawn(
+        name,
+        dir,
+        &[
+            "urg-emulator",
+            "--tcp",
+            address,
+            "--scenario",
+            "corridor",
+            "--commands-stdin",
+        ],
+        Stdio::piped(),
+    );
+    assert_eq!(announced_endpoint(&mut emu), address);
+    emu
+}
+
+#[test]
+fn a_laser_that_goes_away_and_comes_back_stops_the_robot_then_follows_again() {
+    // An Ethernet URG whose link drops for 1.5 s (the emulator killed, then started
+    // again on the same address): the robot stands while tether opens the laser again,
+    // then it finds the person and drives on.
+    let dir = scratch("live-reconnect");
+    let address = free_loopback_address();
+    let mut emu = emulator_on_tcp(&dir, "urg-emulator", &address);
+    let feed = emu.child.stdin.take().unwrap();
+    let config = config(&dir, "unused");
+    let text = std::fs::read_to_string(&config)
+        .unwrap()
+        .replace("serial = \"unused\"", &format!("tcp = \"{address}\""));
+    std::fs::write(&config, text).unwrap();
+    let (mut run, lines) = run(&dir, &config, &["--duration", "25"], feed);
+    wait_until_driving(&mut run, &lines, 5, 0.2, "the robot never drove");
+    emu.signal("-KILL");
+    drop(emu);
+    let lost_at = lines.lock().unwrap().len();
+    wait_until(
+        &mut run,
+        &lines,
+        |l| {
+            l[lost_at..]
+                .iter()
+                .any(|l| json(l)["stop"] == "stale_laser")
+        },
+        "the robot was not stopped while the laser was gone",
+    );
+    std::thread::sleep(Duration::from_millis(1500));
+    // The same sensor back on the same address (its world starts over; this robot
+    // stands, as nothing feeds it commands now).
+    let _back = emulator_on_tcp(&dir, "urg-emulator-2", &address);
+    let back_at = lines.lock().unwrap().len();
+    wait_until(
+        &mut run,
+        &lines,
+        |l| {
+            l[back_at..]
+                .iter()
+                .any(|l| json(l)["target"].is_object() && json(l)["stop"].is_null())
+        },
+        "the person was not followed again after the laser came back",
+    );
+    let status = run.wait_or_fail(Duration::from_secs(60), "the run did not end");
+    let stderr = run.stderr();
+    assert!(status.success(), "{stderr}");
+    assert!(stderr.contains("the laser stopped answering"), "{stderr}");
+    assert!(stderr.contains("the laser answers again after"), "{stderr}");
+    assert!(stderr.contains("1 laser reconnects"), "{stderr}");
+    assert_final_stop(&lines, "duration", &stderr);
 }
 
 #[test]

@@ -82,6 +82,18 @@ impl Drop for Proc {
 /// The pty path a started `tether urg-emulator --pty` prints on its first stdout line
 /// (its stdout piped); fails the test after 30 s without it.
 pub fn pty_path(emu: &mut Proc) -> String {
+    let path = announced_endpoint(emu);
+    assert!(
+        path.starts_with("/dev/"),
+        "no pty path in {path:?}; stderr:\n{}",
+        emu.stderr()
+    );
+    path
+}
+
+/// Where a started `tether urg-emulator` serves (a pty's path, a TCP address), as its
+/// first stdout line says (its stdout piped); fails the test after 30 s without it.
+pub fn announced_endpoint(emu: &mut Proc) -> String {
     let stdout = emu
         .child
         .stdout
@@ -97,15 +109,15 @@ pub fn pty_path(emu: &mut Proc) -> String {
         .recv_timeout(Duration::from_secs(30))
         .unwrap_or_else(|_| {
             panic!(
-                "the emulator printed no pty path in 30 s; stderr:\n{}",
+                "the emulator printed where it serves in 30 s; stderr:\n{}",
                 emu.stderr()
             )
         });
     line.trim()
         .rsplit(" on ")
         .next()
-        .filter(|p| p.starts_with("/dev/"))
-        .unwrap_or_else(|| panic!("no pty path in {line:?}; stderr:\n{}", emu.stderr()))
+        .filter(|p| !p.is_empty())
+        .unwrap_or_else(|| panic!("no endpoint in {line:?}; stderr:\n{}", emu.stderr()))
         .to_owned()
 }
 
