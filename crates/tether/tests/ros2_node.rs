@@ -552,12 +552,15 @@ fn closed_loop_listening(
     }
 }
 
-/// The closed loop's bars, now with DDS between the simulator and tether. Over DDS the
-/// measure varies from run to run (against 0.100 m for the same seed in-process): most
-/// of it comes from the seconds around 20 s, where the robot waits for the person to
-/// come clear, and how long it waits depends on the timing of a few messages. The tests
-/// hold it to `bound_m`, which a loop that lags or loses the person exceeds by far, and
-/// print it.
+/// The closed loop's bars, now with DDS between the simulator and tether: mean |d - d0|
+/// at most `bound_m`, no collision, and what a peer on the graph sees. With the ideal
+/// laser, as the in-process closed loop's bars are checked (`tests/following.rs`), the
+/// bar is that loop's 0.15 m, and over DDS the measure stays within a few millimetres of
+/// the in-process one (corridor: 0.050 m laser only, 0.039 m on both sensors). With the
+/// realistic laser's dark spells a run may lose the person for a moment and stand, and
+/// as the robot's path then depends on the timing of a few messages, one run differs from
+/// the next (0.08 to 0.24 m at 2x sim time, against 0.100 m in-process); that run is held
+/// to a bound a loop that lags or loses the person for good exceeds by far.
 fn check_closed_loop(what: &str, c: &ClosedLoop, bound_m: f64) {
     let run = &c.run;
     eprintln!("{}", c.sim_log.trim());
@@ -620,12 +623,12 @@ fn tether_ros2_follows_the_simulated_robot_over_dds_and_a_peer_sees_it() {
     }
     let c = closed_loop_over_dds(
         "ros2-sim",
-        "--laser-only --duration 25",
+        "--laser-only --ideal-laser --duration 25",
         "--laser-only",
         24.0,
     );
-    // 0.09 to 0.15 m over ten runs here.
-    check_closed_loop("real time", &c, 0.2);
+    // 0.051 to 0.056 m over three runs here (0.050 m in-process).
+    check_closed_loop("real time, the ideal laser", &c, 0.15);
     assert!(c.seen["clock_ns"].is_null(), "no /clock in real time");
     // Joined /tf_static 5 s late, and still got the mount (transient local).
     let scenario_mount = tether_sim::Scenario::resolve("corridor")
@@ -648,8 +651,9 @@ fn with_the_simulated_camera_on_detections_the_robot_follows_on_both_sensors() {
     if !peer_available() {
         return;
     }
-    let c = closed_loop_over_dds("ros2-sim-camera", "--duration 25", "", 24.0);
-    check_closed_loop("real time, laser and camera", &c, 0.2);
+    let c = closed_loop_over_dds("ros2-sim-camera", "--ideal-laser --duration 25", "", 24.0);
+    // 0.040 m over three runs here (0.039 m in-process).
+    check_closed_loop("real time, the ideal laser and the camera", &c, 0.15);
     // Both sensors vouch for the person at once: the robot sets off before the laser
     // alone could (a walk of 0.5 m), and the camera's people go out as results.
     assert!(Seen::f(&c.run["first_motion_s"]) < 1.0, "{}", c.run);
@@ -692,12 +696,12 @@ fn on_sim_time_the_clock_drives_both_at_twice_real_time_with_stamped_commands() 
     // With stamped commands (Jazzy's diff-drive controller's TwistStamped) both ways.
     let c = closed_loop_listening(
         "ros2-sim-time",
-        "--laser-only --duration 25 --use-sim-time --rate 2 --cmd-vel-stamped",
+        "--laser-only --ideal-laser --duration 25 --use-sim-time --rate 2 --cmd-vel-stamped",
         "--laser-only --ros-args -p use_sim_time:=true -p cmd_vel_stamped:=true",
         "--seconds 12 --cmd-vel-stamped",
     );
-    // 0.08 to 0.24 m over fifteen runs here.
-    check_closed_loop("sim time at 2 x real time", &c, 0.3);
+    // 0.058 to 0.060 m over three runs here.
+    check_closed_loop("sim time at 2 x real time, the ideal laser", &c, 0.15);
     assert_eq!(c.run["sim_time_rate"], 2.0, "{}", c.run);
     // Everything is stamped in simulated time (from 0), not on the host's clock.
     let clock_s = Seen::f(&c.seen["clock_ns"]) * 1e-9;
@@ -712,6 +716,24 @@ fn on_sim_time_the_clock_drives_both_at_twice_real_time_with_stamped_commands() 
     // The simulation ended before tether was stopped: its clock stood still, and the
     // robot got a stop for it.
     assert!(ros2.contains("the clock has not moved"), "{ros2}");
+}
+
+#[test]
+fn with_the_realistic_laser_s_dark_spells_and_phantoms_the_robot_still_follows_over_dds() {
+    if !peer_available() {
+        return;
+    }
+    let c = closed_loop_listening(
+        "ros2-sim-realistic",
+        "--laser-only --duration 25 --use-sim-time --rate 2",
+        "--laser-only --ros-args -p use_sim_time:=true",
+        "--seconds 12",
+    );
+    // 0.08 to 0.24 m over 27 runs here (0.100 m in-process): a run that loses the
+    // person in a dark spell stands for a moment and falls a metre behind.
+    check_closed_loop("sim time at 2 x real time, the realistic laser", &c, 0.3);
+    let ros2 = &c.ros2_log;
+    assert!(ros2.contains("target locked"), "{ros2}");
 }
 
 #[test]
