@@ -85,12 +85,29 @@ fn peer(bag: &Path, peer_args: &[&str], tether_args: &[&str]) -> Seen {
 
 /// [`peer`], with or without the mount on `/tf_static`.
 fn peer_with(bag: &Path, peer_args: &[&str], tether_args: &[&str], mount: bool) -> Seen {
+    peer_of(
+        Path::new(env!("CARGO_BIN_EXE_tether")),
+        bag,
+        peer_args,
+        tether_args,
+        mount,
+    )
+}
+
+/// [`peer_with`], running the tether binary `tether`.
+fn peer_of(
+    tether: &Path,
+    bag: &Path,
+    peer_args: &[&str],
+    tether_args: &[&str],
+    mount: bool,
+) -> Seen {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/peer.py");
     let mut inner = vec![
         "python3".to_owned(),
         script.display().to_string(),
         "--tether".into(),
-        env!("CARGO_BIN_EXE_tether").into(),
+        tether.display().to_string(),
         "--bag".into(),
         bag.display().to_string(),
     ];
@@ -248,6 +265,54 @@ fn stamped_commands_carry_their_scan_s_stamp_and_the_latency_is_printed() {
         Seen::f(&latency["p99"]),
         Seen::f(&latency["max"]),
     );
+}
+
+/// The tether binary built for a Humble graph (`cargo build --release -p tether
+/// --no-default-features --features humble`), from `TETHER_HUMBLE_BIN`: CI builds it
+/// before the tests.
+fn humble_binary() -> Result<PathBuf, String> {
+    let how = "build it with `cargo build --release -p tether --no-default-features \
+               --features humble`, copy target/release/tether aside and set \
+               TETHER_HUMBLE_BIN to the copy";
+    match std::env::var_os("TETHER_HUMBLE_BIN") {
+        Some(path) if Path::new(&path).is_file() => Ok(PathBuf::from(path)),
+        Some(path) => Err(format!(
+            "TETHER_HUMBLE_BIN={} is not a file: {how}",
+            Path::new(&path).display()
+        )),
+        None => Err(format!("no Humble build of tether: {how}")),
+    }
+}
+
+/// A Humble graph's discovery information has 24-byte gids where Jazzy's has 16, under
+/// the same type name: a node of the other layout is not listed (Cyclone DDS cannot
+/// read its participant). The Humble build follows like the default one, is listed by
+/// a peer reading Humble's layout, and is not by one reading Jazzy's; the default
+/// build, the other way round.
+#[test]
+fn the_humble_build_is_a_node_on_a_humble_graph_and_the_default_on_jazzy_s() {
+    if !peer_available() {
+        return;
+    }
+    let Some(humble) = or_skip(humble_binary()) else {
+        return;
+    };
+    let dir = scratch("ros2-humble");
+    let bag = corridor_bag(&dir);
+    let listed = |seen: &Seen| {
+        seen.json["nodes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|n| n[0] == "/" && n[1] == "tether")
+    };
+    let seen = peer_of(&humble, &bag, &["--seconds", "20", "--humble"], &[], true);
+    check_follows_and_stops(&seen);
+    let seen = peer_of(&humble, &bag, &["--seconds", "4"], &[], true);
+    assert!(!listed(&seen), "a Jazzy reader listed the Humble build");
+    let jazzy = Path::new(env!("CARGO_BIN_EXE_tether"));
+    let seen = peer_of(jazzy, &bag, &["--seconds", "4", "--humble"], &[], true);
+    assert!(!listed(&seen), "a Humble reader listed the default build");
 }
 
 #[test]

@@ -300,6 +300,31 @@ class ParticipantEntitiesInfo(
     node_entities_info_seq: sequence[NodeEntitiesInfo]
 
 
+# Before Iron (Humble), rmw_dds_common's Gid held 24 bytes: the same type name, another
+# layout. A reader of one layout cannot read the other's participants.
+@dataclass
+class GidHumble(IdlStruct, typename="rmw_dds_common::msg::dds_::Gid_"):
+    data: array[uint8, 24]
+
+
+@dataclass
+class NodeEntitiesInfoHumble(
+    IdlStruct, typename="rmw_dds_common::msg::dds_::NodeEntitiesInfo_"
+):
+    node_namespace: str
+    node_name: str
+    reader_gid_seq: sequence[GidHumble]
+    writer_gid_seq: sequence[GidHumble]
+
+
+@dataclass
+class ParticipantEntitiesInfoHumble(
+    IdlStruct, typename="rmw_dds_common::msg::dds_::ParticipantEntitiesInfo_"
+):
+    gid: GidHumble
+    node_entities_info_seq: sequence[NodeEntitiesInfoHumble]
+
+
 XCDR1 = Policy.DataRepresentation(use_cdrv0_representation=True)
 
 
@@ -453,6 +478,12 @@ def main():
         metavar="S",
         help="stop publishing the odometry S seconds into the scans",
     )
+    ap.add_argument(
+        "--humble",
+        action="store_true",
+        help="read ros_discovery_info as a Humble graph writes it (24-byte gids), as "
+        "tether built with `--features humble` must",
+    )
     ap.add_argument("tether_args", nargs="*", help="more arguments for tether ros2")
     a = ap.parse_args()
 
@@ -535,7 +566,11 @@ def main():
     )
     discovery_reader = DataReader(
         dp,
-        Topic(dp, "ros_discovery_info", ParticipantEntitiesInfo),
+        Topic(
+            dp,
+            "ros_discovery_info",
+            ParticipantEntitiesInfoHumble if a.humble else ParticipantEntitiesInfo,
+        ),
         qos=qos(True, 100, transient_local=True),
     )
 
