@@ -243,6 +243,12 @@ fn a_simulated_mcap_matches_python_mcap() {
     );
     assert_eq!(info["format"], "mcap");
     assert_eq!(info["profile"], "ros2");
+    // The writer names the application, not one of its crates.
+    assert_eq!(
+        info["library"],
+        concat!("tether ", env!("CARGO_PKG_VERSION")),
+        "{info}"
+    );
     assert_eq!(info["read"]["status"], "whole", "{}", info["read"]);
     check_scan_topics(&info, &mcap);
     let scan = topic(&info, "/scan");

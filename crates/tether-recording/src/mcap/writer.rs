@@ -99,7 +99,7 @@ impl<W: Write + Seek> McapWriter<W> {
     pub fn with_chunk_size(w: W, chunk_bytes: u64) -> Result<Self, McapError> {
         let options = mcap::WriteOptions::new()
             .profile("ros2")
-            .library(concat!("tether-io ", env!("CARGO_PKG_VERSION")))
+            .library(concat!("tether ", env!("CARGO_PKG_VERSION")))
             .compression(None)
             .chunk_size(Some(chunk_bytes.max(1)));
         Self::with_options(w, options)
@@ -115,7 +115,7 @@ impl<W: Write + Seek> McapWriter<W> {
     pub fn streaming(w: W) -> Result<Self, McapError> {
         let options = mcap::WriteOptions::new()
             .profile("ros2")
-            .library(concat!("tether-io ", env!("CARGO_PKG_VERSION")))
+            .library(concat!("tether ", env!("CARGO_PKG_VERSION")))
             .use_chunks(false);
         Self::with_options(w, options)
     }
