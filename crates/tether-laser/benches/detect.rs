@@ -309,4 +309,20 @@ mod cluster_scaling {
             }),
         );
     }
+
+    /// Two straight walls 0.6 m and 0.730000001 m from the sensor (their normal 0.5 rad
+    /// off its axis), 0.13 m and a nanometre apart, the beams alternating
+    /// between them: dense point sets exactly at the clustering distance along their
+    /// whole length, the hard case of the grid's pruning (see the crate's README).
+    #[divan::bench(args = BEAMS, sample_count = 5, sample_size = 1)]
+    fn fronts_at_the_distance(bencher: Bencher, n: usize) {
+        run(
+            bencher,
+            points(n, FOV_270, |i, bearing: f64| {
+                let wall_m = if i % 2 == 0 { 0.6 } else { 0.730_000_001 };
+                let cos = (bearing - 0.5).cos();
+                (cos > 0.2).then(|| wall_m / cos)
+            }),
+        );
+    }
 }
