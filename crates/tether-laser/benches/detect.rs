@@ -181,3 +181,148 @@ fn arc_cap_random(bencher: Bencher) {
     });
     run(bencher, arc_detector(), &[scan]);
 }
+
+/// The clustering alone ([`tether_laser::segment::cluster_into`], leg_tracker's
+/// Euclidean rule at 0.13 m) on `n` beams, past the beam cap: the points are built
+/// directly, as pre-processing would give them, so that the cost can be followed as the
+/// beams grow (near-linear: about 4-5x per 4x beams, not 16x). The first two are the
+/// issue's adversary and clutter; the others are harder cases for the grid.
+mod cluster_scaling {
+    use divan::{Bencher, black_box};
+    use tether_core::{Laser, Point2, RangeNoiseModel};
+    use tether_laser::ScanPoint;
+    use tether_laser::segment::{Breakpoint, ClusterScratch, cluster_into};
+
+    const BEAMS: [usize; 4] = [16_384, 65_536, 262_144, 1_048_576];
+    const FOV_270: f64 = 1.5 * std::f64::consts::PI;
+
+    /// `n` beams over `fov_rad` centred ahead, with `range(i, bearing)` on beam `i`
+    /// (`None`: no return).
+    fn points(
+        n: usize,
+        fov_rad: f64,
+        mut range: impl FnMut(usize, f64) -> Option<f64>,
+    ) -> (Vec<ScanPoint>, f64) {
+        let inc = fov_rad / n as f64;
+        let points = (0..n)
+            .filter_map(|beam| {
+                let bearing_rad = -fov_rad / 2.0 + beam as f64 * inc;
+                let range_m = range(beam, bearing_rad)?;
+                let (s, c) = bearing_rad.sin_cos();
+                Some(ScanPoint {
+                    beam,
+                    range_m,
+                    bearing_rad,
+                    point_in_laser: Point2::<Laser>::new(range_m * c, range_m * s),
+                })
+            })
+            .collect();
+        (points, inc)
+    }
+
+    /// Uniform numbers in [0, 1) (xorshift64*).
+    fn uniform(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
+            state ^= state >> 12;
+            state ^= state << 25;
+            state ^= state >> 27;
+            (state.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    fn run(bencher: Bencher, (points, inc): (Vec<ScanPoint>, f64)) {
+        let noise = RangeNoiseModel::default();
+        let rule = Breakpoint::Euclidean { distance_m: 0.13 };
+        let (mut scratch, mut order, mut out) = (ClusterScratch::default(), Vec::new(), Vec::new());
+        bencher.bench_local(|| {
+            cluster_into(
+                black_box(&points),
+                inc,
+                &noise,
+                rule,
+                &mut scratch,
+                &mut order,
+                &mut out,
+            );
+            black_box(out.len())
+        });
+    }
+
+    /// Ranges alternating 0.03 / 0.25 m over 270 deg: every beam its own run of
+    /// consecutive joined returns, the near half all within reach of each other.
+    #[divan::bench(args = BEAMS, sample_count = 5, sample_size = 1)]
+    fn alternating_near(bencher: Bencher, n: usize) {
+        run(
+            bencher,
+            points(n, FOV_270, |i, _| {
+                Some(if i % 2 == 0 { 0.03 } else { 0.25 })
+            }),
+        );
+    }
+
+    /// Independent pseudo-random ranges of 0.5-5 m on every beam over 270 deg: clutter
+    /// everywhere.
+    #[divan::bench(args = BEAMS, sample_count = 5, sample_size = 1)]
+    fn random(bencher: Bencher, n: usize) {
+        let mut next = uniform(0x2545_f491_4f6c_dd1d);
+        run(bencher, points(n, FOV_270, |_, _| Some(0.5 + 4.5 * next())));
+    }
+
+    /// Pseudo-random ranges of 0.003-0.4 m: a dense cloud around the sensor, with
+    /// unbounded windows inside the clustering distance and wide ones beyond.
+    #[divan::bench(args = BEAMS, sample_count = 5, sample_size = 1)]
+    fn near_random(bencher: Bencher, n: usize) {
+        let mut next = uniform(0x1234_5678_9abc_def1);
+        run(
+            bencher,
+            points(n, FOV_270, |_, _| Some(0.003 + 0.397 * next())),
+        );
+    }
+
+    /// Two clouds of pseudo-random returns at 0.5-3 m with a straight street 0.1301 m
+    /// wide between them, at a slant to the beams: the two stay apart, whatever the
+    /// density, by just over the clustering distance.
+    #[divan::bench(args = BEAMS, sample_count = 5, sample_size = 1)]
+    fn street(bencher: Bencher, n: usize) {
+        let mut next = uniform(0x9e37_79b9_7f4a_7c15);
+        let (nx, ny) = (0.3f64.cos(), 0.3f64.sin());
+        run(
+            bencher,
+            points(n, FOV_270, |_, bearing: f64| {
+                (0..8).map(|_| 0.5 + 2.5 * next()).find(|r| {
+                    let across = r * (bearing.cos() * nx + bearing.sin() * ny);
+                    !(1.0..1.1301).contains(&across)
+                })
+            }),
+        );
+    }
+
+    /// A full turn (the last beam beside the first) seeing a wall 1 m around the
+    /// sensor, every third beam a pseudo-random return at 0.2-3.2 m.
+    #[divan::bench(args = BEAMS, sample_count = 5, sample_size = 1)]
+    fn full_turn(bencher: Bencher, n: usize) {
+        let mut next = uniform(0x5555_1234_5678_9abc);
+        run(
+            bencher,
+            points(n, std::f64::consts::TAU, |i, _| {
+                Some(if i % 3 == 0 { 0.2 + 3.0 * next() } else { 1.0 })
+            }),
+        );
+    }
+
+    /// Two straight walls 0.6 m and 0.730000001 m from the sensor (their normal 0.5 rad
+    /// off its axis), 0.13 m and a nanometre apart, the beams alternating
+    /// between them: dense point sets exactly at the clustering distance along their
+    /// whole length, the hard case of the grid's pruning (see the crate's README).
+    #[divan::bench(args = BEAMS, sample_count = 5, sample_size = 1)]
+    fn fronts_at_the_distance(bencher: Bencher, n: usize) {
+        run(
+            bencher,
+            points(n, FOV_270, |i, bearing: f64| {
+                let wall_m = if i % 2 == 0 { 0.6 } else { 0.730_000_001 };
+                let cos = (bearing - 0.5).cos();
+                (cos > 0.2).then(|| wall_m / cos)
+            }),
+        );
+    }
+}
