@@ -794,19 +794,8 @@ mod tests {
                 1..6,
             ),
         ) {
-            // Parallel to the other parsers' damage tests (tether-recording, tether-ros2, track)
-            // on purpose: the crates share no test support.
             let mut bytes = DEFAULT_MODEL_JSON.as_bytes().to_vec();
-            for (at, byte, op) in edits {
-                let i = at.index(bytes.len());
-                match op {
-                    0 => bytes[i] = byte,
-                    1 => bytes.insert(i, byte),
-                    _ => {
-                        bytes.remove(i);
-                    }
-                }
-            }
+            tether_testkit::damage(&mut bytes, edits);
             let text = String::from_utf8_lossy(&bytes);
             if let Ok(model) = LegClassifier::from_json(&text) {
                 check_loaded(&model)?;

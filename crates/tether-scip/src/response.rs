@@ -732,19 +732,7 @@ mod tests {
             let values: Vec<u32> = (0..682).map(|i| (i * 13 % 4000) as u32 + 20).collect();
             let good = md_reply(&values, 77);
             let mut bad = good.clone();
-            for (at, byte, op) in edits {
-                if bad.is_empty() {
-                    break;
-                }
-                let i = at.index(bad.len());
-                match op {
-                    0 => bad[i] = byte,
-                    1 => bad.insert(i, byte),
-                    _ => {
-                        bad.remove(i);
-                    }
-                }
-            }
+            tether_testkit::damage(&mut bad, edits);
             // However the damage ends, a reply boundary follows before the good scan.
             bad.extend_from_slice(b"\n\n");
             bad.extend_from_slice(&good);

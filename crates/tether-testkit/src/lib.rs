@@ -10,6 +10,7 @@
 //!   cascades.
 //! - [`scratch`], [`text`], [`json_lines`], [`is_jpeg`]: a fresh temporary folder,
 //!   output as text, JSON lines, JPEG file names.
+//! - [`damage`]: the edits of the parsers' proptests (damaged-valid inputs).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -214,6 +215,28 @@ pub fn json_lines(text: &str) -> Vec<serde_json::Value> {
     text.lines()
         .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON ({e}): {l}")))
         .collect()
+}
+
+/// The damage of the parsers' proptests: each edit `(where, what, op)` replaces
+/// (`op` 0), inserts before (1) or removes (any other) the item at `where` of `items`,
+/// in turn; edits stop when nothing is left.
+pub fn damage<T>(
+    items: &mut Vec<T>,
+    edits: impl IntoIterator<Item = (proptest::sample::Index, T, u8)>,
+) {
+    for (at, item, op) in edits {
+        if items.is_empty() {
+            break;
+        }
+        let i = at.index(items.len());
+        match op {
+            0 => items[i] = item,
+            1 => items.insert(i, item),
+            _ => {
+                items.remove(i);
+            }
+        }
+    }
 }
 
 #[cfg(test)]

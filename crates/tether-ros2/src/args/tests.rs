@@ -693,16 +693,7 @@ proptest! {
         )
     ) {
         let mut text: Vec<char> = FILE.chars().collect();
-        for (at, c, op) in edits {
-            let i = at.index(text.len());
-            match op {
-                0 => text[i] = c,
-                1 => text.insert(i, c),
-                _ => {
-                    text.remove(i);
-                }
-            }
-        }
+        tether_testkit::damage(&mut text, edits);
         let text: String = text.into_iter().collect();
         if let Ok(blocks) = param_blocks(&text) {
             let ros = RosArgs { param_blocks: blocks, ..RosArgs::default() };

@@ -383,19 +383,8 @@ mod tests {
                 1..6,
             ),
         ) {
-            // Parallel to the other parsers' damage tests (tether-recording, tether-ros2,
-            // tether-laser) on purpose: the crates share no test support.
             let mut text: Vec<char> = defaults().chars().collect();
-            for (at, c, op) in edits {
-                let i = at.index(text.len());
-                match op {
-                    0 => text[i] = c,
-                    1 => text.insert(i, c),
-                    _ => {
-                        text.remove(i);
-                    }
-                }
-            }
+            tether_testkit::damage(&mut text, edits);
             check(&text.into_iter().collect::<String>());
         }
     }

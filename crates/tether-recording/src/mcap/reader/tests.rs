@@ -449,16 +449,7 @@ proptest::proptest! {
     ) {
         static RECORDING: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
         let mut bytes = RECORDING.get_or_init(recording).clone();
-        for (at, byte, op) in edits {
-            let i = at.index(bytes.len());
-            match op {
-                0 => bytes[i] = byte,
-                1 => bytes.insert(i, byte),
-                _ => {
-                    bytes.remove(i);
-                }
-            }
-        }
+        tether_testkit::damage(&mut bytes, edits);
         let _ = open_and_walk(bytes);
     }
 }
