@@ -925,17 +925,20 @@ fn a_laser_that_sends_garbage_and_stalls_mid_scan_stops_the_robot_and_it_drives_
             .any(|l| l["v_mps"].as_f64().unwrap() > 0.2),
         "not driving before the stall\n{stderr}"
     );
-    let stale_commands: Vec<f64> = lines[stale..]
+    // The stall lasts until the next scan: every command until then is a stop (its
+    // reason may change while the robot brakes: the target, unseen for
+    // `lost_after_s`, is lost), and braking, rate-limited, ends at zero before it.
+    let stopping: Vec<(f64, Option<&str>)> = lines[stale..]
         .iter()
-        .take_while(|l| l["stop"] == "stale_laser")
-        .map(|l| l["v_mps"].as_f64().unwrap())
+        .take_while(|l| l["input"] != "scan")
+        .map(|l| (l["v_mps"].as_f64().unwrap(), l["stop"].as_str()))
         .collect();
-    // Braking is rate-limited, but the stop ends at zero before the stall is over.
-    assert_eq!(
-        stale_commands.last().copied(),
-        Some(0.0),
-        "{stale_commands:?}"
+    assert!(
+        stopping.iter().all(|(_, stop)| stop.is_some()),
+        "{stopping:?}"
     );
+    let stale_commands: Vec<f64> = stopping.iter().map(|&(v, _)| v).collect();
+    assert_eq!(stale_commands.last().copied(), Some(0.0), "{stopping:?}");
     assert!(
         lines[stale + stale_commands.len()..]
             .iter()
