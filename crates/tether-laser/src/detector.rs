@@ -217,6 +217,8 @@ impl LegDetector {
         let learned = self.classifier.is_some();
         out.stats = self.find_candidates(scan, learned);
         let weak_floor = self.compiled.decision_margin() - self.config.weak_margin;
+        let (seam, n) = (out.stats.preprocess.seam_beam, scan.len());
+        let scan_beam = |beam: usize| (beam + seam) % n;
         for c in &self.candidates {
             let pts = &self.clustered[c.segment.start..c.segment.end];
             let leg = |centre_in_laser, radius_m, score| Leg {
@@ -224,8 +226,8 @@ impl LegDetector {
                 radius_m,
                 centroid_in_laser: c.centroid_in_laser,
                 score,
-                first_beam: pts[0].beam,
-                last_beam: pts[pts.len() - 1].beam,
+                first_beam: scan_beam(pts[0].beam),
+                last_beam: scan_beam(pts[pts.len() - 1].beam),
                 n_points: pts.len(),
             };
             match &self.classifier {

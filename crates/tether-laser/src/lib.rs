@@ -29,6 +29,7 @@
 //! broken its ranges, gives a result and never a panic.
 
 pub mod arc;
+pub mod augment;
 pub mod calibration;
 pub mod classifier;
 pub mod detector;

@@ -5,7 +5,9 @@ use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
 /// One return of a scan after pre-processing.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScanPoint {
-    /// Index of the beam in the scan.
+    /// Index of the beam in beam order from the scan's seam ([`seam_beam`]): the beam
+    /// index of the scan itself, except on a scan that closes the circle, where it
+    /// counts from the seam (`(i - seam) mod n`, and `(beam + seam) mod n` is the scan's).
     pub beam: usize,
     /// Range with the bias removed, `r - bias(r)`, m.
     pub range_m: f64,
@@ -50,6 +52,9 @@ pub struct PreprocessStats {
     pub no_return: usize,
     /// Returns whose bias-corrected range is not a positive finite number, dropped.
     pub bad_after_correction: usize,
+    /// The scan's beam that beam order starts from ([`seam_beam`]; 0 unless the scan
+    /// closes the circle).
+    pub seam_beam: usize,
 }
 
 /// Turns the returns of `scan` into points with the range calibration applied:
@@ -65,7 +70,13 @@ pub fn preprocess_into(
     out.clear();
     let mut stats = PreprocessStats::default();
     let unbiased = noise.bias_m.0.is_empty();
-    for (beam, (&r, &(c, s))) in scan.ranges_m().iter().zip(&table.cos_sin).enumerate() {
+    let n = scan.len().min(table.cos_sin.len());
+    let seam = seam_beam(scan);
+    stats.seam_beam = seam;
+    for k in 0..n {
+        let i = (seam + k) % n;
+        let (r, (c, s)) = (scan.ranges_m()[i], table.cos_sin[i]);
+        let beam = k;
         if !r.is_finite() {
             stats.no_return += 1;
             continue;
@@ -83,11 +94,52 @@ pub fn preprocess_into(
         out.push(ScanPoint {
             beam,
             range_m,
-            bearing_rad: scan.angle_min_rad + beam as f64 * scan.angle_increment_rad,
+            bearing_rad: scan.angle_min_rad + i as f64 * scan.angle_increment_rad,
             point_in_laser: Point2::new(range_m * c, range_m * s),
         });
     }
     stats
+}
+
+/// Whether the scan's beams go all the way round: `n |dtheta| >= 2 pi - |dtheta| / 2`
+/// (a 360-degree scanner, whose last beam neighbours its first).
+pub fn closes_the_circle(scan: &LaserScan) -> bool {
+    let inc = scan.angle_increment_rad.abs();
+    scan.len() as f64 * inc >= std::f64::consts::TAU - 0.5 * inc
+}
+
+/// The beam a scan's beam order starts from. On a scan that does not close the circle,
+/// beam 0. On one that does, the first and last beams are neighbours, and an object
+/// across that seam would be cut in two, so beam order starts instead after the widest
+/// gap between returns next to each other in angle (no-return beams skipped): the
+/// return with the greatest distance `|p_i - p_prev|` to the return before it, where
+/// no object can span.
+pub fn seam_beam(scan: &LaserScan) -> usize {
+    if !closes_the_circle(scan) {
+        return 0;
+    }
+    let point = |i: usize| {
+        let r = f64::from(scan.ranges_m()[i]);
+        let (s, c) = scan.angle_rad(i).sin_cos();
+        (r * c, r * s)
+    };
+    let returns: Vec<usize> = (0..scan.len())
+        .filter(|&i| scan.ranges_m()[i].is_finite())
+        .collect();
+    let Some(&last) = returns.last() else {
+        return 0;
+    };
+    let mut prev = point(last);
+    let (mut best, mut best_gap) = (0, f64::NEG_INFINITY);
+    for &i in &returns {
+        let p = point(i);
+        let gap = (p.0 - prev.0).hypot(p.1 - prev.1);
+        if gap > best_gap {
+            (best, best_gap) = (i, gap);
+        }
+        prev = p;
+    }
+    best
 }
 
 /// [`preprocess_into`] for a one-off call.

@@ -38,6 +38,7 @@ use thiserror::Error;
 
 use tether_core::{Laser, LaserScan, Point2};
 
+use crate::augment::nearer_view;
 use crate::classifier::{LegClassifier, MAX_DEPTH, MODEL_FORMAT, Node, Provenance, Tree};
 use crate::detector::{Detection, LegDetector, learned_centre};
 use crate::features::{FEATURE_NAMES, FeatureVector, N_FEATURES};
@@ -110,6 +111,14 @@ impl LabelledRegion {
         region
     }
 
+    /// A region that holds nothing: on a scan labelled this way no detection counts as
+    /// false (the labeller's window is not known there).
+    pub const NONE: LabelledRegion = LabelledRegion {
+        min_bearing_rad: 0.0,
+        max_bearing_rad: 0.0,
+        max_range_m: 0.0,
+    };
+
     /// Whether a point lies inside.
     pub fn contains(&self, p: Point2<Laser>) -> bool {
         let bearing = p.bearing_rad();
@@ -167,6 +176,24 @@ impl ScanSample {
         out.labels = legs_in_laser.to_vec();
         out.region = Some(region);
         out
+    }
+
+    /// Keeps only the labels some candidate matched (for a synthesised view, where a
+    /// hidden label is no labelled leg the detector missed).
+    pub fn drop_unmatched_labels(&mut self) {
+        let matched: Vec<Point2<Laser>> = self
+            .labels
+            .iter()
+            .copied()
+            .filter(|l| {
+                self.centroids
+                    .iter()
+                    .zip(&self.positive)
+                    .any(|(c, &p)| p && c.distance_m(*l) <= TRAIN_MATCH_RADIUS_M)
+            })
+            .collect();
+        self.labels = matched;
+        self.unmatched_labels = 0;
     }
 
     /// A scan without people: every candidate is a negative.
@@ -285,19 +312,42 @@ pub type LabelledScan = (LaserScan, Vec<Point2<Laser>>);
 /// by [`LabelledRegion::of_bag`]); `negative_topics` the scans of each topic of
 /// [`TRAIN_NEGATIVE_TOPICS`]. `detector` gives the candidates (its classifier, if any,
 /// is not used).
+///
+/// With `nearer_views > 0`, each scan is also shown that many times from nearer
+/// ([`crate::augment::nearer_view`]), in the fold of its recording: a labelled scan
+/// toward one of its legs (in turn), a scan without people toward one of its candidates.
+/// In a view, a label the view hides (behind something, out of the field of view, or
+/// now part of a larger cluster) is dropped, and no detection on a labelled view
+/// counts as false ([`LabelledRegion::NONE`]): its labeller's window moved with it.
 pub fn folds_from_scans(
     detector: &mut LegDetector,
     positive_bags: &[(&str, &[LabelledScan])],
     negative_topics: &[&[LaserScan]],
+    nearer_views: usize,
 ) -> Vec<Vec<ScanSample>> {
     let bags = positive_bags
         .iter()
         .map(|(name, scans)| {
             let region = LabelledRegion::of_bag(name);
-            scans
+            let mut samples: Vec<ScanSample> = scans
                 .iter()
                 .map(|(scan, legs)| ScanSample::labelled(detector, scan, legs, region))
-                .collect()
+                .collect();
+            for v in 0..nearer_views {
+                for (k, (scan, legs)) in scans.iter().enumerate() {
+                    let j = k + v * scans.len();
+                    let Some(&toward) = legs.get(j % legs.len().max(1)) else {
+                        continue;
+                    };
+                    if let Some((view, moved)) = nearer_view(scan, toward, legs, j) {
+                        let mut sample =
+                            ScanSample::labelled(detector, &view, &moved, LabelledRegion::NONE);
+                        sample.drop_unmatched_labels();
+                        samples.push(sample);
+                    }
+                }
+            }
+            samples
         })
         .collect();
     let topics = negative_topics
@@ -308,6 +358,19 @@ pub fn folds_from_scans(
                 .map(|scan| ScanSample::without_people(detector, scan))
                 .collect();
             drop_robot_body(&mut samples);
+            let n = samples.len();
+            for v in 0..nearer_views {
+                for (k, scan) in scans.iter().enumerate() {
+                    let j = k + v * n;
+                    let centroids = &samples[k].centroids;
+                    let Some(&toward) = centroids.get(j % centroids.len().max(1)) else {
+                        continue;
+                    };
+                    if let Some((view, _)) = nearer_view(scan, toward, &[], j) {
+                        samples.push(ScanSample::without_people(detector, &view));
+                    }
+                }
+            }
             samples
         })
         .collect();

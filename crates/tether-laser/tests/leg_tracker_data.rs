@@ -122,6 +122,7 @@ fn training_reproduces_the_committed_model() {
             .map(|(b, s)| (*b, s.as_slice()))
             .collect::<Vec<_>>(),
         &topics.iter().map(Vec::as_slice).collect::<Vec<_>>(),
+        0,
     );
     let (model, set, cv) = train_with_cross_validation(&folds, &default_adaboost_config()).unwrap();
     let c = cv.best_counts();

@@ -131,6 +131,129 @@ fn a_clockwise_scanner_finds_the_same_legs() {
     assert_eq!(sort(&a), sort(&b));
 }
 
+/// A 360-degree scan of the office (0.5-degree steps, 720 beams, the sensor as in
+/// [`synthetic::urg_scan`]) whose first beam points at `start_rad`, without noise.
+fn full_circle_scan(start_rad: f64, increment_rad: f64) -> LaserScan {
+    let circles = synthetic::office_circles();
+    let room = [-1.5, 5.5, -2.5, 2.5];
+    let n = (std::f64::consts::TAU / increment_rad.abs()).round() as usize;
+    let ranges = (0..n)
+        .map(|i| {
+            let (s, c) = (start_rad + i as f64 * increment_rad).sin_cos();
+            let mut r = synthetic::hit_room(c, s, room);
+            for circle in &circles {
+                if let Some(d) = synthetic::hit_circle(c, s, circle) {
+                    r = r.min(d);
+                }
+            }
+            if r > 5.6 { f32::INFINITY } else { r as f32 }
+        })
+        .collect();
+    LaserScan::new(
+        Stamp::ZERO,
+        "laser",
+        start_rad,
+        increment_rad,
+        0.02,
+        5.6,
+        ranges,
+    )
+    .unwrap()
+}
+
+fn leg_cells(d: &Detection) -> Vec<(i64, i64)> {
+    let mut v: Vec<(i64, i64)> = d
+        .legs
+        .iter()
+        .map(|l| {
+            (
+                (l.centre_in_laser.x * 50.0).round() as i64,
+                (l.centre_in_laser.y * 50.0).round() as i64,
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn a_360_degree_scan_wraps_around_its_seam() {
+    // The walker's legs stand at bearings of about -16.7 and -20.7 degrees. With the
+    // first beam at -16.7 degrees the seam runs through the middle of a leg; the legs
+    // found must be the same as with the seam behind the sensor, and the beams each
+    // leg reports must be the scan's own.
+    let inc = 0.5f64.to_radians();
+    let behind = full_circle_scan(std::f64::consts::PI, inc);
+    let across = full_circle_scan((-16.7f64).to_radians(), inc);
+    let clockwise = full_circle_scan((-16.7f64).to_radians(), -inc);
+    for mut detector in detectors() {
+        let (a, b, c) = (
+            detector.detect(&behind),
+            detector.detect(&across),
+            detector.detect(&clockwise),
+        );
+        check(&b);
+        assert!(!a.legs.is_empty());
+        assert_eq!(leg_cells(&a), leg_cells(&b), "seam across the walker");
+        assert_eq!(
+            leg_cells(&a),
+            leg_cells(&c),
+            "clockwise, seam across the walker"
+        );
+        for leg in &b.legs {
+            for beam in [leg.first_beam, leg.last_beam] {
+                let r = f64::from(across.range_m(beam).unwrap());
+                let p = Point2::<Laser>::from_polar(r, across.angle_rad(beam));
+                assert!(
+                    p.distance_m(leg.centre_in_laser) < 0.3,
+                    "beam {beam} is not the leg's"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn one_beam_the_beam_cap_and_angles_past_two_pi_give_a_result() {
+    for mut detector in detectors() {
+        let one = LaserScan::new(Stamp::ZERO, "laser", 0.0, 0.01, 0.02, 5.6, vec![1.0]).unwrap();
+        assert!(detector.detect(&one).legs.is_empty());
+        // 16,384 beams of 0.022 degrees over a full turn and a bit: a leg of 30 mm
+        // radius at 1 m covers about 150 of them.
+        let n = tether_core::MAX_BEAMS;
+        let inc = 1.0001 * std::f64::consts::TAU / n as f64;
+        let circle = synthetic::Circle {
+            x: 1.0,
+            y: 0.2,
+            r: 0.05,
+        };
+        let ranges: Vec<f32> = (0..n)
+            .map(|i| {
+                let (s, c) = (i as f64 * inc).sin_cos();
+                synthetic::hit_circle(c, s, &circle).map_or(f32::INFINITY, |d| d as f32)
+            })
+            .collect();
+        let dense =
+            LaserScan::new(Stamp::ZERO, "laser", 0.0, inc, 0.02, 5.6, ranges.clone()).unwrap();
+        check(&detector.detect(&dense));
+        // The same beams starting two turns further round.
+        let far = LaserScan::new(
+            Stamp::ZERO,
+            "laser",
+            4.0 * std::f64::consts::PI,
+            inc,
+            0.02,
+            5.6,
+            ranges,
+        )
+        .unwrap();
+        assert_eq!(
+            leg_cells(&detector.detect(&dense)),
+            leg_cells(&detector.detect(&far))
+        );
+    }
+}
+
 fn near(d: &Detection, x: f64, y: f64, within_m: f64) -> bool {
     d.people
         .iter()

@@ -16,7 +16,7 @@ pub struct Circle {
 }
 
 /// Distance along the ray of direction (c, s) to the near side of `circle`, if hit.
-fn hit_circle(c: f64, s: f64, circle: &Circle) -> Option<f64> {
+pub fn hit_circle(c: f64, s: f64, circle: &Circle) -> Option<f64> {
     let proj = c * circle.x + s * circle.y;
     let disc = proj * proj - (circle.x * circle.x + circle.y * circle.y - circle.r * circle.r);
     (disc >= 0.0 && proj > 0.0).then(|| proj - disc.sqrt())
@@ -24,7 +24,7 @@ fn hit_circle(c: f64, s: f64, circle: &Circle) -> Option<f64> {
 
 /// Distance along the ray to the walls of the room `[x0, x1] x [y0, y1]` around the
 /// sensor.
-fn hit_room(c: f64, s: f64, room: [f64; 4]) -> f64 {
+pub fn hit_room(c: f64, s: f64, room: [f64; 4]) -> f64 {
     let [x0, x1, y0, y1] = room;
     let mut best = f64::INFINITY;
     if c > 1e-12 {
