@@ -43,6 +43,14 @@ pub enum LaserModelError {
 /// steps 44..=725 measured, step 384 straight ahead.
 ///
 /// `angle(step) = (step - front_step) * 2 pi / steps_per_rev`.
+///
+/// A scan lists its beams counter-clockwise from `first_step` to `last_step`, as REP 103
+/// and the URG-04LX do; with `clockwise` it lists them from `last_step` down to
+/// `first_step` (the same directions in the opposite order), so a `LaserScan` of it has a
+/// negative `angle_increment` (a driver that publishes a clockwise-turning scanner's
+/// beams in the order they are measured). A 360-degree scanner measures every step:
+/// `first_step = 0`, `last_step = steps_per_rev - 1`, so its beams cover the circle
+/// exactly once.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct UrgGeometry {
@@ -54,6 +62,14 @@ pub struct UrgGeometry {
     pub last_step: u32,
     /// Step pointing along the sensor's x axis (`AFRT`).
     pub front_step: u32,
+    /// Beams listed clockwise (negative angle increment); see the type's comment.
+    /// Written to a config only when set.
+    #[serde(skip_serializing_if = "is_false")]
+    pub clockwise: bool,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 impl Default for UrgGeometry {
@@ -63,6 +79,7 @@ impl Default for UrgGeometry {
             first_step: 44,
             last_step: 725,
             front_step: 384,
+            clockwise: false,
         }
     }
 }
@@ -92,6 +109,36 @@ impl UrgGeometry {
     /// Direction of the last beam, rad (+2.0923 on the URG-04LX).
     pub fn angle_max_rad(&self) -> f64 {
         self.angle_of_step_rad(self.last_step)
+    }
+
+    /// Field of view from the first to the last measured step, rad.
+    pub fn field_of_view_rad(&self) -> f64 {
+        self.angle_max_rad() - self.angle_min_rad()
+    }
+
+    /// Direction of beam 0 of a scan, rad: `angle_min_rad`, or `angle_max_rad` when
+    /// `clockwise`.
+    pub fn first_beam_angle_rad(&self) -> f64 {
+        if self.clockwise {
+            self.angle_max_rad()
+        } else {
+            self.angle_min_rad()
+        }
+    }
+
+    /// Signed angle from one beam of a scan to the next, rad: `angle_increment_rad`,
+    /// negated when `clockwise`.
+    pub fn beam_increment_rad(&self) -> f64 {
+        if self.clockwise {
+            -self.angle_increment_rad()
+        } else {
+            self.angle_increment_rad()
+        }
+    }
+
+    /// Direction of beam `i` of a scan, rad: `first + i * increment`.
+    pub fn beam_angle_rad(&self, i: usize) -> f64 {
+        self.first_beam_angle_rad() + i as f64 * self.beam_increment_rad()
     }
 
     fn validate(&self) -> Result<(), LaserModelError> {
@@ -345,6 +392,28 @@ mod tests {
         assert!((g.angle_min_rad() + 2.0862).abs() < 1e-4);
         assert!((g.angle_max_rad() - 2.0923).abs() < 1e-4);
         assert_eq!(g.angle_of_step_rad(384), 0.0);
+        assert_eq!(g.first_beam_angle_rad(), g.angle_min_rad());
+        assert_eq!(g.beam_increment_rad(), g.angle_increment_rad());
+    }
+
+    #[test]
+    fn a_clockwise_geometry_lists_the_same_directions_backwards() {
+        let ccw = UrgGeometry::default();
+        let cw = UrgGeometry {
+            clockwise: true,
+            ..ccw
+        };
+        let n = ccw.beam_count();
+        assert_eq!(cw.beam_count(), n);
+        assert!(cw.beam_increment_rad() < 0.0);
+        for i in 0..n {
+            assert!((cw.beam_angle_rad(i) - ccw.beam_angle_rad(n - 1 - i)).abs() < 1e-12);
+        }
+        // Written to a config only when set.
+        let text = toml::to_string(&ccw).unwrap();
+        assert!(!text.contains("clockwise"), "{text}");
+        let back: UrgGeometry = toml::from_str(&toml::to_string(&cw).unwrap()).unwrap();
+        assert_eq!(back, cw);
     }
 
     #[test]

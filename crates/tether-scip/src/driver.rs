@@ -808,6 +808,8 @@ fn sensor_info(
         first_step: num("AMIN")?,
         last_step: num("AMAX")?,
         front_step: num("AFRT")?,
+        // SCIP scanners turn counter-clockwise (the protocol's step order).
+        clockwise: false,
     };
     if !(geometry.steps_per_rev > 0
         && geometry.first_step <= geometry.front_step

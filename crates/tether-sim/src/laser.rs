@@ -17,6 +17,11 @@
 //! misses in bursts), one-scan phantom leg-like returns, and foliage whose returns come
 //! and go. Those draws come from a stream of their own (`laser/realism`), so switching
 //! them off leaves every other draw as it was.
+//!
+//! Other scanners (the catalogue, [`crate::scanners`]) add no-returns inside objects
+//! (`object_beam_loss_prob`, drawn only when it is not zero) and may list their beams
+//! clockwise: the scan is cast and drawn counter-clockwise and then reversed, so a
+//! clockwise scan holds the same points as its counter-clockwise twin.
 
 use std::f64::consts::{PI, TAU};
 
@@ -265,6 +270,11 @@ impl SimLaser {
                 ranges.push(f32::INFINITY);
                 continue;
             }
+            let object_loss = self.spec.object_beam_loss_prob;
+            if object_loss > 0.0 && self.rng.chance(object_loss) {
+                ranges.push(f32::INFINITY);
+                continue;
+            }
             let noise = &self.spec.noise;
             let mut measured = r + noise.bias_m(r) + self.rng.normal(0.0, noise.sigma_m(r));
             if self.spec.realistic {
@@ -301,11 +311,17 @@ impl SimLaser {
             ranges.push(((measured * 1000.0).round() / 1000.0) as f32);
         }
         let g = &self.model.geometry;
+        if g.clockwise {
+            // Cast and drawn counter-clockwise; listed clockwise, the truth with them.
+            ranges.reverse();
+            self.hits.reverse();
+            self.true_ranges_m.reverse();
+        }
         LaserScan::new(
             stamp,
             <tether_core::Laser as tether_core::Frame>::NAME,
-            g.angle_min_rad(),
-            g.angle_increment_rad(),
+            g.first_beam_angle_rad(),
+            g.beam_increment_rad(),
             self.model.range_min_m,
             self.model.range_max_m,
             ranges,

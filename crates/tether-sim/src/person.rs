@@ -24,7 +24,7 @@ use crate::scenario::PersonSpec;
 pub struct Body {
     /// Height (head top above the floor), m.
     pub height_m: f64,
-    /// Radius of each leg at laser height, m.
+    /// Radius of each leg at the calf ([`LEG_REFERENCE_HEIGHT_M`]), m.
     pub leg_radius_m: f64,
     /// Sideways distance between the leg centres (and the hips), m.
     pub leg_spread_m: f64,
@@ -50,6 +50,51 @@ impl Body {
     pub fn torso_radius_m(&self) -> f64 {
         0.5 * self.shoulder_width_m()
     }
+}
+
+/// Height at which a person's `leg_radius_m` is given, m: the calf, where the
+/// URG-04LX of the paper's robot scanned (`LaserMount::default().height_m`).
+pub const LEG_REFERENCE_HEIGHT_M: f64 = 0.30;
+
+/// Girth of a leg against height above the floor, `(height m, girth mm)`, rounded means
+/// of men and women of the 2012 Anthropometric Survey of U.S. Army Personnel (ANSUR
+/// II; Gordon et al., NATICK/TR-15/007): ankle circumference (the narrowest, about
+/// 0.11 m up), calf circumference (at the calf's widest, taken at 0.30 m), the narrower
+/// leg just below the knee, the knee, lower thigh circumference (just above the knee)
+/// and thigh circumference (at the gluteal furrow, about 0.78 m). Linear between the
+/// points, constant beyond the ends.
+const LEG_GIRTH_PROFILE_MM: [(f64, f64); 6] = [
+    (0.11, 220.0),
+    (LEG_REFERENCE_HEIGHT_M, 380.0),
+    (0.42, 340.0),
+    (0.50, 380.0),
+    (0.55, 400.0),
+    (0.78, 620.0),
+];
+
+/// How much wider a leg is at `height_m` than at [`LEG_REFERENCE_HEIGHT_M`]: the
+/// ratio of girths of [`LEG_GIRTH_PROFILE_MM`] (a leg's cross-section taken as a circle,
+/// its radius in proportion to its girth). Exactly 1 at the reference height, so that
+/// the default mount keeps every leg as it was; about 0.71 at 0.17 m (an LDS-01 on a
+/// TurtleBot3: a 0.13 m calf is a 0.09 m ankle), 1.05 at 0.55 m (the lower thigh), 1.3
+/// at 0.65 m. A scan plane through the hips (above 0.78 m) sees the thighs at their
+/// widest.
+pub fn leg_girth_scale(height_m: f64) -> f64 {
+    let p = &LEG_GIRTH_PROFILE_MM;
+    let reference = p[1].1;
+    let girth = if height_m <= p[0].0 {
+        p[0].1
+    } else if height_m >= p[p.len() - 1].0 {
+        p[p.len() - 1].1
+    } else {
+        p.windows(2)
+            .find(|w| height_m <= w[1].0)
+            .map_or(reference, |w| {
+                let t = (height_m - w[0].0) / (w[1].0 - w[0].0);
+                w[0].1 + t * (w[1].1 - w[0].1)
+            })
+    };
+    girth / reference
 }
 
 /// Walking acceleration and deceleration, m/s^2.
@@ -377,12 +422,14 @@ impl Person {
         self.feet
     }
 
-    /// The two legs as circles at height `height_m` above the floor (left, right).
+    /// The two legs as circles at height `height_m` above the floor (left, right), of
+    /// radius `leg_radius_m * leg_girth_scale(height_m)`.
     pub fn legs_at(&self, height_m: f64) -> [Circle; 2] {
         let k = (height_m / self.body.hip_height_m()).clamp(0.0, 1.0);
+        let radius_m = self.body.leg_radius_m * leg_girth_scale(height_m);
         [0, 1].map(|j| Circle {
             center: self.feet[j].lerp(self.hip(j), k),
-            radius_m: self.body.leg_radius_m,
+            radius_m,
         })
     }
 }

@@ -363,6 +363,19 @@ pub struct LaserSimSpec {
     pub ghosts_per_scan: f64,
     /// Probability that a return from foliage is lost in a scan.
     pub foliage_beam_loss_prob: f64,
+    /// Probability that a beam hitting anything (wall, furniture, leg) returns nothing:
+    /// the no-returns inside objects of triangulation scanners (dark or oblique
+    /// surfaces), which cut a leg into pieces. 0 for the URG-04LX (not drawn at all).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub object_beam_loss_prob: f64,
+    /// A scanner of the catalogue (`tether scanners`) whose figures replace the
+    /// defaults of `[laser]` and `[laser_sim]`; keys the file sets override it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scanner: Option<String>,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 impl Default for LaserSimSpec {
@@ -389,6 +402,8 @@ impl Default for LaserSimSpec {
             weak_range_sigma_m: 0.03,
             ghosts_per_scan: 0.8,
             foliage_beam_loss_prob: 0.3,
+            object_beam_loss_prob: 0.0,
+            scanner: None,
         }
     }
 }
@@ -487,8 +502,8 @@ pub struct PersonSpec {
     /// Body height, m; drawn from N(1.75 m, (0.07 m)^2) (clamped to 1.55-1.95) when absent.
     #[serde(default)]
     pub height_m: Option<f64>,
-    /// Radius of each leg at the laser's height, m; drawn from 0.058-0.072 when absent
-    /// (a calf of 35-38 cm girth in trousers).
+    /// Radius of each leg at the calf (0.30 m up), m; drawn from 0.058-0.072 when absent
+    /// (35-38 cm girth in trousers); other heights scale it (`person::leg_girth_scale`).
     #[serde(default)]
     pub leg_radius_m: Option<f64>,
     /// Sideways distance between the leg centres, m; drawn from 0.18-0.26 when absent.
@@ -690,6 +705,7 @@ impl Scenario {
                 snippet,
             }
         })?;
+        let scenario = scanner::with_named_scanner(scenario, src, origin)?;
         if let Some(problem) = scenario.validate().into_iter().next() {
             let offset = locate(src, &problem.field);
             let (line, column, snippet) = line_col(src, offset);
@@ -748,6 +764,7 @@ impl Scenario {
 /// typo (a room of 1e15 m once took 60 s and 6.9 GB drawing its picture).
 pub const MAX_WORLD_EXTENT_M: f64 = 10_000.0;
 
+mod scanner;
 mod validate;
 
 #[cfg(test)]

@@ -23,6 +23,8 @@ struct Cli {
 enum Command {
     /// List the built-in simulation scenarios.
     Scenarios(cmd::scenarios::Args),
+    /// List the laser scanners the simulator can play, with their figures.
+    Scanners(cmd::scanners::Args),
     /// Run a simulation scenario and write its sensor data, ground truth and a picture.
     Sim(cmd::sim::Args),
     /// Run every built-in scenario with the full pipeline in the loop; write report.html.
@@ -110,6 +112,7 @@ fn main() -> std::process::ExitCode {
         }
         _ if had_ros_args => Err(anyhow::anyhow!("--ros-args only applies to `tether ros2`")),
         Command::Scenarios(args) => cmd::scenarios::run(args),
+        Command::Scanners(args) => cmd::scanners::run(args),
         Command::Sim(args) => cmd::sim::run(args),
         Command::Demo(args) => cmd::demo::run(args),
         Command::Legs(args) => cmd::legs::run(args),

@@ -275,6 +275,7 @@ impl Scenario {
             ("spell_weak_leg_prob", ls.spell_weak_leg_prob),
             ("weak_beam_loss_prob", ls.weak_beam_loss_prob),
             ("foliage_beam_loss_prob", ls.foliage_beam_loss_prob),
+            ("object_beam_loss_prob", ls.object_beam_loss_prob),
         ] {
             if !(0.0..=1.0).contains(&value) {
                 problems.bad(

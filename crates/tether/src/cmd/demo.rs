@@ -24,6 +24,10 @@ pub struct Args {
     /// Run only these scenarios (built-in names or .toml files).
     #[arg(long = "scenario", value_name = "NAME")]
     pub scenarios: Vec<String>,
+    /// Put this scanner of `tether scanners` on the robot (its geometry, rate, range,
+    /// noise, no-returns and mount height replace the scenario's).
+    #[arg(long, value_name = "NAME")]
+    pub scanner: Option<String>,
 }
 
 /// The pipeline variants of a run: the driver and its laser-only and vision-only
@@ -70,10 +74,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         args.scenarios.clone()
     };
-    let scenarios = names
+    let mut scenarios = names
         .iter()
         .map(|n| Scenario::resolve(n).map(|(s, _)| s))
         .collect::<Result<Vec<_>, _>>()?;
+    if let Some(name) = &args.scanner {
+        for s in &mut scenarios {
+            *s = s.clone().with_scanner(name)?;
+        }
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let bar = ProgressBar::new(scenarios.len() as u64 + 1);

@@ -59,6 +59,10 @@ pub struct Args {
     /// spells, to compare with.
     #[arg(long)]
     pub ideal_laser: bool,
+    /// Put this scanner of `tether scanners` on the robot (its geometry, rate, range,
+    /// noise, no-returns and mount height replace the scenario's).
+    #[arg(long, value_name = "NAME")]
+    pub scanner: Option<String>,
     /// Also write the pooled figures as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub json: Option<std::path::PathBuf>,
@@ -188,6 +192,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .iter()
         .map(|n| Scenario::resolve(n).map(|(s, _)| s))
         .collect::<Result<Vec<_>, _>>()?;
+    if let Some(name) = &args.scanner {
+        for s in &mut scenarios {
+            *s = s.clone().with_scanner(name)?;
+        }
+    }
     if args.ideal_laser {
         for s in &mut scenarios {
             s.laser_sim.realistic = false;

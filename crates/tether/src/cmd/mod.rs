@@ -17,6 +17,7 @@ pub mod replay;
 #[cfg(feature = "ros2")]
 pub mod ros2;
 pub mod run;
+pub mod scanners;
 pub mod scenarios;
 pub mod sim;
 #[cfg(feature = "ros2")]

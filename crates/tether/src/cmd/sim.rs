@@ -60,6 +60,10 @@ pub struct Args {
     /// dark spells.
     #[arg(long)]
     pub ideal_laser: bool,
+    /// Put this scanner of `tether scanners` on the robot (its geometry, rate, range,
+    /// noise, no-returns and mount height replace the scenario's).
+    #[arg(long, value_name = "NAME")]
+    pub scanner: Option<String>,
     /// Also write the run as a ROS 1 bag in leg_tracker's annotation format, for
     /// `tether eval-track` and any other tracker: `/scan` (sensor_msgs/LaserScan, frame
     /// `laser`), `/odom` (nav_msgs/Odometry, perfect; see `--bag-without-odom`) and
@@ -258,6 +262,9 @@ fn progress_bar(name: &str) -> ProgressBar {
 /// Runs the simulation.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let (mut scenario, source) = Scenario::resolve(&args.scenario)?;
+    if let Some(name) = &args.scanner {
+        scenario = scenario.with_scanner(name)?;
+    }
     if args.ideal_laser {
         scenario.laser_sim.realistic = false;
     }
