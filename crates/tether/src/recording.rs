@@ -177,6 +177,35 @@ fn skip(
     }
 }
 
+/// Refuses a scan whose beams go round more than once or whose directions lie beyond
+/// a full turn either way: its sweep from the first beam to the last is longer than
+/// `2 pi` plus one increment (a full-circle scanner's last beam may meet its first),
+/// or its first or last beam is beyond `+-2 pi` plus one increment. Such a header is
+/// damaged or wrong (beams would repeat directions, so one leg would be seen twice);
+/// the scan is skipped and counted like any message that does not decode.
+fn check_sweep(scan: LaserScan) -> anyhow::Result<LaserScan> {
+    use std::f64::consts::TAU;
+    let step = scan.angle_increment_rad.abs();
+    let first = scan.angle_min_rad;
+    let last = scan.angle_rad(scan.len() - 1);
+    let sweep = (last - first).abs();
+    if sweep > TAU + step + 1e-6 {
+        anyhow::bail!(
+            "the scan's {} beams sweep {sweep:.3} rad ({first:.3} to {last:.3} by {:.5}), more \
+             than a full turn: directions would repeat",
+            scan.len(),
+            scan.angle_increment_rad
+        );
+    }
+    if first.abs().max(last.abs()) > TAU + step + 1e-6 {
+        anyhow::bail!(
+            "the scan's beams point from {first:.3} to {last:.3} rad, beyond a full turn \
+             (+-2 pi): a damaged header?"
+        );
+    }
+    Ok(scan)
+}
+
 /// The same message types come out of both readers.
 fn odom_sample(m: OdometryMsg) -> Sample {
     Sample::Odom {
@@ -425,7 +454,7 @@ trait Stored {
     fn sample(&self, topics: &Topics) -> anyhow::Result<Sample> {
         let topic = self.topic();
         if topic == topics.scan {
-            self.scan().map(Sample::Scan)
+            self.scan().and_then(check_sweep).map(Sample::Scan)
         } else if Some(topic) == topics.odom.as_deref() {
             self.odometry().map(odom_sample)
         } else if self.is_compressed() {
