@@ -727,6 +727,46 @@ mod tests {
     }
 
     #[test]
+    fn person_messages_add_up_for_the_scan_before_them() {
+        let person = |id: u32, x: f64| LabelMessage {
+            stamp: Stamp::from_ns(0),
+            frame_id: String::new(),
+            labels: vec![(Some(id), Point2::new(x, 0.0))],
+            source: LabelSource::Person,
+        };
+        // Whatever the pairing: one before any scan (unpaired), two after the first
+        // scan, none after the second (unlabelled), one after the third.
+        for pairing in [Pairing::Auto, Pairing::Before, Pairing::After] {
+            let mut e = TrackEval::new(options(pairing));
+            e.on_labels(person(4, 2.0));
+            feed(&mut e, 1000, &[(1, 2.0), (2, 4.0)], None);
+            e.on_labels(person(4, 2.0));
+            e.on_labels(person(5, 4.0));
+            feed(&mut e, 1100, &[(1, 2.0), (2, 4.0)], None);
+            feed(&mut e, 1200, &[(1, 2.0), (2, 4.0)], None);
+            e.on_labels(person(4, 2.0));
+            let r = e.finish();
+            assert_eq!(
+                (
+                    r.labelled_scans,
+                    r.unpaired_label_messages,
+                    r.doubly_labelled_scans
+                ),
+                (2, 1, 0),
+                "{pairing:?}"
+            );
+            assert_eq!(r.label_ids, vec![4, 5]);
+            // Scan 1: both people matched; scan 3: one person, the other track false.
+            let m = r.clear_mot;
+            assert_eq!(
+                (m.objects, m.matches, m.false_positives),
+                (3, 3, 1),
+                "{pairing:?}"
+            );
+        }
+    }
+
+    #[test]
     fn several_ids_need_a_target_label() {
         let people = |t: i64| LabelMessage {
             stamp: Stamp::from_ns(t * MS),
