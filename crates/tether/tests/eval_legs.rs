@@ -367,6 +367,16 @@ fn detector_config_files() {
         a["true_positives"].as_u64() < default["true_positives"].as_u64(),
         "{a} {default}"
     );
+    // `tether legs` takes the same file: fewer legs than with the defaults.
+    let count_legs = |extra: &[&str]| -> usize {
+        let mut args = vec!["legs", p(&bag), "--topic", "/scan", "--out", "-"];
+        args.extend_from_slice(extra);
+        tether_testkit::json_lines(&run_ok(&args))
+            .iter()
+            .map(|l| l["legs"].as_array().unwrap().len())
+            .sum()
+    };
+    assert!(count_legs(&["--detector-config", p(&toml)]) < count_legs(&[]));
     std::fs::write(&toml, "min_pionts = 12\n").unwrap();
     let out = tether(&[
         "eval-legs",

@@ -50,12 +50,19 @@ pub struct Args {
     /// Where the labeller labelled everything, `MIN_DEG:MAX_DEG:MAX_M` (bearing and
     /// range of the scan's frame): unmatched detections outside it are not counted.
     /// Default: everywhere. leg_tracker's extracted bags: `-15:15:5`.
-    #[arg(long, value_name = "MIN_DEG:MAX_DEG:MAX_M", value_parser = parse_region)]
+    #[arg(
+        long,
+        value_name = "MIN_DEG:MAX_DEG:MAX_M",
+        value_parser = parse_region,
+        allow_hyphen_values = true
+    )]
     pub region: Option<LabelledRegion>,
     /// The detector to measure on a recording.
     #[arg(long, value_enum, default_value_t = Detector::Learned)]
     pub detector: Detector,
-    /// Write the figures as JSON (fields: `tether::leg_eval` and this command's doc).
+    /// Write the figures as JSON: one object for a recording, an array of two (arc,
+    /// learned) for the test split; each object's fields are documented on
+    /// `cmd::eval_legs::Report`, its `bins` on `tether::leg_eval::BinReport`.
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<PathBuf>,
     /// Folder with leg_tracker's bags (`positive_{6,7}_extracted.bag`,
@@ -490,7 +497,7 @@ fn print_recording(
     }
     let region = match &args.region {
         Some(g) => format!(
-            "unmatched detections count as false only between {} and {} deg and under {} m",
+            "unmatched detections count as false only between {:.1} and {:.1} deg and under {} m",
             g.min_bearing_rad.to_degrees(),
             g.max_bearing_rad.to_degrees(),
             g.max_range_m
@@ -498,7 +505,8 @@ fn print_recording(
         None => "every unmatched detection counts as false".to_string(),
     };
     tether::outln!(
-        "{} detector{}, {} labels: a detection within {} m finds a label (one to one); {region}",
+        "{} detector{}, the labels are {}: a detection within {} m finds one (one to one); \
+         {region}",
         r.detector,
         match &args.model {
             Some(m) if r.detector == "learned" => format!(" (model {})", m.display()),
