@@ -5,6 +5,7 @@
 pub mod closed_loop;
 pub mod config_docs;
 pub mod ego_motion;
+pub mod leg_eval;
 pub mod logs;
 pub mod metrics;
 pub mod output;

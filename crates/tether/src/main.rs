@@ -33,7 +33,8 @@ enum Command {
     Legs(cmd::legs::Args),
     /// Train the learned leg classifier on leg_tracker's labelled recordings.
     TrainLegs(cmd::train_legs::Args),
-    /// Precision and recall of both leg detectors on the test recordings.
+    /// Precision and recall of the leg detectors by range: both on the test recordings,
+    /// or one on any labelled recording.
     EvalLegs(cmd::eval_legs::Args),
     /// Detect, fuse and track people over a recording (one JSON line per scan).
     Track(cmd::track::Args),

@@ -69,30 +69,53 @@ pub enum Sample {
     },
 }
 
-/// A message of an annotation topic: labelled people in the scan's frame, as
-/// `tether eval-track` reads them. Two message types carry labels:
-/// `leg_tracker/PersonArray` (each person with an `id`) and `geometry_msgs/PoseArray`
-/// (positions only, e.g. leg_tracker's `/leg_cluster_positions`).
+/// A message of an annotation topic: labelled people or legs in the scan's frame, as
+/// `tether eval-track` and `tether eval-legs` read them. Three message types carry
+/// labels: `leg_tracker/PersonArray` (each person with an `id`),
+/// `geometry_msgs/PoseArray` (positions only, e.g. leg_tracker's
+/// `/leg_cluster_positions`) and `leg_tracker/Person` (one person a message, no header:
+/// Leigh et al.'s published benchmark recordings, ROS 1 bags only).
 #[derive(Debug, Clone, PartialEq)]
 pub struct LabelMessage {
-    /// Header stamp (zero in leg_tracker's extracted training bags).
+    /// Header stamp (zero in leg_tracker's extracted training bags, and for `Person`
+    /// messages, which have no header).
     pub stamp: Stamp,
-    /// Header frame.
+    /// Header frame (empty for `Person` messages: the scan's frame is meant).
     pub frame_id: String,
-    /// Each label: its id (PersonArray) or `None` (PoseArray), and its position on the
-    /// ground plane of the frame, m.
+    /// Each label: its id (PersonArray, Person) or `None` (PoseArray), and its position
+    /// on the ground plane of the frame, m.
     pub labels: Vec<(Option<u32>, Point2<Laser>)>,
+    /// The message type the labels came in.
+    pub source: LabelSource,
+}
+
+/// The message type of a label message.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum LabelSource {
+    /// `geometry_msgs/PoseArray`: positions without ids, legs or people as the reader
+    /// is told.
+    PoseArray,
+    /// `leg_tracker/PersonArray`: the people of one scan, with ids and a header.
+    PersonArray,
+    /// `leg_tracker/Person`: one labelled person, no header. **Pairing rule**: every
+    /// Person message between scan k and scan k+1 (in log order) belongs to scan k, so
+    /// a scan's labels are all the Person messages recorded after it and before the
+    /// next scan; Person messages before the first scan belong to none (counted as
+    /// unpaired). A scan followed by no Person message is unlabelled (not scored).
+    Person,
 }
 
 impl LabelMessage {
     fn from_poses<'a>(
         stamp: Stamp,
         frame_id: String,
+        source: LabelSource,
         poses: impl Iterator<Item = (Option<u32>, &'a tether_msgs::Pose3)>,
     ) -> Self {
         LabelMessage {
             stamp,
             frame_id,
+            source,
             labels: poses
                 .map(|(id, p)| (id, Point2::new(p.position_m[0], p.position_m[1])))
                 .collect(),
@@ -125,6 +148,7 @@ const IMAGE_TYPES: &[&str] = &[
 ];
 const LABEL_TYPES: &[&str] = &[
     "leg_tracker/PersonArray",
+    "leg_tracker/Person",
     "leg_tracker/msg/PersonArray",
     "geometry_msgs/PoseArray",
     "geometry_msgs/msg/PoseArray",
@@ -151,6 +175,35 @@ fn skip(
     } else if stats.bad_messages == 11 {
         tracing::warn!("more messages skipped; the count is reported at the end");
     }
+}
+
+/// Refuses a scan whose beams go round more than once or whose directions lie beyond
+/// a full turn either way: its sweep from the first beam to the last is longer than
+/// `2 pi` plus one increment (a full-circle scanner's last beam may meet its first),
+/// or its first or last beam is beyond `+-2 pi` plus one increment. Such a header is
+/// damaged or wrong (beams would repeat directions, so one leg would be seen twice);
+/// the scan is skipped and counted like any message that does not decode.
+fn check_sweep(scan: LaserScan) -> anyhow::Result<LaserScan> {
+    use std::f64::consts::TAU;
+    let step = scan.angle_increment_rad.abs();
+    let first = scan.angle_min_rad;
+    let last = scan.angle_rad(scan.len() - 1);
+    let sweep = (last - first).abs();
+    if sweep > TAU + step + 1e-6 {
+        anyhow::bail!(
+            "the scan's {} beams sweep {sweep:.3} rad ({first:.3} to {last:.3} by {:.5}), more \
+             than a full turn: directions would repeat",
+            scan.len(),
+            scan.angle_increment_rad
+        );
+    }
+    if first.abs().max(last.abs()) > TAU + step + 1e-6 {
+        anyhow::bail!(
+            "the scan's beams point from {first:.3} to {last:.3} rad, beyond a full turn \
+             (+-2 pi): a damaged header?"
+        );
+    }
+    Ok(scan)
 }
 
 /// The same message types come out of both readers.
@@ -401,7 +454,7 @@ trait Stored {
     fn sample(&self, topics: &Topics) -> anyhow::Result<Sample> {
         let topic = self.topic();
         if topic == topics.scan {
-            self.scan().map(Sample::Scan)
+            self.scan().and_then(check_sweep).map(Sample::Scan)
         } else if Some(topic) == topics.odom.as_deref() {
             self.odometry().map(odom_sample)
         } else if self.is_compressed() {
@@ -441,6 +494,7 @@ impl Stored for mcap::RawMessage {
             Ok(LabelMessage::from_poses(
                 m.header.stamp,
                 m.header.frame_id,
+                LabelSource::PersonArray,
                 m.people.iter().map(|p| (Some(p.id), &p.pose)),
             ))
         } else if name == <tether_msgs::PoseArrayMsg as Ros2Message>::TYPE
@@ -450,8 +504,15 @@ impl Stored for mcap::RawMessage {
             Ok(LabelMessage::from_poses(
                 m.header.stamp,
                 m.header.frame_id,
+                LabelSource::PoseArray,
                 m.poses.iter().map(|p| (None, p)),
             ))
+        } else if name == "leg_tracker/Person" || name == "leg_tracker/msg/Person" {
+            anyhow::bail!(
+                "labels of type {name} in an MCAP file: tether reads one-person-a-message \
+                 labels from ROS 1 bags (Leigh et al.'s benchmark); in MCAP it reads \
+                 leg_tracker/msg/PersonArray or geometry_msgs/msg/PoseArray"
+            )
         } else {
             anyhow::bail!(
                 "labels of type {name}: tether reads leg_tracker/msg/PersonArray or \
@@ -489,6 +550,7 @@ impl Stored for rosbag::RawMessage {
             Ok(LabelMessage::from_poses(
                 m.header.stamp,
                 m.header.frame_id,
+                LabelSource::PersonArray,
                 m.people.iter().map(|p| (Some(p.id), &p.pose)),
             ))
         } else if name == <tether_msgs::PoseArrayMsg as RosMessage>::TYPE {
@@ -496,12 +558,22 @@ impl Stored for rosbag::RawMessage {
             Ok(LabelMessage::from_poses(
                 m.header.stamp,
                 m.header.frame_id,
+                LabelSource::PoseArray,
                 m.poses.iter().map(|p| (None, p)),
+            ))
+        } else if name == <tether_msgs::PersonMsg as RosMessage>::TYPE {
+            // No header: the frame is the scan's, the stamp unknown (zero).
+            let p = self.decode::<tether_msgs::PersonMsg>()?;
+            Ok(LabelMessage::from_poses(
+                Stamp::from_ns(0),
+                String::new(),
+                LabelSource::Person,
+                std::iter::once((Some(p.id), &p.pose)),
             ))
         } else {
             anyhow::bail!(
-                "labels of type {name}: tether reads leg_tracker/PersonArray or \
-                 geometry_msgs/PoseArray"
+                "labels of type {name}: tether reads leg_tracker/PersonArray, \
+                 leg_tracker/Person or geometry_msgs/PoseArray"
             )
         }
     }

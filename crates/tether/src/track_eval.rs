@@ -12,6 +12,10 @@
 //! **Pairing** a label message with its scan ([`Pairing`]): leg_tracker's annotations
 //! are published right after their scan with its stamp; its extracted training bags
 //! publish `/leg_cluster_positions` with a zero stamp just before each `/training_scan`.
+//! Header-less `leg_tracker/Person` messages (Leigh et al.'s benchmark recordings, one
+//! labelled person a message, right after the scan) are paired by position alone: all
+//! the Person messages between scan k and scan k+1 are scan k's people
+//! ([`crate::recording::LabelSource::Person`]).
 //!
 //! A scan given several label messages keeps the one nearest to it in stamp (the later
 //! on a tie), e.g. `/truth/people` of `tether sim --record`, written for camera frames
@@ -40,7 +44,7 @@ use tether_core::{Laser, Point2, Pose2, Stamp, World};
 use tether_fusion::{ClearMot, MotSummary};
 
 use crate::metrics::MATCH_M;
-use crate::recording::LabelMessage;
+use crate::recording::{LabelMessage, LabelSource};
 use crate::tracking::ScanStep;
 
 /// Which scan a label message belongs to.
@@ -262,6 +266,15 @@ impl TrackEval {
     pub fn on_labels(&mut self, labels: LabelMessage) {
         self.label_messages += 1;
         let last = self.scans.len().checked_sub(1);
+        if labels.source == LabelSource::Person {
+            // No header: every Person message after scan k and before scan k+1 is one
+            // of scan k's people, whatever `--pairing` says.
+            match last {
+                Some(k) => self.add_people(k, &labels),
+                None => self.unpaired += 1,
+            }
+            return;
+        }
         match self.options.pairing {
             Pairing::After => match last {
                 Some(k) => self.attach(k, &labels),
@@ -278,6 +291,21 @@ impl TrackEval {
                 }
             }
         }
+    }
+
+    /// Adds a header-less Person message's person to scan `k`'s labels.
+    fn add_people(&mut self, k: usize, labels: &LabelMessage) {
+        let scan = &mut self.scans[k];
+        let to_world: Pose2<World, Laser> = match self.options.labels_frame {
+            LabelsFrame::Scan => scan.world_from_laser,
+            LabelsFrame::World => Pose2::IDENTITY,
+        };
+        let people = labels
+            .labels
+            .iter()
+            .map(|(id, p)| (u64::from(id.unwrap_or(0)), to_world * *p));
+        scan.labels.get_or_insert_with(Vec::new).extend(people);
+        scan.labels_dt_ns.get_or_insert(0);
     }
 
     fn attach(&mut self, k: usize, labels: &LabelMessage) {
@@ -595,6 +623,7 @@ mod tests {
             stamp: Stamp::from_ns(t_ms * MS),
             frame_id: "laser".into(),
             labels: xs.iter().map(|&x| (None, Point2::new(x, 0.1))).collect(),
+            source: LabelSource::PoseArray,
         }
     }
 
@@ -698,6 +727,46 @@ mod tests {
     }
 
     #[test]
+    fn person_messages_add_up_for_the_scan_before_them() {
+        let person = |id: u32, x: f64| LabelMessage {
+            stamp: Stamp::from_ns(0),
+            frame_id: String::new(),
+            labels: vec![(Some(id), Point2::new(x, 0.0))],
+            source: LabelSource::Person,
+        };
+        // Whatever the pairing: one before any scan (unpaired), two after the first
+        // scan, none after the second (unlabelled), one after the third.
+        for pairing in [Pairing::Auto, Pairing::Before, Pairing::After] {
+            let mut e = TrackEval::new(options(pairing));
+            e.on_labels(person(4, 2.0));
+            feed(&mut e, 1000, &[(1, 2.0), (2, 4.0)], None);
+            e.on_labels(person(4, 2.0));
+            e.on_labels(person(5, 4.0));
+            feed(&mut e, 1100, &[(1, 2.0), (2, 4.0)], None);
+            feed(&mut e, 1200, &[(1, 2.0), (2, 4.0)], None);
+            e.on_labels(person(4, 2.0));
+            let r = e.finish();
+            assert_eq!(
+                (
+                    r.labelled_scans,
+                    r.unpaired_label_messages,
+                    r.doubly_labelled_scans
+                ),
+                (2, 1, 0),
+                "{pairing:?}"
+            );
+            assert_eq!(r.label_ids, vec![4, 5]);
+            // Scan 1: both people matched; scan 3: one person, the other track false.
+            let m = r.clear_mot;
+            assert_eq!(
+                (m.objects, m.matches, m.false_positives),
+                (3, 3, 1),
+                "{pairing:?}"
+            );
+        }
+    }
+
+    #[test]
     fn several_ids_need_a_target_label() {
         let people = |t: i64| LabelMessage {
             stamp: Stamp::from_ns(t * MS),
@@ -706,6 +775,7 @@ mod tests {
                 (Some(4), Point2::new(2.0, 0.0)),
                 (Some(5), Point2::new(4.0, 0.0)),
             ],
+            source: LabelSource::PersonArray,
         };
         let run = |target_label| {
             let mut e = TrackEval::new(EvalOptions {

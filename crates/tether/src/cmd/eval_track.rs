@@ -18,7 +18,10 @@ pub struct Args {
     #[arg(long, value_name = "TOPIC")]
     pub scan_topic: String,
     /// The labels: `leg_tracker/PersonArray` (an id and a pose per person, in the
-    /// scan's frame) or `geometry_msgs/PoseArray` (positions in the scan's frame).
+    /// scan's frame), `leg_tracker/Person` (one labelled person a message, no header,
+    /// as Leigh et al.'s benchmark recordings: every Person message between scan k and
+    /// scan k+1 belongs to scan k, whatever `--pairing` says) or
+    /// `geometry_msgs/PoseArray` (positions in the scan's frame).
     #[arg(long, value_name = "TOPIC")]
     pub labels_topic: String,
     /// A `nav_msgs/Odometry` topic: the robot's motion (the laser mount of `--config`

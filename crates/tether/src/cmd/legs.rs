@@ -33,6 +33,10 @@ pub struct Args {
     /// calibration to apply (default: the uncalibrated URG-04LX model).
     #[arg(long, value_name = "FILE")]
     pub laser: Option<PathBuf>,
+    /// A detector config (`tether_laser::DetectorConfig` as JSON or TOML; every field
+    /// optional, defaults as documented there).
+    #[arg(long, value_name = "FILE")]
+    pub detector_config: Option<PathBuf>,
     /// Where to write one JSON line per scan (`-`: standard output).
     #[arg(long, value_name = "FILE.jsonl")]
     pub out: PathBuf,
@@ -87,13 +91,42 @@ pub(crate) fn laser_model(path: Option<&PathBuf>) -> anyhow::Result<LaserModel> 
     Ok(model)
 }
 
+/// Reads a detector config: JSON when the file's first non-blank character is `{`,
+/// TOML otherwise; the default config without a file.
+pub(crate) fn detector_config(path: Option<&PathBuf>) -> anyhow::Result<DetectorConfig> {
+    let Some(path) = path else {
+        return Ok(DetectorConfig::default());
+    };
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read detector config {}", path.display()))?;
+    let config: DetectorConfig = if text.trim_start().starts_with('{') {
+        serde_json::from_str(&text).with_context(|| {
+            format!(
+                "detector config {} is not a valid JSON DetectorConfig",
+                path.display()
+            )
+        })?
+    } else {
+        toml::from_str(&text).with_context(|| {
+            format!(
+                "detector config {} is not a valid TOML DetectorConfig",
+                path.display()
+            )
+        })?
+    };
+    config
+        .validate()
+        .with_context(|| format!("detector config {}", path.display()))?;
+    Ok(config)
+}
+
 /// Builds the detector the options ask for.
 pub(crate) fn detector(
     kind: DetectorKind,
     model: Option<&PathBuf>,
     laser: &LaserModel,
+    config: DetectorConfig,
 ) -> anyhow::Result<LegDetector> {
-    let config = DetectorConfig::default();
     let noise = laser.noise.clone();
     Ok(match kind {
         DetectorKind::Arc => LegDetector::arc(config, noise)?,
@@ -123,7 +156,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         anyhow::bail!("--model applies to --detector learned only");
     }
     let laser = laser_model(args.laser.as_ref())?;
-    let mut detector = detector(kind, args.model.as_ref(), &laser)?;
+    let config = detector_config(args.detector_config.as_ref())?;
+    let mut detector = detector(kind, args.model.as_ref(), &laser, config)?;
     // Replaces an earlier result only if this run succeeds; `-` is stdout.
     let mut out = tether::output::Output::create(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
