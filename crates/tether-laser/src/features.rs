@@ -313,6 +313,17 @@ pub fn segment_features(
         nb.map_or(FEATURE_CAP_M, |nb| cap(nb.range_m - q.range_m))
     };
     let (nearest_return, surface) = free_space(view, cluster, first.beam, last.beam, c);
+    // "Before" and "after" in angle, counter-clockwise, whichever way the beams run: a
+    // clockwise scanner (negative increment) lists the same points the other way round
+    // and must give the same features.
+    let (mut jumps, mut depths) = (
+        [jump(first, before), jump(last, after)],
+        [depth(first, before), depth(last, after)],
+    );
+    if view.angle_increment_rad < 0.0 {
+        jumps.swap(0, 1);
+        depths.swap(0, 1);
+    }
 
     let linearity = eigen_sym2(sxx, sxy, syy).1.max(0.0);
     let (circularity, radius) = match fit_circle(seg, c) {
@@ -375,8 +386,8 @@ pub fn segment_features(
         nf,
         cap(std_dev_m),
         cap(mean_abs_dev),
-        jump(first, before),
-        jump(last, after),
+        jumps[0],
+        jumps[1],
         cap(dist(xy(first), xy(last))),
         linearity.min(FEATURE_CAP_M),
         circularity.min(FEATURE_CAP_M),
@@ -388,8 +399,8 @@ pub fn segment_features(
         cap((c.x * c.x + c.y * c.y).sqrt()),
         ia_mean,
         ia_std,
-        depth(first, before),
-        depth(last, after),
+        depths[0],
+        depths[1],
         nearest_return,
         surface[0],
         surface[1],

@@ -358,20 +358,23 @@ pub fn folds_from_scans(
                 .map(|scan| ScanSample::without_people(detector, scan))
                 .collect();
             drop_robot_body(&mut samples);
-            let n = samples.len();
-            for v in 0..nearer_views {
-                for (k, scan) in scans.iter().enumerate() {
-                    let j = k + v * n;
-                    let centroids = &samples[k].centroids;
+            // Each scan's views right after it, so that the blocks of consecutive scans
+            // that `training_folds` cuts keep a scan and its views in one fold.
+            let mut with_views = Vec::with_capacity(samples.len() * (1 + nearer_views));
+            for (k, (sample, scan)) in samples.into_iter().zip(scans.iter()).enumerate() {
+                let centroids = sample.centroids.clone();
+                with_views.push(sample);
+                for v in 0..nearer_views {
+                    let j = k + v * scans.len();
                     let Some(&toward) = centroids.get(j % centroids.len().max(1)) else {
                         continue;
                     };
                     if let Some((view, _)) = nearer_view(scan, toward, &[], j) {
-                        samples.push(ScanSample::without_people(detector, &view));
+                        with_views.push(ScanSample::without_people(detector, &view));
                     }
                 }
             }
-            samples
+            with_views
         })
         .collect();
     training_folds(bags, topics)

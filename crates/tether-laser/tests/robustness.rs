@@ -179,13 +179,14 @@ fn leg_cells(d: &Detection) -> Vec<(i64, i64)> {
 #[test]
 fn a_360_degree_scan_wraps_around_its_seam() {
     // The walker's legs stand at bearings of about -16.7 and -20.7 degrees. With the
-    // first beam at -16.7 degrees the seam runs through the middle of a leg; the legs
-    // found must be the same as with the seam behind the sensor, and the beams each
-    // leg reports must be the scan's own.
+    // first beam at -16.5 degrees the seam runs through a leg; on the same beam
+    // directions (a 0.5-degree grid through 180 degrees) the legs found must be the
+    // same as with the seam behind the sensor, and the beams each leg reports must be
+    // the scan's own.
     let inc = 0.5f64.to_radians();
     let behind = full_circle_scan(std::f64::consts::PI, inc);
-    let across = full_circle_scan((-16.7f64).to_radians(), inc);
-    let clockwise = full_circle_scan((-16.7f64).to_radians(), -inc);
+    let across = full_circle_scan((-16.5f64).to_radians(), inc);
+    let clockwise = full_circle_scan((-16.5f64).to_radians(), -inc);
     for mut detector in detectors() {
         let (a, b, c) = (
             detector.detect(&behind),
