@@ -66,7 +66,7 @@ fn surface(scan: &LaserScan) -> Vec<Facet> {
         let joined_after = match (i + 1 < n).then(|| point(i + 1)).flatten() {
             Some(q) => {
                 let gap = ((p.0 - q.0).powi(2) + (p.1 - q.1).powi(2)).sqrt();
-                if gap <= (3.0 * r * dtheta).max(0.03).min(0.1) {
+                if gap <= (3.0 * r * dtheta).clamp(0.03, 0.1) {
                     facets.push(Facet { a: p, b: q });
                     true
                 } else {
@@ -135,9 +135,9 @@ pub fn shifted_view(scan: &LaserScan, shift_m: (f64, f64)) -> Option<LaserScan> 
     (out.returns() > 0).then_some(out)
 }
 
-/// The `k`-th target range of the fixed sequence: `NEAREST_M + frac(k phi) (FARTHEST_M
-/// - NEAREST_M)` with the golden ratio's fraction `phi`, spread evenly over the range
-/// without drawing anything at random.
+/// The `k`-th target range of the fixed sequence, `NEAREST_M + frac(k phi) *
+/// (FARTHEST_M - NEAREST_M)` with the golden ratio's fraction `phi`: spread evenly over
+/// the range without drawing anything at random.
 pub fn target_range_m(k: usize) -> f64 {
     const PHI: f64 = 0.618_033_988_749_894_9;
     let frac = (k as f64 * PHI).fract();
