@@ -174,3 +174,42 @@ pub fn train_on_candidates(
     )?;
     Ok((model, set, cv))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scan(labels: Vec<Option<bool>>) -> LabelledCandidates {
+        LabelledCandidates {
+            labels,
+            ..LabelledCandidates::default()
+        }
+    }
+
+    #[test]
+    fn counts_skip_what_is_left_out() {
+        let s = scan(vec![Some(true), Some(true), Some(false), Some(false), None]);
+        let c = count_candidates(&s, &[0.5, -0.5, 0.5, -0.5, 0.9], 0.0);
+        assert_eq!(
+            (c.true_positives, c.false_negatives, c.false_positives),
+            (1, 1, 1)
+        );
+    }
+
+    #[test]
+    fn held_back_is_the_last_share_and_folds_are_blocks() {
+        let scans: Vec<LabelledCandidates> = (0..8).map(|k| scan(vec![None; k])).collect();
+        let (train, held) = split_held_back(scans, 0.25);
+        assert_eq!(train.len(), 6);
+        assert_eq!(
+            held.iter().map(|s| s.labels.len()).collect::<Vec<_>>(),
+            [6, 7]
+        );
+        let folds = time_folds(train, 3);
+        let sizes: Vec<Vec<usize>> = folds
+            .iter()
+            .map(|f| f.iter().map(|s| s.labels.len()).collect())
+            .collect();
+        assert_eq!(sizes, [vec![0, 1], vec![2, 3], vec![4, 5]]);
+    }
+}

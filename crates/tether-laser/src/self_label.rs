@@ -604,3 +604,64 @@ fn left_lead_m(track: &[Entry], i: usize) -> Option<f64> {
     };
     Some(heading.dot(left - right))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p(x: f64, y: f64) -> Point2<Laser> {
+        Point2::new(x, y)
+    }
+
+    #[test]
+    fn single_linkage_chains_within_the_link_only() {
+        let pts = [p(0.0, 0.0), p(0.5, 0.0), p(1.0, 0.0), p(3.0, 0.0)];
+        let g = single_linkage(&[0, 1, 2, 3], &pts, 0.6);
+        assert_eq!(g.len(), 2);
+        assert_eq!(g[0].0, vec![0, 1, 2]);
+        assert!(g[0].1.distance_m(p(0.5, 0.0)) < 1e-12);
+        assert_eq!(g[1].0, vec![3]);
+    }
+
+    /// A track walking along +x at 1 m/s, 10 scans a second; with `alternate`, its two
+    /// legs swap the lead every 0.5 s, else the left one always leads.
+    fn walk(alternate: bool) -> Vec<Entry> {
+        (0..60)
+            .map(|k| {
+                let t = f64::from(k) / 10.0;
+                let lead = if alternate && (k / 5) % 2 == 1 {
+                    -0.2
+                } else {
+                    0.2
+                };
+                let (left, right) = (p(t + lead / 2.0, 0.1), p(t - lead / 2.0, -0.1));
+                Entry {
+                    scan: k as usize,
+                    time_s: t,
+                    members: vec![0, 1],
+                    position: p(t, 0.0),
+                    legs: Some((left, right)),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_walker_needs_alternating_legs() {
+        let config = SelfLabelConfig::default();
+        assert!(is_walker(&walk(true), &config));
+        assert_eq!(steps(&walk(false), config.min_lead_m), 0);
+        assert!(!is_walker(&walk(false), &config));
+    }
+
+    #[test]
+    fn too_short_or_too_slow_is_no_walker() {
+        let config = SelfLabelConfig::default();
+        assert!(!is_walker(&walk(true)[..20], &config));
+        let mut slow = walk(true);
+        for e in &mut slow {
+            e.position = p(e.time_s * 0.1, 0.0);
+        }
+        assert!(!is_walker(&slow, &config));
+    }
+}
