@@ -24,13 +24,16 @@ use super::train_legs::Args;
 /// Cross-validation folds (blocks of consecutive scans) of the part trained on.
 const FOLDS: usize = 4;
 
+/// Label messages, each with the number of scans read before it.
+type LabelMessages = Vec<(usize, LabelMessage)>;
+
 /// The scans of `topic`, with the label messages of `labels_topic` if given (each with
 /// the number of scans read before it).
 fn read_scans(
     path: &Path,
     topic: &str,
     labels_topic: Option<&str>,
-) -> anyhow::Result<(Vec<LaserScan>, Vec<(usize, LabelMessage)>)> {
+) -> anyhow::Result<(Vec<LaserScan>, LabelMessages)> {
     let topics = Topics {
         scan: topic.to_string(),
         image: None,
