@@ -28,6 +28,7 @@
 //! Pure algorithms: no I/O and no clock. Any scan the core type can hold, however
 //! broken its ranges, gives a result and never a panic.
 
+pub mod adapt;
 pub mod arc;
 pub mod augment;
 pub mod calibration;
@@ -38,6 +39,7 @@ mod fit;
 pub mod people;
 pub mod preprocess;
 pub mod segment;
+pub mod self_label;
 pub mod statistics;
 pub mod training;
 

@@ -34,6 +34,32 @@ pub struct Args {
     /// the built-in model.
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub nearer_views: usize,
+    /// Adapt to a new scanner instead (design 4.7): a recording (ROS 1 bag or MCAP) of
+    /// one person walking around in front of the still robot for about a minute; its
+    /// clusters are labelled by how they move, the last `--held-back` of it is kept for
+    /// measuring, and the model is trained on the rest. `--data` is not read.
+    #[arg(long, value_name = "REC")]
+    pub from_recording: Option<PathBuf>,
+    /// The `sensor_msgs/LaserScan` topic of `--from-recording` and `--empty`.
+    #[arg(long, value_name = "TOPIC", default_value = "/scan")]
+    pub scan_topic: String,
+    /// A recording of the empty scene (nobody in view) with the same scanner: every
+    /// cluster a non-leg.
+    #[arg(long, value_name = "REC", requires = "from_recording")]
+    pub empty: Option<PathBuf>,
+    /// Share of each recording (its last scans) held back for measuring.
+    #[arg(
+        long,
+        value_name = "SHARE",
+        default_value_t = 0.25,
+        requires = "from_recording"
+    )]
+    pub held_back: f64,
+    /// True leg labels of `--from-recording` (`geometry_msgs/PoseArray` of leg centres
+    /// in the scan's frame, paired with scans as `tether eval-legs` does): the held-back
+    /// part is then also measured against them. Never used for training.
+    #[arg(long, value_name = "TOPIC", requires = "from_recording")]
+    pub truth_topic: Option<String>,
 }
 
 /// The labelled scans of the given positive bags, as (scan, leg centres) pairs.
@@ -103,6 +129,9 @@ pub(crate) fn negative_scans(data: &Path, topics: &[&str]) -> anyhow::Result<Vec
 
 /// Trains on the training split and writes the model.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(recording) = &args.from_recording {
+        return super::adapt_legs::run(recording, &args);
+    }
     check_data_folder(&args.data)?;
     let config = AdaBoostConfig {
         rounds: args.rounds,
