@@ -122,18 +122,7 @@ pub fn cross_validate_candidates(
         }
         per_fold.push(fold);
     }
-    let mut best = 0;
-    for (i, c) in counts.iter().enumerate() {
-        if c.f1() > counts[best].f1() {
-            best = i;
-        }
-    }
-    Ok(CrossValidation {
-        fold_counts: per_fold.iter().map(|f| f[best]).collect(),
-        margins,
-        counts,
-        best,
-    })
+    Ok(CrossValidation::best_f1(margins, counts, &per_fold))
 }
 
 /// Trains on every candidate of `folds` with the decision margin that

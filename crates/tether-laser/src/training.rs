@@ -481,6 +481,28 @@ pub struct CrossValidation {
 }
 
 impl CrossValidation {
+    /// The cross-validation whose decision margin is the one of `margins` with the
+    /// highest F1 of the held-out counts (`counts[i]` summed over the folds,
+    /// `per_fold[f][i]` per fold; the lowest margin on a tie).
+    pub fn best_f1(
+        margins: Vec<f64>,
+        counts: Vec<MatchCounts>,
+        per_fold: &[Vec<MatchCounts>],
+    ) -> Self {
+        let mut best = 0;
+        for (i, c) in counts.iter().enumerate() {
+            if c.f1() > counts[best].f1() {
+                best = i;
+            }
+        }
+        CrossValidation {
+            fold_counts: per_fold.iter().map(|f| f[best]).collect(),
+            margins,
+            counts,
+            best,
+        }
+    }
+
     /// The chosen decision margin.
     pub fn margin(&self) -> f64 {
         self.margins[self.best]
@@ -524,18 +546,7 @@ pub fn cross_validate(
         }
         per_fold.push(fold);
     }
-    let mut best = 0;
-    for (i, c) in counts.iter().enumerate() {
-        if c.f1() > counts[best].f1() {
-            best = i;
-        }
-    }
-    Ok(CrossValidation {
-        fold_counts: per_fold.iter().map(|f| f[best]).collect(),
-        margins,
-        counts,
-        best,
-    })
+    Ok(CrossValidation::best_f1(margins, counts, &per_fold))
 }
 
 /// What a model records about its making: the training options that differ from the

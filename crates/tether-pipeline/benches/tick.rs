@@ -26,7 +26,16 @@ struct Inputs {
 }
 
 fn inputs() -> Inputs {
+    inputs_with(None)
+}
+
+/// [`inputs`] from the office seen by the named scanner of the simulator's catalogue
+/// (`None`: the scenario's own URG-04LX).
+fn inputs_with(scanner: Option<&str>) -> Inputs {
     let mut scenario = Scenario::builtin("office").expect("built-in");
+    if let Some(name) = scanner {
+        scenario = scenario.with_scanner(name).expect("a catalogued scanner");
+    }
     scenario.duration_s = 12.0;
     scenario.robot.driver = tether_sim::scenario::DriverKind::Oracle;
     let mut sim = Simulation::new(&scenario, 5).expect("valid");
@@ -73,8 +82,40 @@ fn pairs(data: &Inputs) -> Vec<(usize, usize)> {
 
 #[divan::bench]
 fn scan_and_camera_tick(bencher: divan::Bencher) {
-    let data = inputs();
-    let order = pairs(&data);
+    camera_ticks(bencher, &inputs());
+}
+
+/// The same tick on a 720-beam 360-degree scan (YDLIDAR X4 from the simulator's
+/// catalogue: 0.5-degree steps, a quarter of the beams inside objects lost; issue 30's
+/// goal: under 100 us).
+#[divan::bench]
+fn scan_and_camera_tick_720_beams(bencher: divan::Bencher) {
+    camera_ticks(bencher, &inputs_with(Some("ydlidar_x4")));
+}
+
+/// Leg detection alone (the built-in learned detector, as the pipeline builds it) on
+/// the office's 720-beam 360-degree scans (YDLIDAR X4; issue 30's goal: under 100 us).
+#[divan::bench]
+fn leg_detection_720_beams(bencher: divan::Bencher) {
+    let data = inputs_with(Some("ydlidar_x4"));
+    assert_eq!(data.scans[0].0.len(), 720);
+    let mut detector = tether_laser::LegDetector::learned(
+        data.config.legs.config,
+        data.config.laser.noise.clone(),
+        tether_laser::LegClassifier::default_model().expect("the built-in model"),
+    )
+    .expect("the default configuration is valid");
+    let mut out = tether_laser::Detection::default();
+    let mut k = 0usize;
+    bencher.bench_local(|| {
+        detector.detect_into(&data.scans[k % data.scans.len()].0, &mut out);
+        k += 1;
+        divan::black_box(out.legs.len())
+    });
+}
+
+fn camera_ticks(bencher: divan::Bencher, data: &Inputs) {
+    let order = pairs(data);
     let mut pipeline = Pipeline::new(data.config.clone(), None).expect("valid config");
     // Warm up: lock on the target over the first seconds.
     let mut k = 0usize;
