@@ -71,7 +71,7 @@ pub fn preprocess_into(
     let mut stats = PreprocessStats::default();
     let unbiased = noise.bias_m.0.is_empty();
     let n = scan.len().min(table.cos_sin.len());
-    let seam = seam_beam(scan);
+    let seam = seam_beam(scan, table);
     stats.seam_beam = seam;
     for k in 0..n {
         let i = (seam + k) % n;
@@ -113,29 +113,28 @@ pub fn closes_the_circle(scan: &LaserScan) -> bool {
 /// across that seam would be cut in two, so beam order starts instead after the widest
 /// gap between returns next to each other in angle (no-return beams skipped): the
 /// return with the greatest distance `|p_i - p_prev|` to the return before it, where
-/// no object can span.
-pub fn seam_beam(scan: &LaserScan) -> usize {
+/// no object can span. `table` must have been updated for `scan`.
+pub fn seam_beam(scan: &LaserScan, table: &BeamTable) -> usize {
     if !closes_the_circle(scan) {
         return 0;
     }
+    let ranges = scan.ranges_m();
     let point = |i: usize| {
-        let r = f64::from(scan.ranges_m()[i]);
-        let (s, c) = scan.angle_rad(i).sin_cos();
+        let r = f64::from(ranges[i]);
+        let (c, s) = table.cos_sin[i];
         (r * c, r * s)
     };
-    let returns: Vec<usize> = (0..scan.len())
-        .filter(|&i| scan.ranges_m()[i].is_finite())
-        .collect();
-    let Some(&last) = returns.last() else {
+    let n = ranges.len().min(table.cos_sin.len());
+    let Some(last) = (0..n).rev().find(|&i| ranges[i].is_finite()) else {
         return 0;
     };
     let mut prev = point(last);
-    let (mut best, mut best_gap) = (0, f64::NEG_INFINITY);
-    for &i in &returns {
+    let (mut best, mut best_gap_sq) = (0, f64::NEG_INFINITY);
+    for i in (0..n).filter(|&i| ranges[i].is_finite()) {
         let p = point(i);
-        let gap = (p.0 - prev.0).hypot(p.1 - prev.1);
-        if gap > best_gap {
-            (best, best_gap) = (i, gap);
+        let gap_sq = (p.0 - prev.0).powi(2) + (p.1 - prev.1).powi(2);
+        if gap_sq > best_gap_sq {
+            (best, best_gap_sq) = (i, gap_sq);
         }
         prev = p;
     }
