@@ -267,7 +267,7 @@ fn start(
         let record = config.output.record.is_some();
         threads.push(("camera", camera.spawn(clock, tx, Arc::clone(stop), record)?));
     }
-    let pipeline = Pipeline::new(pipeline_config, None)?;
+    let pipeline = crate::leg_model::pipeline(pipeline_config)?;
     Ok(Started {
         rx,
         threads,
