@@ -31,8 +31,14 @@ pub fn classifier(legs: &LegsConfig) -> Result<Option<LegClassifier>, PipelineEr
             path.display()
         )));
     }
-    let text = std::fs::read_to_string(path)
+    let bytes = std::fs::read(path)
         .map_err(|e| model_error(format!("cannot read the leg model {}: {e}", path.display())))?;
+    let text = String::from_utf8(bytes).map_err(|_| {
+        model_error(format!(
+            "{} is not a leg model (not text; `tether train-legs` writes JSON)",
+            path.display()
+        ))
+    })?;
     LegClassifier::from_json(&text)
         .map(Some)
         .map_err(|e| model_error(format!("{}: {e}", path.display())))
@@ -78,9 +84,15 @@ mod tests {
             ..LegsConfig::default()
         };
         resolve(&mut legs, folder_of(Path::new("/robots/a/robot.toml")));
-        assert_eq!(legs.model.as_deref(), Some(Path::new("/robots/a/legs.json")));
+        assert_eq!(
+            legs.model.as_deref(),
+            Some(Path::new("/robots/a/legs.json"))
+        );
         resolve(&mut legs, Path::new("/elsewhere"));
-        assert_eq!(legs.model.as_deref(), Some(Path::new("/robots/a/legs.json")));
+        assert_eq!(
+            legs.model.as_deref(),
+            Some(Path::new("/robots/a/legs.json"))
+        );
         assert_eq!(folder_of(Path::new("robot.toml")), Path::new("."));
     }
 
@@ -99,7 +111,10 @@ mod tests {
                 },
                 ..PipelineConfig::default()
             };
-            let message = pipeline(config).err().expect("refused").to_string();
+            let Err(error) = pipeline(config) else {
+                panic!("{} was taken for a model", path.display());
+            };
+            let message = error.to_string();
             assert!(message.contains(&path.display().to_string()), "{message}");
         }
         let _ = std::fs::remove_dir_all(&dir);
@@ -112,7 +127,7 @@ mod tests {
             model: Some("legs.json".into()),
             ..LegsConfig::default()
         };
-        let message = classifier(&legs).err().expect("refused").to_string();
+        let message = classifier(&legs).expect_err("refused").to_string();
         assert!(message.contains("legs.json"), "{message}");
     }
 

@@ -110,6 +110,9 @@ mod tests {
         assert_eq!(undocumented, 0, "keys without a meaning:\n{text}");
         assert!(text.contains("[safety]\n"), "{text}");
         assert!(text.contains("laser_timeout_s = 0.3"), "{text}");
-        assert!(text.contains("\n# model = (not set by default)\n"), "{text}");
+        assert!(
+            text.contains("\n# model = (not set by default)\n"),
+            "{text}"
+        );
     }
 }

@@ -8,7 +8,6 @@ use tether::recording::Topics;
 use tether::track_eval::{EvalOptions, LabelsFrame, Pairing, PoseLabels, TrackEval};
 use tether::tracking::{Step, run_recording};
 
-
 /// Options of `tether eval-track`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
