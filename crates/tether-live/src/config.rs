@@ -481,7 +481,9 @@ impl RobotConfig {
                 });
             }
         }
-        let config: RobotConfig = toml::from_str(text).map_err(|e| parse_error(e.to_string()))?;
+        let mut config: RobotConfig =
+            toml::from_str(text).map_err(|e| parse_error(e.to_string()))?;
+        crate::leg_model::resolve(&mut config.pipeline.legs, crate::leg_model::folder_of(path));
         config
             .validate(laser_link)
             .map_err(|(field, message)| ConfigError::Invalid {

@@ -21,6 +21,8 @@
 //! - `ros2::outputs` (feature `ros2`): `/cmd_vel` and the results on `/tether/...`;
 //! - [`recorder`]: the MCAP recording of a run (scans, frames, odometry, ticks).
 //!
+//! [`leg_model`] reads the leg model a config names for every pipeline built.
+//!
 //! [`robot`] wires them for `tether run`, `ros2::node` for `tether ros2`; the command
 //! line parses the arguments, calls one of them and prints what it returns.
 //!
@@ -34,6 +36,7 @@ pub mod clock;
 pub mod config;
 pub mod ego;
 pub mod guard;
+pub mod leg_model;
 pub mod markers;
 pub mod monitor;
 pub mod odometry;

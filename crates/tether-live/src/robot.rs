@@ -254,6 +254,8 @@ fn start(
         _ => None,
     };
     let (tx, rx) = mpsc::sync_channel(CHANNEL_DEPTH);
+    // The leg model is read once, before the laser spins: a wrong path is found now.
+    let leg_model = crate::leg_model::classifier(&pipeline_config.legs)?;
     let laser = scip::start(
         &config.laser_link(),
         config.laser.reconnect_s,
@@ -267,7 +269,7 @@ fn start(
         let record = config.output.record.is_some();
         threads.push(("camera", camera.spawn(clock, tx, Arc::clone(stop), record)?));
     }
-    let pipeline = Pipeline::new(pipeline_config, None)?;
+    let pipeline = Pipeline::new(pipeline_config, leg_model)?;
     Ok(Started {
         rx,
         threads,

@@ -90,6 +90,14 @@ pub struct LegsConfig {
     pub detector: DetectorKind,
     /// Segmentation, arc test and pairing parameters.
     pub config: DetectorConfig,
+    /// A leg model of `tether train-legs` (JSON) for the learned detector, in place of
+    /// the built-in one; a relative path is taken from the config file's folder.
+    ///
+    /// `None`: the built-in model. The pipeline does no I/O: the command that builds it
+    /// reads the file (`tether_live::leg_model`) and passes the classifier to
+    /// [`Pipeline::new`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model: Option<std::path::PathBuf>,
 }
 
 impl Default for LegsConfig {
@@ -97,6 +105,7 @@ impl Default for LegsConfig {
         LegsConfig {
             detector: DetectorKind::Learned,
             config: DetectorConfig::default(),
+            model: None,
         }
     }
 }
@@ -283,8 +292,10 @@ pub struct Pipeline {
 }
 
 impl Pipeline {
-    /// Builds the pipeline. `classifier` is required by the learned leg detector (use
-    /// `LegClassifier::default_model()` for the built-in one).
+    /// Builds the pipeline. `classifier` is the learned leg detector's model (`None`:
+    /// the built-in one); it is required when `config.legs.model` names a file, read
+    /// from it by the caller, so that a named model is never replaced by the built-in
+    /// one unseen.
     pub fn new(
         config: PipelineConfig,
         classifier: Option<LegClassifier>,
@@ -305,6 +316,15 @@ impl Pipeline {
             .safety
             .validate()
             .map_err(|e| config_err("safety", e))?;
+        if let (Some(path), None) = (&config.legs.model, &classifier) {
+            return Err(config_err(
+                "legs",
+                format!(
+                    "`model` names {} but no model read from it was given to the pipeline",
+                    path.display()
+                ),
+            ));
+        }
         let noise = config.laser.noise.clone();
         let detector = match config.legs.detector {
             DetectorKind::Arc => LegDetector::arc(config.legs.config, noise),

@@ -306,10 +306,10 @@ pub fn run_observed(
 ) -> Result<RunLog, RunError> {
     let mut sim = Simulation::new(scenario, seed)?;
     sim.set_control_rate_hz(CONTROL_RATE_HZ);
-    let mut driver = Pipeline::new(config.clone(), None)?;
+    let mut driver = tether_live::leg_model::pipeline(config.clone())?;
     let mut riders = passengers
         .iter()
-        .map(|c| Pipeline::new(c.clone(), None))
+        .map(|c| tether_live::leg_model::pipeline(c.clone()))
         .collect::<Result<Vec<_>, _>>()?;
     let mut steps = Vec::new();
     let mut odometry = OdometryFeed::for_scenario(scenario);

@@ -71,6 +71,13 @@ fn write_table(
         }
         let _ = writeln!(out, "{key} = {value}");
     }
+    // Optional keys, unset by default: said, commented out.
+    for (_, key, _, d) in CONFIG_DOCS
+        .iter()
+        .filter(|(s, k, ty, _)| Some(*s) == strukt && *ty == "Option" && !table.contains_key(*k))
+    {
+        let _ = writeln!(out, "# {d}\n# {key} = (not set by default)");
+    }
     for (key, value) in tables {
         let inner = if path.is_empty() {
             key.clone()
@@ -103,5 +110,9 @@ mod tests {
         assert_eq!(undocumented, 0, "keys without a meaning:\n{text}");
         assert!(text.contains("[safety]\n"), "{text}");
         assert!(text.contains("laser_timeout_s = 0.3"), "{text}");
+        assert!(
+            text.contains("\n# model = (not set by default)\n"),
+            "{text}"
+        );
     }
 }

@@ -1035,7 +1035,9 @@ pub fn leg_detector(config: &PipelineConfig) -> anyhow::Result<LegDetector> {
     Ok(match config.legs.detector {
         DetectorKind::Arc => LegDetector::arc(config.legs.config, noise)?,
         DetectorKind::Learned => {
-            LegDetector::learned(config.legs.config, noise, LegClassifier::default_model()?)?
+            let named = tether_live::leg_model::classifier(&config.legs)?;
+            let model = named.map_or_else(LegClassifier::default_model, Ok)?;
+            LegDetector::learned(config.legs.config, noise, model)?
         }
     })
 }

@@ -180,7 +180,7 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         odometry_input,
     } = settings;
     // Checked now, so a bad config fails before the node joins the graph.
-    Pipeline::new(pipeline.clone(), None)?;
+    crate::leg_model::pipeline(pipeline.clone())?;
     let topic = |name: &str| ros.topic(name, &identity.name, &identity.namespace);
     let scan_topic = topic("scan");
     let outputs = OutputTopics {
@@ -432,7 +432,7 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
             clock.now_ns(),
         )?)
     };
-    let mut pipeline = Pipeline::new(pipeline, None)?;
+    let mut pipeline = crate::leg_model::pipeline(pipeline)?;
     let loop_config = LoopConfig {
         control_period: Duration::from_millis(50),
         duration,

@@ -207,7 +207,9 @@ pub fn run(path: &Path, args: &Args) -> anyhow::Result<()> {
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     tether::outln!()?;
     tether::outln!(
-        "wrote {}: use it with --model (tether legs, tether eval-legs)",
+        "wrote {0}: name it in the robot's config (`[pipeline.legs] model = \"{0}\"`, \
+         relative to the config) or give `--leg-model {0}` (run, ros2, track, replay, ...; \
+         `--model` for legs and eval-legs)",
         args.out.display()
     )?;
     Ok(())

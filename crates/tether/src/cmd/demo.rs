@@ -28,6 +28,9 @@ pub struct Args {
     /// noise, no-returns and mount height replace the scenario's).
     #[arg(long, value_name = "NAME")]
     pub scanner: Option<String>,
+    /// The leg model (`--leg-model`).
+    #[command(flatten)]
+    pub leg_model: super::leg_model::LegModelArg,
 }
 
 /// The pipeline variants of a run: the driver and its laser-only and vision-only
@@ -104,6 +107,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     bar.set_length(runs_to_do.len() as u64 + 1);
     let mut logs: Vec<(RunLog, RunMetrics)> = Vec::new();
+    for (_, driver, passengers) in &mut runs_to_do {
+        args.leg_model
+            .apply_all(std::iter::once(driver).chain(passengers.iter_mut()));
+    }
     for (scenario, driver, passengers) in &runs_to_do {
         bar.set_message(scenario.name.clone());
         let log = closed_loop::run(scenario, args.seed, driver, passengers, &[])
@@ -124,6 +131,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let corridor = Scenario::builtin("corridor")?;
     let (mut printed, _) = variants(&corridor);
     printed.follower.variant = SpringVariant::PaperAsPrinted;
+    args.leg_model.apply(&mut printed);
     let printed_log = closed_loop::run(&corridor, args.seed, &printed, &[], &[])?;
     let printed_metrics = measure(&printed_log);
     bar.inc(1);

@@ -55,6 +55,9 @@ pub struct Args {
     /// scenario's sensors and robot are set on top of it).
     #[arg(long, value_name = "FILE")]
     pub config: Option<std::path::PathBuf>,
+    /// The leg model (`--leg-model`).
+    #[command(flatten)]
+    pub leg_model: super::leg_model::LegModelArg,
     /// The ideal laser (`[laser_sim] realistic = false`): no phantoms, weak legs or dark
     /// spells, to compare with.
     #[arg(long)]
@@ -208,7 +211,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
-    let base = super::track::load_config(args.config.as_ref())?;
+    let mut base = super::track::load_config(args.config.as_ref())?;
+    args.leg_model.apply(&mut base);
     let mut rows = Vec::new();
     for scenario in &scenarios {
         for &mode in &args.modes {

@@ -7,7 +7,6 @@ use anyhow::Context;
 use tether::recording::Topics;
 use tether::track_eval::{EvalOptions, LabelsFrame, Pairing, PoseLabels, TrackEval};
 use tether::tracking::{Step, run_recording};
-use tether_pipeline::Pipeline;
 
 /// Options of `tether eval-track`.
 #[derive(Debug, clap::Args)]
@@ -56,6 +55,9 @@ pub struct Args {
     /// A pipeline configuration (TOML; every table optional).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
+    /// The leg model (`--leg-model`).
+    #[command(flatten)]
+    pub leg_model: super::leg_model::LegModelArg,
     /// Also write the figures as JSON.
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<PathBuf>,
@@ -71,11 +73,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config =
         super::track::load_recording_config(args.config.as_ref(), args.odom_topic.is_some())?;
     config.fusion.use_vision = false;
+    args.leg_model.apply(&mut config);
     let (_, mut scan_odometry) = args
         .ego_motion
         .for_recording(args.odom_topic.is_some(), config.laser.robot_from_laser())
         .map_err(anyhow::Error::msg)?;
-    let mut pipeline = Pipeline::new(config, None)?;
+    let mut pipeline = tether_live::leg_model::pipeline(config)?;
     let topics = Topics {
         scan: args.scan_topic.clone(),
         image: None,

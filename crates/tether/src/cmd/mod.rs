@@ -13,6 +13,7 @@ pub mod eval_legs;
 pub mod eval_target;
 pub mod eval_track;
 pub mod info;
+pub mod leg_model;
 pub mod legs;
 pub mod replay;
 #[cfg(feature = "ros2")]

@@ -21,7 +21,7 @@ use tether_fusion::{TargetState, TargetStats};
 use tether_laser::LegDetector;
 use tether_live::results::ResultWriter;
 use tether_live::target_log::TargetLog;
-use tether_pipeline::{Pipeline, Tick};
+use tether_pipeline::Tick;
 use tether_scanmatch::MotionPrior;
 use tether_sim::svg::xml_escape;
 
@@ -53,6 +53,9 @@ pub struct Args {
     /// A pipeline configuration (TOML; every table optional).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
+    /// The leg model (`--leg-model`).
+    #[command(flatten)]
+    pub leg_model: super::leg_model::LegModelArg,
     /// The camera frames' detector.
     #[command(flatten)]
     pub detector: CameraArgs,
@@ -321,12 +324,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let mut config = config;
     config.fusion.use_vision = camera.is_some();
+    args.leg_model.apply(&mut config);
     let intrinsics = config.camera.intrinsics;
     let (source, mut scan_odometry) = args
         .ego_motion
         .for_recording(args.odom_topic.is_some(), config.laser.robot_from_laser())
         .map_err(anyhow::Error::msg)?;
-    let mut pipeline = Pipeline::new(config, None)?;
+    let mut pipeline = tether_live::leg_model::pipeline(config)?;
     let frame = source.frame();
     let mut output = match &args.out {
         Some(path) => Some(

@@ -54,6 +54,9 @@ pub struct Args {
     /// laser's mount on `/tf_static`, when published, is the one used.
     #[arg(long, value_name = "robot.toml")]
     pub config: Option<PathBuf>,
+    /// The leg model (`--leg-model`).
+    #[command(flatten)]
+    pub leg_model: super::leg_model::LegModelArg,
     /// The robot of a built-in simulated scenario (its laser mount, follow distance and
     /// base limits), to follow `tether sim --scenario NAME --ros2`.
     #[arg(long, value_name = "NAME", conflicts_with = "config")]
@@ -272,6 +275,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         _ => turtlebot_pipeline(),
     };
+    args.leg_model.apply(&mut pipeline_config);
     let NodeParameters {
         fixed_frame,
         base_frame,

@@ -26,6 +26,9 @@ pub struct Args {
     /// The robot's configuration (TOML; see configs/robot.example.toml).
     #[arg(long, value_name = "robot.toml")]
     pub config: PathBuf,
+    /// The leg model (`--leg-model`).
+    #[command(flatten)]
+    pub leg_model: super::leg_model::LegModelArg,
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long, value_name = "S")]
     pub duration: Option<f64>,
@@ -55,9 +58,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
              scans (the default) or odom (dead reckoning of the commands)"
         ),
     };
-    let pipeline_config = config
+    let mut pipeline_config = config
         .pipeline_config()
         .map_err(|e| anyhow::anyhow!("config {}: {e}", args.config.display()))?;
+    args.leg_model.apply(&mut pipeline_config);
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))

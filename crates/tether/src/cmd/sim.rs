@@ -64,6 +64,9 @@ pub struct Args {
     /// noise, no-returns and mount height replace the scenario's).
     #[arg(long, value_name = "NAME")]
     pub scanner: Option<String>,
+    /// The leg model (`--leg-model`).
+    #[command(flatten)]
+    pub leg_model: super::leg_model::LegModelArg,
     /// Also write the run as a ROS 1 bag in leg_tracker's annotation format, for
     /// `tether eval-track` and any other tracker: `/scan` (sensor_msgs/LaserScan, frame
     /// `laser`), `/odom` (nav_msgs/Odometry, perfect; see `--bag-without-odom`) and
@@ -337,11 +340,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         })
         .with_context(context)?,
         DriverChoice::Tether => {
-            let (driver, passengers) = if args.laser_only {
+            let (mut driver, mut passengers) = if args.laser_only {
                 super::demo::laser_only_variants(&scenario)
             } else {
                 super::demo::variants(&scenario)
             };
+            args.leg_model
+                .apply_all(std::iter::once(&mut driver).chain(&mut passengers));
             let with_odometry = scenario.odometry_available();
             let mut recorder =
                 RunRecorder::create(&args.out, &scenario, args.seed).with_context(context)?;

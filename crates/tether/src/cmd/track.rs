@@ -11,7 +11,7 @@ use tether::tracking::{CameraBoxes, ScanStep, Step, run_recording};
 use tether_core::GrayImage;
 use tether_live::results::TargetStateLine;
 use tether_live::target_log::TargetLog;
-use tether_pipeline::{Pipeline, PipelineConfig};
+use tether_pipeline::PipelineConfig;
 use tether_vision::Cascade;
 
 /// Options of `tether track`.
@@ -37,6 +37,9 @@ pub struct Args {
     /// `[target]`, `[laser.noise]`...).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
+    /// The leg model (`--leg-model`).
+    #[command(flatten)]
+    pub leg_model: super::leg_model::LegModelArg,
     /// A `nav_msgs/Odometry` topic: the robot's motion (the laser mount of `--config`
     /// then places the scans on the robot). Without it, `--ego-motion` says where the
     /// motion comes from.
@@ -156,12 +159,14 @@ pub fn load_config(path: Option<&PathBuf>) -> anyhow::Result<PipelineConfig> {
             .pipeline_config()
             .map_err(|e| anyhow::anyhow!("config {}: {e}", path.display()));
     }
-    toml::from_str(&text).with_context(|| {
+    let mut config: PipelineConfig = toml::from_str(&text).with_context(|| {
         format!(
             "config {} is not a valid tether configuration",
             path.display()
         )
-    })
+    })?;
+    tether_live::leg_model::resolve(&mut config.legs, tether_live::leg_model::folder_of(path));
+    Ok(config)
 }
 
 /// The camera side of a run: the detector and what it saw.
@@ -181,6 +186,7 @@ pub fn camera(args: &CameraArgs) -> anyhow::Result<Camera> {
 /// Positions and velocities come out in the scan's frame.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = load_recording_config(args.config.as_ref(), args.odom_topic.is_some())?;
+    args.leg_model.apply(&mut config);
     let mut camera = match &args.image_topic {
         Some(_) => Some(camera(&args.detector)?),
         None => None,
@@ -192,7 +198,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .for_recording(args.odom_topic.is_some(), config.laser.robot_from_laser())
         .map_err(anyhow::Error::msg)?;
     let laser_from_robot = config.laser.robot_from_laser().inverse();
-    let mut pipeline = Pipeline::new(config, None)?;
+    let mut pipeline = tether_live::leg_model::pipeline(config)?;
     let topics = Topics {
         scan: args.scan_topic.clone(),
         image: args.image_topic.clone(),
@@ -335,7 +341,7 @@ mod tests {
     /// A config that loads makes a pipeline or an error naming the part, never a panic.
     fn check(text: &str) {
         if let Ok(config) = load_text(text) {
-            match Pipeline::new(config, None) {
+            match tether_live::leg_model::pipeline(config) {
                 Ok(_) => {}
                 Err(e) => assert!(e.to_string().starts_with("invalid "), "{e}"),
             }
@@ -358,7 +364,7 @@ mod tests {
     fn the_defaults_load_and_make_a_pipeline() {
         let config = load_text(defaults()).unwrap();
         assert_eq!(config, PipelineConfig::default());
-        assert!(Pipeline::new(config, None).is_ok());
+        assert!(tether_live::leg_model::pipeline(config).is_ok());
         assert!(load_text("[limits]\nmax_speed_mps = \"fast\"\n").is_err());
     }
 

@@ -1,0 +1,210 @@
+//! A leg model of `tether train-legs --from-recording` is used by the pipeline when the
+//! config names it (`[legs] model`, `[pipeline.legs] model` in a robot's config, a path
+//! relative to the config file) or `--leg-model` does: `tether track` on the same
+//! recording then writes other tracks than with the built-in model, the flag and the
+//! config key give the same output, and a missing file, a file that is no model and a
+//! model of other features are refused with an error naming the file.
+//!
+//! The recording is 20 s of `tests/scenarios/walk_in_front.toml` (a person walking
+//! loops in front of the still robot) seen by the simulated YDLIDAR X4, a scanner the
+//! built-in model never saw (see `self_labels.rs`), trained on with 30 rounds to keep
+//! the test to seconds.
+
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "test code: a failed unwrap is a failed test"
+)]
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{example_config, on_recording, scratch, tether, text};
+
+/// `walk.bag` (20 s, YDLIDAR X4) and `legs.json` trained on it, in `dir`.
+fn recording_and_model(dir: &Path) -> (PathBuf, PathBuf) {
+    let scenario = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/scenarios/walk_in_front.toml"
+    );
+    let bag = dir.join("walk.bag");
+    let sim = tether(&[
+        "sim",
+        "--scenario",
+        scenario,
+        "--scanner",
+        "ydlidar_x4",
+        "--driver",
+        "scenario",
+        "--duration",
+        "20",
+        "--seed",
+        "1",
+        "--out",
+        dir.join("sim").to_str().unwrap(),
+        "--record-bag",
+        bag.to_str().unwrap(),
+    ]);
+    assert!(sim.status.success(), "sim: {}", text(&sim.stderr));
+    let model = dir.join("legs.json");
+    let train = tether(&[
+        "train-legs",
+        "--from-recording",
+        bag.to_str().unwrap(),
+        "--scan-topic",
+        "/scan",
+        "--rounds",
+        "30",
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    assert!(
+        train.status.success(),
+        "train-legs: {}",
+        text(&train.stderr)
+    );
+    (bag, model)
+}
+
+/// `tether track BAG --scan-topic /scan EXTRA... --out DIR/NAME`: its output, which
+/// must be written.
+fn track(dir: &Path, bag: &Path, extra: &[&str], name: &str) -> String {
+    let out = dir.join(name);
+    let run = on_recording("track", bag, "/scan", extra, &out);
+    assert!(
+        run.status.success(),
+        "track {extra:?}: {}",
+        text(&run.stderr)
+    );
+    std::fs::read_to_string(&out).unwrap()
+}
+
+/// `tether track` with `extra` must fail, saying `words` (and never panicking).
+fn refused(dir: &Path, bag: &Path, extra: &[&str], words: &[&str]) {
+    let run = on_recording("track", bag, "/scan", extra, &dir.join("refused.jsonl"));
+    let err = text(&run.stderr);
+    assert!(!run.status.success(), "track {extra:?} ran: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for w in words {
+        assert!(err.contains(w), "track {extra:?}: {w:?} not in {err}");
+    }
+}
+
+#[test]
+fn a_trained_model_is_used_through_the_flag_and_the_config_and_bad_ones_are_refused() {
+    let dir = scratch("leg-model");
+    let (bag, model) = recording_and_model(&dir);
+    let model_arg = model.to_str().unwrap();
+
+    let built_in = track(&dir, &bag, &[], "built_in.jsonl");
+    let by_flag = track(&dir, &bag, &["--leg-model", model_arg], "flag.jsonl");
+    assert_ne!(by_flag, built_in, "the named model changes nothing");
+
+    // A pipeline config in a folder of its own, naming the model relative to itself.
+    let configs = dir.join("configs");
+    std::fs::create_dir_all(&configs).unwrap();
+    let pipeline = configs.join("pipeline.toml");
+    std::fs::write(&pipeline, "[legs]\nmodel = \"../legs.json\"\n").unwrap();
+    let by_config = track(
+        &dir,
+        &bag,
+        &["--config", pipeline.to_str().unwrap()],
+        "config.jsonl",
+    );
+    assert_eq!(
+        by_config, by_flag,
+        "`[legs] model` and `--leg-model` differ"
+    );
+
+    // The README's robot config with the key, beside the model.
+    let example = std::fs::read_to_string(example_config()).unwrap();
+    let robot = dir.join("robot.toml");
+    std::fs::write(&robot, example.clone()).unwrap();
+    let robot_with = dir.join("robot_with_model.toml");
+    std::fs::write(
+        &robot_with,
+        example + "\n[pipeline.legs]\nmodel = \"legs.json\"\n",
+    )
+    .unwrap();
+    let robot_built_in = track(
+        &dir,
+        &bag,
+        &["--config", robot.to_str().unwrap()],
+        "robot.jsonl",
+    );
+    let robot_model = track(
+        &dir,
+        &bag,
+        &["--config", robot_with.to_str().unwrap()],
+        "robot_model.jsonl",
+    );
+    let robot_flag = track(
+        &dir,
+        &bag,
+        &[
+            "--config",
+            robot.to_str().unwrap(),
+            "--leg-model",
+            model_arg,
+        ],
+        "robot_flag.jsonl",
+    );
+    assert_ne!(
+        robot_model, robot_built_in,
+        "[pipeline.legs] model is not used"
+    );
+    assert_eq!(robot_model, robot_flag, "the key and the flag differ");
+
+    // The flag overrides the config: a missing file named by the flag is refused even
+    // though the config names a good one.
+    let missing = dir.join("missing.json");
+    refused(
+        &dir,
+        &bag,
+        &[
+            "--config",
+            pipeline.to_str().unwrap(),
+            "--leg-model",
+            missing.to_str().unwrap(),
+        ],
+        &["missing.json", "cannot read the leg model"],
+    );
+    // A file that is no model: the recording itself, and JSON of something else.
+    refused(
+        &dir,
+        &bag,
+        &["--leg-model", bag.to_str().unwrap()],
+        &["walk.bag", "leg model"],
+    );
+    let other = dir.join("other.json");
+    std::fs::write(&other, "{\"format\": 1}\n").unwrap();
+    refused(
+        &dir,
+        &bag,
+        &["--leg-model", other.to_str().unwrap()],
+        &["other.json", "leg model"],
+    );
+    // A model of features this build does not compute: retrain it.
+    let json = std::fs::read_to_string(&model).unwrap();
+    let renamed = json.replacen("\"features\": [\"", "\"features\": [\"old_", 1);
+    assert_ne!(renamed, json, "the model's feature list moved");
+    let stale = dir.join("stale.json");
+    std::fs::write(&stale, renamed).unwrap();
+    refused(
+        &dir,
+        &bag,
+        &["--leg-model", stale.to_str().unwrap()],
+        &["stale.json", "retrain"],
+    );
+    // A missing file named by a config: its path resolved against the config's folder.
+    let bad_config = configs.join("bad.toml");
+    std::fs::write(&bad_config, "[legs]\nmodel = \"nowhere.json\"\n").unwrap();
+    refused(
+        &dir,
+        &bag,
+        &["--config", bad_config.to_str().unwrap()],
+        &[&configs.join("nowhere.json").display().to_string()],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
