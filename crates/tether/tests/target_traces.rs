@@ -445,6 +445,45 @@ fn real_target_traces_match_the_golden_files() {
     check_against_golden(&golden_dir("real"), &traces, true);
 }
 
+/// The runs traced are those of `tether sim` (the modes are set up here as the binary
+/// does, which a test cannot call): its first lock, to the millisecond, in both modes.
+#[test]
+fn the_traced_runs_are_those_of_tether_sim() {
+    let dir = common::scratch("target-traces-sim");
+    for (name, mode) in [
+        ("occlusion", Mode::Fused),
+        ("occlusion", Mode::Laser),
+        ("crossing", Mode::Fused),
+        ("crossing", Mode::Laser),
+    ] {
+        let seed = 1;
+        let out = dir.join(format!("{name}-{}", mode.name()));
+        let mut args = vec!["sim", "--scenario", name, "--seed", "1"];
+        if let Mode::Laser = mode {
+            args.push("--laser-only");
+        }
+        args.extend(["--out", out.to_str().unwrap()]);
+        let run = common::tether(&args);
+        assert!(run.status.success(), "{}", common::text(&run.stderr));
+        let metrics: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
+                .unwrap();
+        let sim_first_lock_s = metrics["first_lock_s"].as_f64().unwrap();
+        let ticks = simulated_ticks(&Scenario::builtin(name).unwrap(), seed, mode);
+        let traced_first_lock_ms = ticks
+            .iter()
+            .find(|t| t.state.starts_with("locked"))
+            .unwrap()
+            .t_ms;
+        assert_eq!(
+            ms_of_ns((sim_first_lock_s * 1e9).round() as i64),
+            traced_first_lock_ms,
+            "{name} {}: `tether sim` locked first at {sim_first_lock_s} s",
+            mode.name()
+        );
+    }
+}
+
 #[test]
 fn a_moved_transition_shows_as_a_small_diff() {
     let old: String = (0..20).map(|i| format!("line {i}\n")).collect();
