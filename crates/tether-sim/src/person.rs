@@ -63,7 +63,7 @@ pub const LEG_REFERENCE_HEIGHT_M: f64 = 0.30;
 /// leg just below the knee, the knee, lower thigh circumference (just above the knee)
 /// and thigh circumference (at the gluteal furrow, about 0.78 m). Linear between the
 /// points, constant beyond the ends.
-const LEG_GIRTH_PROFILE_MM: [(f64, f64); 6] = [
+pub const LEG_GIRTH_PROFILE_MM: [(f64, f64); 6] = [
     (0.11, 220.0),
     (LEG_REFERENCE_HEIGHT_M, 380.0),
     (0.42, 340.0),
