@@ -208,3 +208,100 @@ fn a_trained_model_is_used_through_the_flag_and_the_config_and_bad_ones_are_refu
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The number after `on ` ... `legs and ` ... ` non-legs` in train-legs' summary line
+/// ("trained 30 trees on 426 legs and 6490 non-legs ...").
+fn non_legs_trained(stdout: &str) -> usize {
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("trained "))
+        .unwrap_or_else(|| panic!("no summary line in\n{stdout}"));
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let k = words
+        .iter()
+        .position(|w| *w == "non-legs")
+        .unwrap_or_else(|| panic!("no non-legs in {line}"));
+    words[k - 1].parse().unwrap()
+}
+
+#[test]
+fn a_recording_of_the_empty_scene_adds_its_clusters_as_non_legs() {
+    let dir = scratch("leg-model-empty");
+    let (bag, _) = recording_and_model(&dir);
+    // The same room with nobody in it: walk_in_front.toml up to its people.
+    let scenario = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/scenarios/walk_in_front.toml"
+    ))
+    .unwrap();
+    let empty_room: String = scenario
+        .lines()
+        .take_while(|l| !l.starts_with("[[people]]"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let empty_toml = dir.join("empty_room.toml");
+    std::fs::write(&empty_toml, empty_room).unwrap();
+    let empty_bag = dir.join("empty.bag");
+    let sim = tether(&[
+        "sim",
+        "--scenario",
+        empty_toml.to_str().unwrap(),
+        "--scanner",
+        "ydlidar_x4",
+        "--driver",
+        "scenario",
+        "--duration",
+        "10",
+        "--seed",
+        "2",
+        "--out",
+        dir.join("sim-empty").to_str().unwrap(),
+        "--record-bag",
+        empty_bag.to_str().unwrap(),
+    ]);
+    assert!(sim.status.success(), "sim: {}", text(&sim.stderr));
+    let train = |extra: &[&str], out: &str| {
+        let model = dir.join(out);
+        let mut args = vec![
+            "train-legs",
+            "--from-recording",
+            bag.to_str().unwrap(),
+            "--scan-topic",
+            "/scan",
+            "--rounds",
+            "30",
+            "--out",
+            model.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let run = tether(&args);
+        assert!(
+            run.status.success(),
+            "train-legs {extra:?}: {}",
+            text(&run.stderr)
+        );
+        assert!(model.is_file());
+        text(&run.stdout)
+    };
+    let alone = train(&[], "alone.json");
+    let with_empty = train(&["--empty", empty_bag.to_str().unwrap()], "with_empty.json");
+    assert!(with_empty.contains("of the empty scene"), "{with_empty}");
+    // Every cluster of the empty scene's training part is one more non-leg.
+    let (a, b) = (non_legs_trained(&alone), non_legs_trained(&with_empty));
+    println!("non-legs trained on: {a} alone, {b} with the empty scene");
+    assert!(b > a + 500, "{a} -> {b}\n{with_empty}");
+    // A recording with no scan on the topic is refused, not taken as an empty scene.
+    let wrong = tether(&[
+        "train-legs",
+        "--from-recording",
+        bag.to_str().unwrap(),
+        "--scan-topic",
+        "/scan",
+        "--empty",
+        dir.join("no-such.bag").to_str().unwrap(),
+        "--out",
+        dir.join("never.json").to_str().unwrap(),
+    ]);
+    assert!(!wrong.status.success());
+    assert!(!dir.join("never.json").exists());
+}
