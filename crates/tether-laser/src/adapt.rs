@@ -10,7 +10,7 @@
 use crate::classifier::{LegClassifier, Provenance};
 use crate::self_label::LabelledCandidates;
 use crate::training::{
-    AdaBoostConfig, CrossValidation, MatchCounts, TrainError, TrainingSet, margin_grid,
+    AdaBoostConfig, CrossValidation, MatchCounts, TrainError, TrainingSet, cross_validate_with,
     train_adaboost,
 };
 
@@ -93,36 +93,13 @@ pub fn cross_validate_candidates(
     folds: &[Vec<LabelledCandidates>],
     config: &AdaBoostConfig,
 ) -> Result<CrossValidation, TrainError> {
-    let margins = margin_grid();
-    let mut counts = vec![MatchCounts::default(); margins.len()];
-    let mut per_fold = Vec::with_capacity(folds.len());
-    for (k, held_out) in folds.iter().enumerate() {
-        let set = training_set(
-            folds
-                .iter()
-                .enumerate()
-                .filter(|(j, _)| *j != k)
-                .flat_map(|(_, f)| f.iter()),
-        );
-        let model = train_adaboost(&set.samples, &set.labels, config, Provenance::default())?;
-        let mut fold = vec![MatchCounts::default(); margins.len()];
-        for scan in held_out {
-            let m: Vec<f64> = scan
-                .sample
-                .features
-                .iter()
-                .map(|f| model.margin(f))
-                .collect();
-            for (c, &margin) in fold.iter_mut().zip(&margins) {
-                c.add(count_candidates(scan, &m, margin));
-            }
-        }
-        for (c, f) in counts.iter_mut().zip(&fold) {
-            c.add(*f);
-        }
-        per_fold.push(fold);
-    }
-    Ok(CrossValidation::best_f1(margins, counts, &per_fold))
+    cross_validate_with(
+        folds,
+        config,
+        |scans| training_set(scans.iter().copied()),
+        |scan| &scan.sample.features,
+        count_candidates,
+    )
 }
 
 /// Trains on every candidate of `folds` with the decision margin that

@@ -522,23 +522,44 @@ pub fn cross_validate(
     folds: &[Vec<ScanSample>],
     config: &AdaBoostConfig,
 ) -> Result<CrossValidation, TrainError> {
+    cross_validate_with(
+        folds,
+        config,
+        |scans| TrainingSet::from_scans(scans.iter().copied()),
+        |scan| &scan.features,
+        ScanSample::count,
+    )
+}
+
+/// K-fold cross-validation of scans of any labelling `T`: for each fold, trains on the
+/// others' `training_set` with `config`, then counts each held-out scan (`count`, given
+/// the margins of its candidates' `features` and a decision margin) at every margin of
+/// [`margin_grid`]; picks the margin with the highest F1 of all folds' counts together
+/// ([`CrossValidation::best_f1`]).
+pub fn cross_validate_with<T>(
+    folds: &[Vec<T>],
+    config: &AdaBoostConfig,
+    training_set: impl Fn(&[&T]) -> TrainingSet,
+    features: impl Fn(&T) -> &[FeatureVector],
+    count: impl Fn(&T, &[f64], f64) -> MatchCounts,
+) -> Result<CrossValidation, TrainError> {
     let margins = margin_grid();
     let mut counts = vec![MatchCounts::default(); margins.len()];
     let mut per_fold = Vec::with_capacity(folds.len());
     for (k, held_out) in folds.iter().enumerate() {
-        let set = TrainingSet::from_scans(
-            folds
-                .iter()
-                .enumerate()
-                .filter(|(j, _)| *j != k)
-                .flat_map(|(_, f)| f.iter()),
-        );
+        let others: Vec<&T> = folds
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != k)
+            .flat_map(|(_, f)| f.iter())
+            .collect();
+        let set = training_set(&others);
         let model = train_adaboost(&set.samples, &set.labels, config, Provenance::default())?;
         let mut fold = vec![MatchCounts::default(); margins.len()];
         for scan in held_out {
-            let m: Vec<f64> = scan.features.iter().map(|f| model.margin(f)).collect();
+            let m: Vec<f64> = features(scan).iter().map(|f| model.margin(f)).collect();
             for (c, &margin) in fold.iter_mut().zip(&margins) {
-                c.add(scan.count(&m, margin));
+                c.add(count(scan, &m, margin));
             }
         }
         for (c, f) in counts.iter_mut().zip(&fold) {
