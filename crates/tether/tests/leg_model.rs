@@ -22,33 +22,36 @@ use std::path::{Path, PathBuf};
 
 use common::{example_config, on_recording, scratch, tether, text};
 
-/// `walk.bag` (20 s, YDLIDAR X4) and `legs.json` trained on it, in `dir`.
-fn recording_and_model(dir: &Path) -> (PathBuf, PathBuf) {
-    let scenario = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/scenarios/walk_in_front.toml"
-    );
-    let bag = dir.join("walk.bag");
+/// `tether sim` of `scenario` seen by the YDLIDAR X4 for `seconds` with `seed`, recorded
+/// as `dir/NAME.bag` (the sim's files in `dir/NAME`).
+fn x4_bag(dir: &Path, scenario: &Path, seconds: &str, seed: &str, name: &str) -> PathBuf {
+    let bag = dir.join(format!("{name}.bag"));
     let sim = tether(&[
         "sim",
         "--scenario",
-        scenario,
+        scenario.to_str().unwrap(),
         "--scanner",
         "ydlidar_x4",
         "--driver",
         "scenario",
         "--duration",
-        "20",
+        seconds,
         "--seed",
-        "1",
+        seed,
         "--out",
-        dir.join("sim").to_str().unwrap(),
+        dir.join(name).to_str().unwrap(),
         "--record-bag",
         bag.to_str().unwrap(),
     ]);
     assert!(sim.status.success(), "sim: {}", text(&sim.stderr));
-    let model = dir.join("legs.json");
-    let train = tether(&[
+    bag
+}
+
+/// `tether train-legs --from-recording BAG --scan-topic /scan --rounds 30 EXTRA... --out
+/// dir/NAME`: its standard output; the model must be written.
+fn train_from(dir: &Path, bag: &Path, extra: &[&str], name: &str) -> String {
+    let model = dir.join(name);
+    let mut args = vec![
         "train-legs",
         "--from-recording",
         bag.to_str().unwrap(),
@@ -58,13 +61,28 @@ fn recording_and_model(dir: &Path) -> (PathBuf, PathBuf) {
         "30",
         "--out",
         model.to_str().unwrap(),
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    let run = tether(&args);
     assert!(
-        train.status.success(),
-        "train-legs: {}",
-        text(&train.stderr)
+        run.status.success(),
+        "train-legs {extra:?}: {}",
+        text(&run.stderr)
     );
-    (bag, model)
+    assert!(model.is_file());
+    text(&run.stdout)
+}
+
+/// The walking scenario, `tests/scenarios/walk_in_front.toml`.
+fn walk_in_front() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenarios/walk_in_front.toml")
+}
+
+/// `walk.bag` (20 s, YDLIDAR X4) and `legs.json` trained on it, in `dir`.
+fn recording_and_model(dir: &Path) -> (PathBuf, PathBuf) {
+    let bag = x4_bag(dir, &walk_in_front(), "20", "1", "walk");
+    train_from(dir, &bag, &[], "legs.json");
+    (bag, dir.join("legs.json"))
 }
 
 /// `tether track BAG --scan-topic /scan EXTRA... --out DIR/NAME`: its output, which
@@ -229,11 +247,7 @@ fn a_recording_of_the_empty_scene_adds_its_clusters_as_non_legs() {
     let dir = scratch("leg-model-empty");
     let (bag, _) = recording_and_model(&dir);
     // The same room with nobody in it: walk_in_front.toml up to its people.
-    let scenario = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/scenarios/walk_in_front.toml"
-    ))
-    .unwrap();
+    let scenario = std::fs::read_to_string(walk_in_front()).unwrap();
     let empty_room: String = scenario
         .lines()
         .take_while(|l| !l.starts_with("[[people]]"))
@@ -241,50 +255,14 @@ fn a_recording_of_the_empty_scene_adds_its_clusters_as_non_legs() {
         .collect();
     let empty_toml = dir.join("empty_room.toml");
     std::fs::write(&empty_toml, empty_room).unwrap();
-    let empty_bag = dir.join("empty.bag");
-    let sim = tether(&[
-        "sim",
-        "--scenario",
-        empty_toml.to_str().unwrap(),
-        "--scanner",
-        "ydlidar_x4",
-        "--driver",
-        "scenario",
-        "--duration",
-        "10",
-        "--seed",
-        "2",
-        "--out",
-        dir.join("sim-empty").to_str().unwrap(),
-        "--record-bag",
-        empty_bag.to_str().unwrap(),
-    ]);
-    assert!(sim.status.success(), "sim: {}", text(&sim.stderr));
-    let train = |extra: &[&str], out: &str| {
-        let model = dir.join(out);
-        let mut args = vec![
-            "train-legs",
-            "--from-recording",
-            bag.to_str().unwrap(),
-            "--scan-topic",
-            "/scan",
-            "--rounds",
-            "30",
-            "--out",
-            model.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        let run = tether(&args);
-        assert!(
-            run.status.success(),
-            "train-legs {extra:?}: {}",
-            text(&run.stderr)
-        );
-        assert!(model.is_file());
-        text(&run.stdout)
-    };
-    let alone = train(&[], "alone.json");
-    let with_empty = train(&["--empty", empty_bag.to_str().unwrap()], "with_empty.json");
+    let empty_bag = x4_bag(&dir, &empty_toml, "10", "2", "empty");
+    let alone = train_from(&dir, &bag, &[], "alone.json");
+    let with_empty = train_from(
+        &dir,
+        &bag,
+        &["--empty", empty_bag.to_str().unwrap()],
+        "with_empty.json",
+    );
     assert!(with_empty.contains("of the empty scene"), "{with_empty}");
     // Every cluster of the empty scene's training part is one more non-leg.
     let (a, b) = (non_legs_trained(&alone), non_legs_trained(&with_empty));
