@@ -87,7 +87,7 @@ pub fn measure_on_candidates(model: &LegClassifier, scans: &[LabelledCandidates]
 }
 
 /// K-fold cross-validation over `folds`: for each, trains on the others with `config`
-/// and counts the held-out candidates at every margin of [`margin_grid`]; picks the
+/// and counts the held-out candidates at every margin of [`margin_grid`](crate::training::margin_grid); picks the
 /// margin with the highest F1 of all folds' counts together (the first of equals).
 pub fn cross_validate_candidates(
     folds: &[Vec<LabelledCandidates>],
