@@ -106,14 +106,28 @@ fn crossing(o: (f64, f64), d: (f64, f64), f: &Facet) -> Option<f64> {
 /// same way). `None` when the shifted scan cannot be built (no beam returns).
 pub fn shifted_view(scan: &LaserScan, shift_m: (f64, f64)) -> Option<LaserScan> {
     let facets = surface(scan);
-    let mut ranges = Vec::with_capacity(scan.len());
-    for i in 0..scan.len() {
-        let (s, c) = scan.angle_rad(i).sin_cos();
+    let beams = (scan.angle_min_rad, scan.angle_increment_rad, scan.len());
+    render(scan, &facets, shift_m, beams, |_, r| r)
+}
+
+/// The surface `facets` (of `scan`) as seen from `origin` by the beams `(angle_min,
+/// increment, count)`, each range passed through `finish(beam, range)` (which may
+/// return infinity for no return). `None` when no beam returns.
+fn render(
+    scan: &LaserScan,
+    facets: &[Facet],
+    origin: (f64, f64),
+    (angle_min_rad, increment_rad, count): (f64, f64, usize),
+    mut finish: impl FnMut(usize, f64) -> f64,
+) -> Option<LaserScan> {
+    let mut ranges = Vec::with_capacity(count);
+    for i in 0..count {
+        let (s, c) = (angle_min_rad + i as f64 * increment_rad).sin_cos();
         let best = facets
             .iter()
-            .filter_map(|f| crossing(shift_m, (c, s), f))
+            .filter_map(|f| crossing(origin, (c, s), f))
             .fold(f64::INFINITY, f64::min);
-        let r = best as f32;
+        let r = finish(i, best) as f32;
         ranges.push(
             if f64::from(r) <= scan.range_max_m && f64::from(r) >= scan.range_min_m {
                 r
@@ -125,14 +139,73 @@ pub fn shifted_view(scan: &LaserScan, shift_m: (f64, f64)) -> Option<LaserScan> 
     let out = LaserScan::new(
         scan.stamp,
         scan.frame_id.clone(),
-        scan.angle_min_rad,
-        scan.angle_increment_rad,
+        angle_min_rad,
+        increment_rad,
         scan.range_min_m,
         scan.range_max_m,
         ranges,
     )
     .ok()?;
     (out.returns() > 0).then_some(out)
+}
+
+/// Angular steps of the coarser scanners a view imitates, deg: the 0.5-1 degree
+/// steps of the 360-degree scanners most small robots carry (RPLIDAR A1/A2, LDS-01,
+/// YDLIDAR X4), against the 0.25-0.36 degrees of the Hokuyo scanners that recorded the
+/// training data.
+pub const COARSER_STEPS_DEG: [f64; 3] = [0.5, 0.75, 1.0];
+
+/// Largest range noise of a coarser view, as a fraction of the range: triangulation
+/// scanners are specified at 1-3.5 % of the distance (1 sigma taken as the figure).
+pub const COARSER_MAX_RELATIVE_SIGMA: f64 = 0.025;
+
+/// Largest share of a coarser view's beams that return nothing although they hit
+/// something: about one beam in four on the triangulation scanners.
+pub const COARSER_MAX_NO_RETURN: f64 = 0.25;
+
+/// A uniform number in [0, 1) from `(view, beam, salt)`: SplitMix64's finaliser, so
+/// that the views are a fixed function of the training data.
+fn uniform(view: usize, beam: usize, salt: u64) -> f64 {
+    let mut z = (view as u64)
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .wrapping_add((beam as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9))
+        .wrapping_add(salt.wrapping_mul(0x94D0_49BB_1331_11EB));
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// `scan` as a coarser and noisier scanner at the same place would see it: the `k`-th
+/// view of a fixed sequence. The surface (step 1 above) is swept by beams
+/// [`COARSER_STEPS_DEG`]`[k mod 3]` apart over the same field of view; each range gets
+/// Gaussian noise of `sigma = c r` and each beam returns nothing with probability `q`,
+/// where `c` and `q` run through `[0, COARSER_MAX_RELATIVE_SIGMA]` and `[0,
+/// COARSER_MAX_NO_RETURN]` by the golden-ratio sequence (as [`target_range_m`]). Labels
+/// stay where they are (same frame). `None` when the scan is already that coarse or
+/// no beam returns.
+pub fn coarser_view(scan: &LaserScan, k: usize) -> Option<LaserScan> {
+    const PHI: f64 = 0.618_033_988_749_894_9;
+    let step_rad = COARSER_STEPS_DEG[k % COARSER_STEPS_DEG.len()].to_radians();
+    let inc = scan.angle_increment_rad;
+    if step_rad <= 1.2 * inc.abs() || scan.len() < 2 {
+        return None;
+    }
+    let fov_rad = (scan.len() - 1) as f64 * inc.abs();
+    let count = (fov_rad / step_rad).floor() as usize + 1;
+    let sigma = COARSER_MAX_RELATIVE_SIGMA * ((k as f64 + 1.0) * PHI).fract();
+    let no_return = COARSER_MAX_NO_RETURN * ((k as f64 + 2.0) * PHI * PHI).fract();
+    let facets = surface(scan);
+    let beams = (scan.angle_min_rad, step_rad * inc.signum(), count);
+    render(scan, &facets, (0.0, 0.0), beams, |i, r| {
+        if uniform(k, i, 1) < no_return {
+            return f64::INFINITY;
+        }
+        // Box-Muller.
+        let (u1, u2) = (uniform(k, i, 2).max(1e-300), uniform(k, i, 3));
+        let z = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+        r * (1.0 + sigma * z)
+    })
 }
 
 /// The `k`-th target range of the fixed sequence, `NEAREST_M + frac(k phi) *
@@ -225,6 +298,55 @@ mod tests {
     fn objects_that_are_already_near_are_not_moved() {
         let scan = disc_scan(0.5, 0.06);
         assert!(nearer_view(&scan, Point2::new(0.5, 0.0), &[], 0).is_none());
+    }
+
+    #[test]
+    fn a_coarser_view_has_the_coarser_step_over_the_same_field_of_view() {
+        let scan = disc_scan(1.0, 0.06);
+        for k in 0..6 {
+            let view = coarser_view(&scan, k).unwrap();
+            let step = COARSER_STEPS_DEG[k % 3].to_radians();
+            assert!((view.angle_increment_rad - step).abs() < 1e-12);
+            assert_eq!(view.angle_min_rad, scan.angle_min_rad);
+            let fov = (scan.len() - 1) as f64 * scan.angle_increment_rad;
+            let view_fov = (view.len() - 1) as f64 * view.angle_increment_rad;
+            assert!(view_fov <= fov + 1e-9 && view_fov > fov - step, "{view_fov} {fov}");
+            // The disc is still there: its near side at 0.94 m, within the noise.
+            let ahead = ((0.0 - view.angle_min_rad) / step).round() as usize;
+            let r = (ahead.saturating_sub(1)..=ahead + 1)
+                .filter_map(|i| view.range_m(i))
+                .map(f64::from)
+                .fold(f64::INFINITY, f64::min);
+            assert!((r - 0.94).abs() < 0.1, "view {k}: {r}");
+        }
+        // Deterministic: the same view twice.
+        assert_eq!(coarser_view(&scan, 4), coarser_view(&scan, 4));
+        // Nothing is coarser than the scan itself at 1 degree.
+        let coarse = coarser_view(&scan, 2).unwrap();
+        assert!(coarser_view(&coarse, 2).is_none());
+    }
+
+    #[test]
+    fn coarser_views_lose_up_to_a_quarter_of_the_beams_and_add_noise() {
+        let scan = disc_scan(1.0, 0.06);
+        let (mut lost, mut returned) = (0usize, 0usize);
+        for k in 0..30 {
+            // Beams that see the disc in the view (the rest sees nothing).
+            let view = coarser_view(&scan, k).unwrap();
+            let step = view.angle_increment_rad;
+            let on_disc = (0..view.len()).filter(|&i| {
+                (view.angle_min_rad + i as f64 * step).abs() < (0.06f64 / 1.0).asin() - step
+            });
+            for i in on_disc {
+                match view.range_m(i) {
+                    Some(_) => returned += 1,
+                    None => lost += 1,
+                }
+            }
+        }
+        let share = lost as f64 / (lost + returned) as f64;
+        // The loss probabilities run evenly over [0, 0.25]: about 0.125 on average.
+        assert!((0.05..0.2).contains(&share), "{share}");
     }
 
     #[test]

@@ -12,7 +12,7 @@ use crate::fit::centroid;
 use crate::people::{
     Leg, PairScratch, PairingConfig, PersonKind, PersonObservation, lone_leg_estimate, pair_legs,
 };
-use crate::preprocess::{BeamTable, PreprocessStats, ScanPoint, preprocess_into};
+use crate::preprocess::{BeamTable, PreprocessStats, ScanPoint, closes_the_circle, preprocess_into};
 use crate::segment::{Breakpoint, ClusterScratch, Segment, cluster_into};
 
 /// A detector configuration that cannot work.
@@ -103,6 +103,9 @@ pub struct DetectionStats {
     pub segments: usize,
     /// Segments that were tested as legs.
     pub candidates: usize,
+    /// Clusters of enough returns left out because they hold the first or last beam
+    /// of a scan that does not close the circle (cut by the field of view).
+    pub cut_by_field_of_view: usize,
 }
 
 /// What one scan shows: legs and people, in the scan's frame.
@@ -294,9 +297,24 @@ impl LegDetector {
             cluster_of: self.cluster_scratch.cluster_of(),
             angle_increment_rad: scan.angle_increment_rad,
         };
+        // On a scan that does not close the circle, a cluster that reaches within
+        // [`FIELD_OF_VIEW_EDGE_BEAMS`] of its first or last beam may run on past the
+        // field of view: how wide it is and what lies beyond it are unknown, so it is
+        // not judged (a robot's own body at the edge of a rear scanner's view, 0.3 m
+        // away, is the common case).
+        let inside = if closes_the_circle(scan) {
+            0..=usize::MAX
+        } else {
+            FIELD_OF_VIEW_EDGE_BEAMS + 1
+                ..=scan.len().saturating_sub(2 + FIELD_OF_VIEW_EDGE_BEAMS)
+        };
         for (k, &seg) in self.segments.iter().enumerate() {
             let pts = &self.clustered[seg.start..seg.end];
-            if !is_candidate(pts, &self.config) {
+            if !is_candidate(pts, &self.config)
+                || !inside.contains(&pts[0].beam)
+                || !inside.contains(&pts[pts.len() - 1].beam)
+            {
+                stats.cut_by_field_of_view += usize::from(pts.len() >= self.config.min_points);
                 continue;
             }
             let features = if with_features {
@@ -337,6 +355,7 @@ impl LegDetector {
             preprocess,
             segments: self.segments.len(),
             candidates: 0,
+            cut_by_field_of_view: 0,
         }
     }
 }
@@ -351,6 +370,11 @@ fn is_candidate(pts: &[ScanPoint], config: &DetectorConfig) -> bool {
     let v = pts[0].point_in_laser - pts[pts.len() - 1].point_in_laser;
     v.x * v.x + v.y * v.y <= config.max_width_m * config.max_width_m
 }
+
+/// A cluster whose first or last beam lies this many beams or fewer from the edge of
+/// a scan's field of view is cut by it (a beam or two of no return between them hide
+/// nothing).
+pub const FIELD_OF_VIEW_EDGE_BEAMS: usize = 2;
 
 /// Index of `width_m` in the feature vector.
 const WIDTH: usize = 5;

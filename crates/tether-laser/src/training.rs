@@ -38,7 +38,7 @@ use thiserror::Error;
 
 use tether_core::{Laser, LaserScan, Point2};
 
-use crate::augment::nearer_view;
+use crate::augment::{coarser_view, nearer_view};
 use crate::classifier::{LegClassifier, MAX_DEPTH, MODEL_FORMAT, Node, Provenance, Tree};
 use crate::detector::{Detection, LegDetector, learned_centre};
 use crate::features::{FEATURE_NAMES, FeatureVector, N_FEATURES};
@@ -313,27 +313,41 @@ pub type LabelledScan = (LaserScan, Vec<Point2<Laser>>);
 /// [`TRAIN_NEGATIVE_TOPICS`]. `detector` gives the candidates (its classifier, if any,
 /// is not used).
 ///
-/// With `nearer_views > 0`, each scan is also shown that many times from nearer
+/// With `views.nearer > 0`, each scan is also shown that many times from nearer
 /// ([`crate::augment::nearer_view`]), in the fold of its recording: a labelled scan
 /// toward one of its legs (in turn), a scan without people toward one of its candidates.
 /// In a view, a label the view hides (behind something, out of the field of view, or
 /// now part of a larger cluster) is dropped, and no detection on a labelled view
 /// counts as false ([`LabelledRegion::NONE`]): its labeller's window moved with it.
+/// With `views.coarser > 0`, each scan and each nearer view is also shown that many
+/// times as a coarser, noisier scanner would see it ([`crate::augment::coarser_view`]);
+/// labels stay, and a labelled scan keeps its labeller's window.
 pub fn folds_from_scans(
     detector: &mut LegDetector,
     positive_bags: &[(&str, &[LabelledScan])],
     negative_topics: &[&[LaserScan]],
-    nearer_views: usize,
+    views: TrainingViews,
 ) -> Vec<Vec<ScanSample>> {
+    let mut coarse_k = 0usize;
+    let mut coarser = |scan: &LaserScan| -> Vec<LaserScan> {
+        (0..views.coarser)
+            .filter_map(|_| {
+                coarse_k += 1;
+                coarser_view(scan, coarse_k)
+            })
+            .collect()
+    };
     let bags = positive_bags
         .iter()
         .map(|(name, scans)| {
             let region = LabelledRegion::of_bag(name);
-            let mut samples: Vec<ScanSample> = scans
-                .iter()
-                .map(|(scan, legs)| ScanSample::labelled(detector, scan, legs, region))
-                .collect();
-            for v in 0..nearer_views {
+            let mut bases: Vec<(LaserScan, Vec<Point2<Laser>>, LabelledRegion)> = Vec::new();
+            let mut samples: Vec<ScanSample> = Vec::new();
+            for (scan, legs) in scans.iter() {
+                samples.push(ScanSample::labelled(detector, scan, legs, region));
+                bases.push((scan.clone(), legs.clone(), region));
+            }
+            for v in 0..views.nearer {
                 for (k, (scan, legs)) in scans.iter().enumerate() {
                     let j = k + v * scans.len();
                     let Some(&toward) = legs.get(j % legs.len().max(1)) else {
@@ -344,7 +358,15 @@ pub fn folds_from_scans(
                             ScanSample::labelled(detector, &view, &moved, LabelledRegion::NONE);
                         sample.drop_unmatched_labels();
                         samples.push(sample);
+                        bases.push((view, moved, LabelledRegion::NONE));
                     }
+                }
+            }
+            for (scan, legs, region) in &bases {
+                for view in coarser(scan) {
+                    let mut sample = ScanSample::labelled(detector, &view, legs, *region);
+                    sample.drop_unmatched_labels();
+                    samples.push(sample);
                 }
             }
             samples
@@ -358,19 +380,49 @@ pub fn folds_from_scans(
                 .map(|scan| ScanSample::without_people(detector, scan))
                 .collect();
             drop_robot_body(&mut samples);
+            // Coarser views of the robot's scans show its body at the same place too.
+            let mut coarse: Vec<Vec<ScanSample>> = scans
+                .iter()
+                .map(|scan| {
+                    coarser(scan)
+                        .iter()
+                        .map(|view| ScanSample::without_people(detector, view))
+                        .collect()
+                })
+                .collect();
+            for v in 0..views.coarser {
+                let mut group: Vec<ScanSample> = coarse
+                    .iter_mut()
+                    .filter_map(|c| (v < c.len()).then(|| std::mem::take(&mut c[v])))
+                    .collect();
+                drop_robot_body(&mut group);
+                let mut it = group.into_iter();
+                for c in coarse.iter_mut().filter(|c| v < c.len()) {
+                    if let Some(s) = it.next() {
+                        c[v] = s;
+                    }
+                }
+            }
             // Each scan's views right after it, so that the blocks of consecutive scans
             // that `training_folds` cuts keep a scan and its views in one fold.
-            let mut with_views = Vec::with_capacity(samples.len() * (1 + nearer_views));
-            for (k, (sample, scan)) in samples.into_iter().zip(scans.iter()).enumerate() {
+            let per_scan = (1 + views.nearer) * (1 + views.coarser);
+            let mut with_views = Vec::with_capacity(samples.len() * per_scan);
+            for (k, ((sample, scan), coarse)) in
+                samples.into_iter().zip(scans.iter()).zip(coarse).enumerate()
+            {
                 let centroids = sample.centroids.clone();
                 with_views.push(sample);
-                for v in 0..nearer_views {
+                with_views.extend(coarse);
+                for v in 0..views.nearer {
                     let j = k + v * scans.len();
                     let Some(&toward) = centroids.get(j % centroids.len().max(1)) else {
                         continue;
                     };
                     if let Some((view, _)) = nearer_view(scan, toward, &[], j) {
                         with_views.push(ScanSample::without_people(detector, &view));
+                        for c in coarser(&view) {
+                            with_views.push(ScanSample::without_people(detector, &c));
+                        }
                     }
                 }
             }
@@ -378,6 +430,35 @@ pub fn folds_from_scans(
         })
         .collect();
     training_folds(bags, topics)
+}
+
+/// How many extra views of each training scan [`folds_from_scans`] makes. The default
+/// is the built-in model's: two views from nearer, and one coarser view of the scan
+/// and of each of those (design 4.6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TrainingViews {
+    /// Views from nearer ([`crate::augment::nearer_view`]).
+    pub nearer: usize,
+    /// Views by a coarser, noisier scanner ([`crate::augment::coarser_view`]), of the
+    /// scan and of each view from nearer.
+    pub coarser: usize,
+}
+
+impl TrainingViews {
+    /// No views: the recorded scans only.
+    pub const NONE: TrainingViews = TrainingViews {
+        nearer: 0,
+        coarser: 0,
+    };
+}
+
+impl Default for TrainingViews {
+    fn default() -> Self {
+        TrainingViews {
+            nearer: 2,
+            coarser: 1,
+        }
+    }
 }
 
 /// Two candidates of different scans of one sensor whose centroids lie within this
@@ -582,6 +663,12 @@ pub fn provenance(config: &AdaBoostConfig, cv: Option<&CrossValidation>) -> Prov
     }
     if config.max_depth != defaults.max_depth {
         command.push_str(&format!(" --depth {}", config.max_depth));
+    }
+    if config.views.nearer != defaults.views.nearer {
+        command.push_str(&format!(" --nearer-views {}", config.views.nearer));
+    }
+    if config.views.coarser != defaults.views.coarser {
+        command.push_str(&format!(" --coarser-views {}", config.views.coarser));
     }
     let mut sources: Vec<String> = TRAIN_POSITIVE_BAGS
         .iter()
@@ -826,18 +913,22 @@ pub fn leg_positions(detection: &Detection) -> Vec<Point2<Laser>> {
 pub struct AdaBoostConfig {
     /// Number of boosting rounds (trees); default 300.
     pub rounds: usize,
-    /// Depth of each tree; 1 gives Arras et al.'s stumps. Default 3.
+    /// Depth of each tree; 1 gives Arras et al.'s stumps. Default 4.
     pub max_depth: usize,
     /// The decision margin written into the model; default 0.
     pub decision_margin: f64,
+    /// The views of the training scans that [`folds_from_scans`] adds (recorded in the
+    /// model's provenance; boosting itself does not read it).
+    pub views: TrainingViews,
 }
 
 impl Default for AdaBoostConfig {
     fn default() -> Self {
         AdaBoostConfig {
             rounds: 300,
-            max_depth: 3,
+            max_depth: 4,
             decision_margin: 0.0,
+            views: TrainingViews::default(),
         }
     }
 }

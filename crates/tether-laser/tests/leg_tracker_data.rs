@@ -122,7 +122,7 @@ fn training_reproduces_the_committed_model() {
             .map(|(b, s)| (*b, s.as_slice()))
             .collect::<Vec<_>>(),
         &topics.iter().map(Vec::as_slice).collect::<Vec<_>>(),
-        0,
+        default_adaboost_config().views,
     );
     let (model, set, cv) = train_with_cross_validation(&folds, &default_adaboost_config()).unwrap();
     let c = cv.best_counts();
@@ -138,9 +138,11 @@ fn training_reproduces_the_committed_model() {
         c.f1()
     );
     assert_eq!(set.unmatched_labels, 0);
-    assert_eq!(set.positives(), 1164);
-    // Measured: precision 0.838, recall 0.807 on the held-out folds.
-    assert!(c.precision() > 0.82 && c.recall() > 0.79, "{c:?}");
+    // The 1,164 labelled legs and the legs of their views from nearer and coarser.
+    assert_eq!(set.positives(), 5467);
+    // Measured: precision 0.751, recall 0.768 on the held-out folds, views included
+    // (a leg seen by a 1-degree scanner with a quarter of its beams lost is harder).
+    assert!(c.precision() > 0.74 && c.recall() > 0.75, "{c:?}");
     assert!(
         model.to_json() == DEFAULT_MODEL_JSON,
         "the committed model differs from what training gives; rerun `{DEFAULT_TRAIN_COMMAND}`"
@@ -188,15 +190,16 @@ fn precision_and_recall_on_the_test_split() {
         // cluster's: none can be false there.
         assert_eq!(e.labelled.false_positives, 0, "{name}");
     }
-    // Measured: arc 0.147 / 0.315, learned 0.723 / 0.769 (issue 3 asks 0.90 / 0.90 of
+    // Measured: arc 0.199 / 0.315, learned 0.768 / 0.855 (issue 3 asks 0.90 / 0.90 of
     // the learned one; see the README for what these recordings allow).
     let (a, l) = (arc.total(), learned.total());
     assert!(
-        l.precision() >= 0.72 && l.recall() >= 0.76,
+        l.precision() >= 0.76 && l.recall() >= 0.85,
         "learned: {l:?}"
     );
-    assert!(a.recall() >= 0.30 && a.precision() >= 0.14, "arc: {a:?}");
-    // design 4.6: furniture fools the arc test; the classifier is the cure.
-    assert!(learned.negative_false_positives * 5 < arc.negative_false_positives);
-    assert!(l.precision() > 4.0 * a.precision());
+    assert!(a.recall() >= 0.30 && a.precision() >= 0.19, "arc: {a:?}");
+    // design 4.6: furniture fools the arc test; the classifier is the cure (measured:
+    // 871 false legs against 178 on the rear scanner's 435 scans).
+    assert!(learned.negative_false_positives * 4 < arc.negative_false_positives);
+    assert!(l.precision() > 3.5 * a.precision());
 }

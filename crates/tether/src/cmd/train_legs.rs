@@ -8,7 +8,7 @@ use anyhow::Context;
 use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
 use tether_laser::training::{
     NEGATIVE_BAG, POSITIVE_LABEL_TOPIC, POSITIVE_SCAN_TOPIC, TRAIN_NEGATIVE_TOPICS,
-    TRAIN_POSITIVE_BAGS, default_adaboost_config, folds_from_scans, train_with_cross_validation,
+    TRAIN_POSITIVE_BAGS, TrainingViews, default_adaboost_config, folds_from_scans, train_with_cross_validation,
 };
 use tether_laser::{AdaBoostConfig, DetectorConfig, LegClassifier, LegDetector};
 use tether_recording::rosbag::{read_labelled_scans, read_scans};
@@ -30,10 +30,14 @@ pub struct Args {
     #[arg(long, default_value_t = default_adaboost_config().max_depth)]
     pub depth: usize,
     /// Also train on each scan seen that many times from nearer (a leg or an object
-    /// brought to 0.3-1.5 m, where a follower keeps its person: design 4.6); 0 trains
-    /// the built-in model.
-    #[arg(long, default_value_t = 0, value_name = "N")]
+    /// brought to 0.3-1.5 m, where a follower keeps its person: design 4.6).
+    #[arg(long, default_value_t = TrainingViews::default().nearer, value_name = "N")]
     pub nearer_views: usize,
+    /// Also train on each scan (and each view from nearer) seen that many times as a
+    /// coarser, noisier scanner would see it (0.5-1 degree steps, range noise up to
+    /// 2.5 % of the distance, up to one beam in four lost: design 4.6).
+    #[arg(long, default_value_t = TrainingViews::default().coarser, value_name = "N")]
+    pub coarser_views: usize,
     /// Adapt to a new scanner instead (design 4.7): a recording (ROS 1 bag or MCAP) of
     /// one person walking around in front of the still robot for about a minute; its
     /// clusters are labelled by how they move, the last `--held-back` of it is kept for
@@ -136,6 +140,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let config = AdaBoostConfig {
         rounds: args.rounds,
         max_depth: args.depth,
+        views: TrainingViews {
+            nearer: args.nearer_views,
+            coarser: args.coarser_views,
+        },
         ..default_adaboost_config()
     };
     let mut detector = LegDetector::arc(DetectorConfig::default(), RangeNoiseModel::default())?;
@@ -154,7 +162,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .map(|(name, scans)| (*name, scans.as_slice()))
             .collect::<Vec<_>>(),
         &topics.iter().map(Vec::as_slice).collect::<Vec<_>>(),
-        args.nearer_views,
+        config.views,
     );
     let started = std::time::Instant::now();
     let (model, set, cv) = train_with_cross_validation(&folds, &config)?;
