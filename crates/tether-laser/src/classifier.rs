@@ -34,6 +34,10 @@ pub const MODEL_FORMAT: &str = "tether-legs-adaboost-trees/1";
 /// train-legs` with its defaults (see the crate's README for the command).
 pub const DEFAULT_MODEL_JSON: &str = include_str!("../models/legs_default.json");
 
+/// The built-in model for coarse scans (beams 0.45 degrees apart or more), trained on
+/// the same recordings seen by coarser scanners (design 4.6), as JSON.
+pub const DEFAULT_COARSE_MODEL_JSON: &str = include_str!("../models/legs_coarse.json");
+
 /// Why a model file cannot be used.
 #[derive(Debug, Error)]
 pub enum ModelError {
@@ -223,6 +227,11 @@ impl LegClassifier {
         Self::from_json(DEFAULT_MODEL_JSON)
     }
 
+    /// The committed model for coarse scans ([`DEFAULT_COARSE_MODEL_JSON`]).
+    pub fn default_coarse_model() -> Result<Self, ModelError> {
+        Self::from_json(DEFAULT_COARSE_MODEL_JSON)
+    }
+
     /// The model as JSON, one tree per line, with a final newline.
     pub fn to_json(&self) -> String {
         let trees: Vec<String> = self
@@ -248,15 +257,11 @@ impl LegClassifier {
                 found: self.format.clone(),
             });
         }
-        // A model lists the features it was trained on: all of them, or (a model of
-        // an earlier tether) the first ones.
-        if self.features.is_empty()
-            || self.features.len() > N_FEATURES
-            || self
-                .features
-                .iter()
-                .map(String::as_str)
-                .ne(FEATURE_NAMES[..self.features.len()].iter().copied())
+        if self
+            .features
+            .iter()
+            .map(String::as_str)
+            .ne(FEATURE_NAMES.iter().copied())
         {
             return Err(ModelError::Features {
                 found: self.features.join(", "),
@@ -280,18 +285,6 @@ impl LegClassifier {
         let mut total = 0.0;
         for (tree, t) in self.trees.iter().enumerate() {
             t.validate().map_err(|why| ModelError::Tree { tree, why })?;
-            if let Some(f) = t.nodes.iter().find_map(|n| match *n {
-                Node::Split { feature, .. } if feature >= self.features.len() => Some(feature),
-                _ => None,
-            }) {
-                return Err(ModelError::Tree {
-                    tree,
-                    why: format!(
-                        "splits on feature {f}, but the model lists {} features",
-                        self.features.len()
-                    ),
-                });
-            }
             total += t.alpha;
             if !total.is_finite() {
                 return Err(ModelError::Tree {
@@ -353,7 +346,7 @@ pub struct CompiledClassifier {
     /// Per tree, `2^D` leaves: `alpha_t` times the vote.
     leaves: Vec<f64>,
     alphas: Vec<f64>,
-    /// The same trees in fixed-size records when the model is at most [`SHALLOW_DEPTH`] deep
+    /// The same trees in fixed-size records when the model is [`SHALLOW_DEPTH`] deep
     /// (the default model is): no bounds check per node, the feature index in a byte,
     /// the alphas still to come precomputed. A quarter faster than the general layout.
     shallow: Vec<ShallowTree>,
@@ -361,15 +354,8 @@ pub struct CompiledClassifier {
     decision_margin: f64,
 }
 
-/// Depth of the fixed-size layout of [`ShallowTree`]: models this deep or shallower
-/// (the default model is 4 deep) get it, their trees padded to this depth.
-const SHALLOW_DEPTH: usize = 4;
-
-/// Splits of a [`ShallowTree`], `2^D - 1`.
-const SHALLOW_SPLITS: usize = (1 << SHALLOW_DEPTH) - 1;
-
-/// Leaves of a [`ShallowTree`], `2^D`.
-const SHALLOW_LEAVES: usize = 1 << SHALLOW_DEPTH;
+/// Depth of the models whose trees get the fixed-size layout of [`ShallowTree`].
+const SHALLOW_DEPTH: usize = 3;
 
 /// Length of the feature vector as [`ShallowTree`]s read it: the features, then NaN
 /// (what a split on a feature index out of range sees, as `x.get()` would), a power of
@@ -379,11 +365,11 @@ const PADDED_FEATURES: usize = 32;
 /// A tree of depth [`SHALLOW_DEPTH`], complete, in heap order.
 #[derive(Debug, Clone, Copy, Default)]
 struct ShallowTree {
-    thresholds: [f64; SHALLOW_SPLITS],
+    thresholds: [f64; 7],
     /// Feature indices, below [`PADDED_FEATURES`].
-    features: [u8; SHALLOW_SPLITS],
+    features: [u8; 7],
     /// The leaves' votes, +1, -1 or 0 (a malformed path).
-    votes: [i8; SHALLOW_LEAVES],
+    votes: [i8; 8],
     alpha: f64,
     /// The sum of the alphas of the trees after this one, as the sequence
     /// `total - alpha_0 - alpha_1 - ...` gives it.
@@ -396,25 +382,17 @@ impl ShallowTree {
     fn vote(&self, x: &[f64; PADDED_FEATURES]) -> f64 {
         let mut k = 0;
         for _ in 0..SHALLOW_DEPTH {
-            let value =
-                x[usize::from(self.features[k & SHALLOW_SPLITS]) & (PADDED_FEATURES - 1)];
-            k = 2 * k + 1 + usize::from(!(value <= self.thresholds[k & SHALLOW_SPLITS]));
+            let value = x[usize::from(self.features[k & 7]) & (PADDED_FEATURES - 1)];
+            k = 2 * k + 1 + usize::from(!(value <= self.thresholds[k & 7]));
         }
-        self.alpha * f64::from(self.votes[(k - SHALLOW_SPLITS) & (SHALLOW_LEAVES - 1)])
+        self.alpha * f64::from(self.votes[(k - 7) & 7])
     }
 }
 
 impl CompiledClassifier {
     /// Lays out `model`, which must have passed [`LegClassifier::validate`].
     pub fn new(model: &LegClassifier) -> Self {
-        // Models up to the fixed-size layout's depth are laid out at that depth.
-        let depth = model
-            .trees
-            .iter()
-            .map(tree_depth)
-            .max()
-            .unwrap_or(0)
-            .max(SHALLOW_DEPTH);
+        let depth = model.trees.iter().map(tree_depth).max().unwrap_or(0);
         let mut out = CompiledClassifier {
             depth,
             decision_margin: model.decision_margin,
@@ -599,29 +577,6 @@ mod tests {
             LegClassifier::from_json(&m.to_json()),
             Err(ModelError::Tree { tree: 2, .. })
         ));
-        // A model of an earlier tether lists the first features only: it loads, unless
-        // a tree splits on one it does not list.
-        let mut m = good.clone();
-        m.features.pop();
-        m.trees.truncate(1);
-        m.trees[0].nodes = vec![
-            Node::Split {
-                feature: 0,
-                threshold: 1.0,
-                below: 1,
-                above: 2,
-            },
-            Node::Leaf { vote: 1 },
-            Node::Leaf { vote: -1 },
-        ];
-        assert!(LegClassifier::from_json(&m.to_json()).is_ok());
-        if let Node::Split { feature, .. } = &mut m.trees[0].nodes[0] {
-            *feature = N_FEATURES - 1;
-        }
-        assert!(matches!(
-            LegClassifier::from_json(&m.to_json()),
-            Err(ModelError::Tree { tree: 0, why }) if why.contains("lists 25 features")
-        ));
         let mut m = good;
         m.format = "other".into();
         assert!(matches!(
@@ -657,8 +612,8 @@ mod tests {
                 .wrapping_add(1);
             (state >> 33) as usize % n.max(1)
         };
-        // The same model with one tree deeper than the fixed-size layout (5 splits), which
-        // takes the general layout instead.
+        // The same model with one tree a level deeper than the others, which takes the
+        // general layout instead of the fixed-size one of depth-3 models.
         let mut deep = model.clone();
         let split = |feature: usize, threshold: f64, below: usize, above: usize| Node::Split {
             feature,
@@ -675,9 +630,7 @@ mod tests {
             Node::Leaf { vote: -1 },
             split(18, 0.5, 7, 8),
             Node::Leaf { vote: 1 },
-            split(13, 1.0, 9, 10),
             Node::Leaf { vote: -1 },
-            Node::Leaf { vote: 1 },
         ];
         deep.validate().unwrap();
         let compiled_deep = CompiledClassifier::new(&deep);

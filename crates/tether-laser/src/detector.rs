@@ -136,6 +136,9 @@ pub struct LegDetector {
     classifier: Option<LegClassifier>,
     /// The classifier laid out for speed.
     compiled: CompiledClassifier,
+    /// The model for scans whose beams are [`COARSE_BEAM_STEP_RAD`] or more apart, if
+    /// any ([`LegDetector::with_coarse_model`]), and its layout.
+    coarse: Option<(LegClassifier, CompiledClassifier)>,
     table: BeamTable,
     points: Vec<ScanPoint>,
     order: Vec<usize>,
@@ -165,6 +168,28 @@ impl LegDetector {
         Self::new(config, noise, Some(classifier))
     }
 
+    /// The learned detector with the built-in models: [`LegClassifier::default_model`]
+    /// and, for scans whose beams are [`COARSE_BEAM_STEP_RAD`] or more apart,
+    /// [`LegClassifier::default_coarse_model`] (design 4.6).
+    pub fn builtin(config: DetectorConfig, noise: RangeNoiseModel) -> Result<Self, ConfigError> {
+        let model = |m: Result<LegClassifier, crate::classifier::ModelError>| {
+            m.map_err(|e| ConfigError(format!("the built-in leg model: {e}")))
+        };
+        Self::learned(config, noise, model(LegClassifier::default_model())?)?
+            .with_coarse_model(model(LegClassifier::default_coarse_model())?)
+    }
+
+    /// Classifies the clusters of scans whose beams are [`COARSE_BEAM_STEP_RAD`] or
+    /// more apart with `classifier` (a model trained for such scanners) instead.
+    pub fn with_coarse_model(mut self, classifier: LegClassifier) -> Result<Self, ConfigError> {
+        classifier
+            .validate()
+            .map_err(|e| ConfigError(e.to_string()))?;
+        let compiled = CompiledClassifier::new(&classifier);
+        self.coarse = Some((classifier, compiled));
+        Ok(self)
+    }
+
     fn new(
         config: DetectorConfig,
         noise: RangeNoiseModel,
@@ -179,6 +204,7 @@ impl LegDetector {
                 .map(CompiledClassifier::new)
                 .unwrap_or_default(),
             classifier,
+            coarse: None,
             table: BeamTable::default(),
             points: Vec::new(),
             order: Vec::new(),
@@ -219,11 +245,30 @@ impl LegDetector {
         out.weak_people.clear();
         let learned = self.classifier.is_some();
         out.stats = self.find_candidates(scan, learned);
-        let weak_floor = self.compiled.decision_margin() - self.config.weak_margin;
+        // A coarse scan goes to the coarse model when there is one.
+        let compiled = match &self.coarse {
+            Some((_, coarse)) if scan.angle_increment_rad.abs() >= COARSE_BEAM_STEP_RAD => coarse,
+            _ => &self.compiled,
+        };
+        let weak_floor = compiled.decision_margin() - self.config.weak_margin;
         let (seam, n) = (out.stats.preprocess.seam_beam, scan.len());
         let scan_beam = |beam: usize| (beam + seam) % n;
+        // On a scan that does not close the circle, a cluster reaching within
+        // [`FIELD_OF_VIEW_EDGE_BEAMS`] of its first or last beam may run on past the
+        // field of view: how wide it is and what lies beyond are unknown, so it is not
+        // judged (a robot's own body at the edge of a scanner's view is the common
+        // case). It stays a candidate for the others' context features.
+        let inside = if closes_the_circle(scan) {
+            0..=usize::MAX
+        } else {
+            FIELD_OF_VIEW_EDGE_BEAMS + 1..=n.saturating_sub(2 + FIELD_OF_VIEW_EDGE_BEAMS)
+        };
         for c in &self.candidates {
             let pts = &self.clustered[c.segment.start..c.segment.end];
+            if !(inside.contains(&pts[0].beam) && inside.contains(&pts[pts.len() - 1].beam)) {
+                out.stats.cut_by_field_of_view += 1;
+                continue;
+            }
             let leg = |centre_in_laser, radius_m, score| Leg {
                 centre_in_laser,
                 radius_m,
@@ -242,9 +287,9 @@ impl LegDetector {
                     })),
                 Some(_) => {
                     let margin = if self.config.weak_margin > 0.0 {
-                        self.compiled.margin_if_at_least(&c.features, weak_floor)
+                        compiled.margin_if_at_least(&c.features, weak_floor)
                     } else {
-                        self.compiled.margin_if_leg(&c.features)
+                        compiled.margin_if_leg(&c.features)
                     };
                     let Some(margin) = margin else {
                         continue;
@@ -252,7 +297,7 @@ impl LegDetector {
                     let (centre, radius_m) =
                         learned_centre(c.centroid_in_laser, c.features[WIDTH], &self.config);
                     let found = leg(centre, radius_m, 0.5 * (margin + 1.0));
-                    if margin >= self.compiled.decision_margin() {
+                    if margin >= compiled.decision_margin() {
                         out.legs.push(found);
                     } else if let Some(estimate) = lone_leg_estimate(
                         &found,
@@ -297,24 +342,9 @@ impl LegDetector {
             cluster_of: self.cluster_scratch.cluster_of(),
             angle_increment_rad: scan.angle_increment_rad,
         };
-        // On a scan that does not close the circle, a cluster that reaches within
-        // [`FIELD_OF_VIEW_EDGE_BEAMS`] of its first or last beam may run on past the
-        // field of view: how wide it is and what lies beyond it are unknown, so it is
-        // not judged (a robot's own body at the edge of a rear scanner's view, 0.3 m
-        // away, is the common case).
-        let inside = if closes_the_circle(scan) {
-            0..=usize::MAX
-        } else {
-            FIELD_OF_VIEW_EDGE_BEAMS + 1
-                ..=scan.len().saturating_sub(2 + FIELD_OF_VIEW_EDGE_BEAMS)
-        };
         for (k, &seg) in self.segments.iter().enumerate() {
             let pts = &self.clustered[seg.start..seg.end];
-            if !is_candidate(pts, &self.config)
-                || !inside.contains(&pts[0].beam)
-                || !inside.contains(&pts[pts.len() - 1].beam)
-            {
-                stats.cut_by_field_of_view += usize::from(pts.len() >= self.config.min_points);
+            if !is_candidate(pts, &self.config) {
                 continue;
             }
             let features = if with_features {
@@ -370,6 +400,12 @@ fn is_candidate(pts: &[ScanPoint], config: &DetectorConfig) -> bool {
     let v = pts[0].point_in_laser - pts[pts.len() - 1].point_in_laser;
     v.x * v.x + v.y * v.y <= config.max_width_m * config.max_width_m
 }
+
+/// Beams this far apart or more make a coarse scan (0.45 deg): the 0.5-1 degree steps
+/// of the 360-degree triangulation scanners most small robots carry (RPLIDAR A1/A2,
+/// LDS-01, YDLIDAR X4), against 0.25-0.36 degrees for the Hokuyo and SICK scanners that
+/// recorded the training data.
+pub const COARSE_BEAM_STEP_RAD: f64 = 0.45 * std::f64::consts::PI / 180.0;
 
 /// A cluster whose first or last beam lies this many beams or fewer from the edge of
 /// a scan's field of view is cut by it (a beam or two of no return between them hide

@@ -10,11 +10,6 @@
 //! - 3 of the other candidates ([`add_context`]): a person shows two legs within a
 //!   stride of each other, a post or a table leg stands alone or in a furniture
 //!   pattern.
-//! - 1 of the scanner ([`segment_features`]): `beam_spacing_m = |c| |dtheta|`, the gap
-//!   between neighbouring beams at the cluster's range. A leg 0.12 m wide is 30 returns
-//!   at 1 m on a 0.25-degree scanner and 7 on a 1-degree one; with the spacing, the
-//!   classifier can tell a leg of a coarse scanner from a fragment of clutter on a fine
-//!   one (design 4.6). Models trained before it (a prefix of the features) still load.
 //!
 //! On the training split of leg_tracker's recordings, cross-validation (four folds,
 //! one recording of legs each) gives the learned detector an F1 of 0.81 with all of
@@ -37,7 +32,7 @@ use crate::preprocess::ScanPoint;
 use crate::segment::Segment;
 
 /// Number of features.
-pub const N_FEATURES: usize = 26;
+pub const N_FEATURES: usize = 25;
 
 /// Features computed from the segment alone (its returns and the returns of the beams
 /// next to it); the next [`N_SCAN_FEATURES`] look at the rest of the scan, the last
@@ -77,7 +72,6 @@ pub const FEATURE_NAMES: [&str; N_FEATURES] = [
     "nearest_candidate_m",
     "nearest_leg_sized_candidate_m",
     "candidates_within_stride",
-    "beam_spacing_m",
 ];
 
 /// Radii of the `surface_within_*` features, m.
@@ -414,7 +408,6 @@ pub fn segment_features(
         0.0,
         0.0,
         0.0,
-        cap((c.x * c.x + c.y * c.y).sqrt() * view.angle_increment_rad.abs()),
     ]
 }
 

@@ -344,7 +344,9 @@ pub fn folds_from_scans(
             let mut bases: Vec<(LaserScan, Vec<Point2<Laser>>, LabelledRegion)> = Vec::new();
             let mut samples: Vec<ScanSample> = Vec::new();
             for (scan, legs) in scans.iter() {
-                samples.push(ScanSample::labelled(detector, scan, legs, region));
+                if !views.coarse_only {
+                    samples.push(ScanSample::labelled(detector, scan, legs, region));
+                }
                 bases.push((scan.clone(), legs.clone(), region));
             }
             for v in 0..views.nearer {
@@ -354,10 +356,16 @@ pub fn folds_from_scans(
                         continue;
                     };
                     if let Some((view, moved)) = nearer_view(scan, toward, legs, j) {
-                        let mut sample =
-                            ScanSample::labelled(detector, &view, &moved, LabelledRegion::NONE);
-                        sample.drop_unmatched_labels();
-                        samples.push(sample);
+                        if !views.coarse_only {
+                            let mut sample = ScanSample::labelled(
+                                detector,
+                                &view,
+                                &moved,
+                                LabelledRegion::NONE,
+                            );
+                            sample.drop_unmatched_labels();
+                            samples.push(sample);
+                        }
                         bases.push((view, moved, LabelledRegion::NONE));
                     }
                 }
@@ -411,7 +419,9 @@ pub fn folds_from_scans(
                 samples.into_iter().zip(scans.iter()).zip(coarse).enumerate()
             {
                 let centroids = sample.centroids.clone();
-                with_views.push(sample);
+                if !views.coarse_only {
+                    with_views.push(sample);
+                }
                 with_views.extend(coarse);
                 for v in 0..views.nearer {
                     let j = k + v * scans.len();
@@ -419,7 +429,9 @@ pub fn folds_from_scans(
                         continue;
                     };
                     if let Some((view, _)) = nearer_view(scan, toward, &[], j) {
-                        with_views.push(ScanSample::without_people(detector, &view));
+                        if !views.coarse_only {
+                            with_views.push(ScanSample::without_people(detector, &view));
+                        }
                         for c in coarser(&view) {
                             with_views.push(ScanSample::without_people(detector, &c));
                         }
@@ -432,33 +444,29 @@ pub fn folds_from_scans(
     training_folds(bags, topics)
 }
 
-/// How many extra views of each training scan [`folds_from_scans`] makes. The default
-/// is the built-in model's: two views from nearer, and one coarser view of the scan
-/// and of each of those (design 4.6).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// How many extra views of each training scan [`folds_from_scans`] makes (design 4.6).
+/// The default is the built-in model's: none.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct TrainingViews {
     /// Views from nearer ([`crate::augment::nearer_view`]).
     pub nearer: usize,
     /// Views by a coarser, noisier scanner ([`crate::augment::coarser_view`]), of the
     /// scan and of each view from nearer.
     pub coarser: usize,
+    /// Train on the coarser views only (a model for coarse scanners), not on the
+    /// recorded scans and the views from nearer themselves.
+    pub coarse_only: bool,
 }
 
 impl TrainingViews {
-    /// No views: the recorded scans only.
-    pub const NONE: TrainingViews = TrainingViews {
-        nearer: 0,
-        coarser: 0,
+    /// The built-in model for coarse scans ([`crate::DEFAULT_COARSE_MODEL_JSON`]): two
+    /// views from nearer, one coarser view of the scan and of each of those, trained
+    /// on the coarser views only.
+    pub const COARSE: TrainingViews = TrainingViews {
+        nearer: 2,
+        coarser: 1,
+        coarse_only: true,
     };
-}
-
-impl Default for TrainingViews {
-    fn default() -> Self {
-        TrainingViews {
-            nearer: 2,
-            coarser: 1,
-        }
-    }
 }
 
 /// Two candidates of different scans of one sensor whose centroids lie within this
@@ -664,10 +672,16 @@ pub fn provenance(config: &AdaBoostConfig, cv: Option<&CrossValidation>) -> Prov
     if config.max_depth != defaults.max_depth {
         command.push_str(&format!(" --depth {}", config.max_depth));
     }
-    if config.views.nearer != defaults.views.nearer {
+    let views = if config.views.coarse_only {
+        command.push_str(" --coarse");
+        TrainingViews::COARSE
+    } else {
+        defaults.views
+    };
+    if config.views.nearer != views.nearer {
         command.push_str(&format!(" --nearer-views {}", config.views.nearer));
     }
-    if config.views.coarser != defaults.views.coarser {
+    if config.views.coarser != views.coarser {
         command.push_str(&format!(" --coarser-views {}", config.views.coarser));
     }
     let mut sources: Vec<String> = TRAIN_POSITIVE_BAGS
@@ -913,7 +927,7 @@ pub fn leg_positions(detection: &Detection) -> Vec<Point2<Laser>> {
 pub struct AdaBoostConfig {
     /// Number of boosting rounds (trees); default 300.
     pub rounds: usize,
-    /// Depth of each tree; 1 gives Arras et al.'s stumps. Default 4.
+    /// Depth of each tree; 1 gives Arras et al.'s stumps. Default 3.
     pub max_depth: usize,
     /// The decision margin written into the model; default 0.
     pub decision_margin: f64,
@@ -926,7 +940,7 @@ impl Default for AdaBoostConfig {
     fn default() -> Self {
         AdaBoostConfig {
             rounds: 300,
-            max_depth: 4,
+            max_depth: 3,
             decision_margin: 0.0,
             views: TrainingViews::default(),
         }

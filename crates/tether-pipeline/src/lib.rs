@@ -328,13 +328,12 @@ impl Pipeline {
         let noise = config.laser.noise.clone();
         let detector = match config.legs.detector {
             DetectorKind::Arc => LegDetector::arc(config.legs.config, noise),
-            DetectorKind::Learned => {
-                let classifier = match classifier {
-                    Some(c) => c,
-                    None => LegClassifier::default_model().map_err(|e| config_err("legs", e))?,
-                };
-                LegDetector::learned(config.legs.config, noise, classifier)
-            }
+            // A model of the user's own for every scan; else the built-in ones (the
+            // coarse-scan model for beams 0.45 degrees apart or more).
+            DetectorKind::Learned => match classifier {
+                Some(c) => LegDetector::learned(config.legs.config, noise, c),
+                None => LegDetector::builtin(config.legs.config, noise),
+            },
         }
         .map_err(|e| config_err("legs", e))?;
         let tracker = Tracker::new(config.tracker.clone()).map_err(|e| config_err("tracker", e))?;

@@ -8,8 +8,10 @@
 //! lies 0.5-1.5 m from the scanner; it is found when a detected leg lies within
 //! [`MATCH_M`] of its centre, detections and legs matched one to one, nearest first. A
 //! false positive is a detected leg farther than [`FP_CLEARANCE_M`] from every
-//! person's legs. The detector is the default learned one with the scanner's own
-//! estimator noise model (`laser.noise`), as a user would configure it.
+//! person's legs. The detector is the default learned one (the built-in models: the
+//! coarse-scan one for the scanners whose beams are 0.45 degrees apart or more) with
+//! the scanner's own estimator noise model (`laser.noise`), as a user would configure
+//! it.
 //!
 //! The detector is being reworked elsewhere, so its figures are printed, not asserted
 //! (the bar: detection >= 0.85, <= 0.3 false positives a scan). What is
@@ -24,7 +26,7 @@
 
 use tether_core::{Laser, LaserScan, Point2};
 use tether_laser::statistics::detected_legs;
-use tether_laser::{DetectorConfig, LegClassifier, LegDetector};
+use tether_laser::{DetectorConfig, LegDetector};
 use tether_sim::driver::driver_for;
 use tether_sim::person::leg_girth_scale;
 use tether_sim::scanners::scanner;
@@ -110,12 +112,8 @@ fn check_geometry(scenario: &Scenario, scan: &LaserScan) {
 fn run(scenario: &Scenario, seed: u64) -> Tally {
     let mut sim = Simulation::new(scenario, seed).unwrap();
     let mut driver = driver_for(scenario);
-    let mut detector = LegDetector::learned(
-        DetectorConfig::default(),
-        scenario.laser.noise.clone(),
-        LegClassifier::default_model().unwrap(),
-    )
-    .unwrap();
+    let mut detector =
+        LegDetector::builtin(DetectorConfig::default(), scenario.laser.noise.clone()).unwrap();
     let height_m = scenario.laser.mount.height_m;
     let scale = leg_girth_scale(height_m);
     let mut tally = Tally::default();

@@ -130,18 +130,17 @@ pub(crate) fn detector(
     let noise = laser.noise.clone();
     Ok(match kind {
         DetectorKind::Arc => LegDetector::arc(config, noise)?,
-        DetectorKind::Learned => {
-            let classifier = match model {
-                Some(path) => {
-                    let text = std::fs::read_to_string(path)
-                        .with_context(|| format!("cannot read leg model {}", path.display()))?;
-                    LegClassifier::from_json(&text)
-                        .with_context(|| format!("leg model {}", path.display()))?
-                }
-                None => LegClassifier::default_model().context("the built-in leg model")?,
-            };
-            LegDetector::learned(config, noise, classifier)?
-        }
+        DetectorKind::Learned => match model {
+            Some(path) => {
+                let text = std::fs::read_to_string(path)
+                    .with_context(|| format!("cannot read leg model {}", path.display()))?;
+                let classifier = LegClassifier::from_json(&text)
+                    .with_context(|| format!("leg model {}", path.display()))?;
+                LegDetector::learned(config, noise, classifier)?
+            }
+            // The built-in models: the coarse-scan one for beams 0.45 deg apart or more.
+            None => LegDetector::builtin(config, noise)?,
+        },
     })
 }
 

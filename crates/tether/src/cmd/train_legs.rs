@@ -30,14 +30,21 @@ pub struct Args {
     #[arg(long, default_value_t = default_adaboost_config().max_depth)]
     pub depth: usize,
     /// Also train on each scan seen that many times from nearer (a leg or an object
-    /// brought to 0.3-1.5 m, where a follower keeps its person: design 4.6).
-    #[arg(long, default_value_t = TrainingViews::default().nearer, value_name = "N")]
-    pub nearer_views: usize,
+    /// brought to 0.3-1.5 m, where a follower keeps its person: design 4.6). Default 0,
+    /// or 2 with `--coarse`.
+    #[arg(long, value_name = "N")]
+    pub nearer_views: Option<usize>,
     /// Also train on each scan (and each view from nearer) seen that many times as a
     /// coarser, noisier scanner would see it (0.5-1 degree steps, range noise up to
-    /// 2.5 % of the distance, up to one beam in four lost: design 4.6).
-    #[arg(long, default_value_t = TrainingViews::default().coarser, value_name = "N")]
-    pub coarser_views: usize,
+    /// 2.5 % of the distance, up to one beam in four lost: design 4.6). Default 0, or 1
+    /// with `--coarse`.
+    #[arg(long, value_name = "N")]
+    pub coarser_views: Option<usize>,
+    /// Train a model for coarse scanners (beams 0.45 degrees apart or more), on the
+    /// coarser views only: the built-in one is
+    /// `crates/tether-laser/models/legs_coarse.json`.
+    #[arg(long)]
+    pub coarse: bool,
     /// Adapt to a new scanner instead (design 4.7): a recording (ROS 1 bag or MCAP) of
     /// one person walking around in front of the still robot for about a minute; its
     /// clusters are labelled by how they move, the last `--held-back` of it is kept for
@@ -140,9 +147,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let config = AdaBoostConfig {
         rounds: args.rounds,
         max_depth: args.depth,
-        views: TrainingViews {
-            nearer: args.nearer_views,
-            coarser: args.coarser_views,
+        views: {
+            let base = if args.coarse {
+                TrainingViews::COARSE
+            } else {
+                TrainingViews::default()
+            };
+            TrainingViews {
+                nearer: args.nearer_views.unwrap_or(base.nearer),
+                coarser: args.coarser_views.unwrap_or(base.coarser),
+                coarse_only: args.coarse,
+            }
         },
         ..default_adaboost_config()
     };
@@ -207,15 +222,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let json = model.to_json();
     std::fs::write(&args.out, &json)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
-    let same = LegClassifier::default_model().is_ok_and(|m| m.to_json() == json);
+    let (built_in, which) = if args.coarse {
+        (LegClassifier::default_coarse_model(), "built-in coarse-scan model")
+    } else {
+        (LegClassifier::default_model(), "built-in model")
+    };
+    let same = built_in.is_ok_and(|m| m.to_json() == json);
     tether::outln!(
-        "wrote {} ({})",
+        "wrote {} ({} the {which})",
         args.out.display(),
-        if same {
-            "identical to the built-in model"
-        } else {
-            "differs from the built-in model"
-        }
+        if same { "identical to" } else { "differs from" }
     )?;
     Ok(())
 }
