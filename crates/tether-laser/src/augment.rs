@@ -310,7 +310,10 @@ mod tests {
             assert_eq!(view.angle_min_rad, scan.angle_min_rad);
             let fov = (scan.len() - 1) as f64 * scan.angle_increment_rad;
             let view_fov = (view.len() - 1) as f64 * view.angle_increment_rad;
-            assert!(view_fov <= fov + 1e-9 && view_fov > fov - step, "{view_fov} {fov}");
+            assert!(
+                view_fov <= fov + 1e-9 && view_fov > fov - step,
+                "{view_fov} {fov}"
+            );
             // The disc is still there: its near side at 0.94 m, within the noise.
             let ahead = ((0.0 - view.angle_min_rad) / step).round() as usize;
             let r = (ahead.saturating_sub(1)..=ahead + 1)

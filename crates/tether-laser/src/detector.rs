@@ -12,7 +12,9 @@ use crate::fit::centroid;
 use crate::people::{
     Leg, PairScratch, PairingConfig, PersonKind, PersonObservation, lone_leg_estimate, pair_legs,
 };
-use crate::preprocess::{BeamTable, PreprocessStats, ScanPoint, closes_the_circle, preprocess_into};
+use crate::preprocess::{
+    BeamTable, PreprocessStats, ScanPoint, closes_the_circle, preprocess_into,
+};
 use crate::segment::{Breakpoint, ClusterScratch, Segment, cluster_into};
 
 /// A detector configuration that cannot work.
@@ -103,8 +105,9 @@ pub struct DetectionStats {
     pub segments: usize,
     /// Segments that were tested as legs.
     pub candidates: usize,
-    /// Clusters of enough returns left out because they hold the first or last beam
-    /// of a scan that does not close the circle (cut by the field of view).
+    /// Candidates not judged because they reach within [`FIELD_OF_VIEW_EDGE_BEAMS`]
+    /// of the first or last beam of a scan that does not close the circle (cut by the
+    /// field of view).
     pub cut_by_field_of_view: usize,
 }
 

@@ -50,7 +50,8 @@ pub use calibration::{
 };
 pub use classifier::{CompiledClassifier, LegClassifier, ModelError, Node, Provenance, Tree};
 pub use detector::{
-    ConfigError, Detection, DetectionStats, DetectorConfig, DetectorKind, LegDetector,
+    COARSE_BEAM_STEP_RAD, ConfigError, Detection, DetectionStats, DetectorConfig, DetectorKind,
+    FIELD_OF_VIEW_EDGE_BEAMS, LegDetector,
 };
 pub use features::{Candidate, FEATURE_NAMES, FeatureVector, N_FEATURES};
 pub use fit::Circle;

@@ -34,14 +34,12 @@
 //! Every choice made on the training split ([`cross_validate`]) is made on held-out
 //! folds of the training split only.
 
-use thiserror::Error;
-
 use tether_core::{Laser, LaserScan, Point2};
 
 use crate::augment::{coarser_view, nearer_view};
-use crate::classifier::{LegClassifier, MAX_DEPTH, MODEL_FORMAT, Node, Provenance, Tree};
+use crate::classifier::{LegClassifier, Provenance};
 use crate::detector::{Detection, LegDetector, learned_centre};
-use crate::features::{FEATURE_NAMES, FeatureVector, N_FEATURES};
+use crate::features::FeatureVector;
 
 /// Bags whose labelled legs are training positives.
 pub const TRAIN_POSITIVE_BAGS: [&str; 4] = [
@@ -65,6 +63,10 @@ pub const TEST_NEGATIVE_TOPICS: [&str; 1] = ["/rear_scan"];
 
 /// The command that makes the committed default model, from the checkout's root.
 pub const DEFAULT_TRAIN_COMMAND: &str = "tether train-legs --data ../shared/data/laser/leg_tracker --out crates/tether-laser/models/legs_default.json";
+
+/// The command that makes the committed model for coarse scans, from the checkout's
+/// root.
+pub const DEFAULT_COARSE_TRAIN_COMMAND: &str = "tether train-legs --coarse --data ../shared/data/laser/leg_tracker --out crates/tether-laser/models/legs_coarse.json";
 
 /// Largest distance from a labelled leg centre to the centroid of a candidate cluster
 /// for that candidate to be a training positive, m. The labels are the centroids of
@@ -357,12 +359,8 @@ pub fn folds_from_scans(
                     };
                     if let Some((view, moved)) = nearer_view(scan, toward, legs, j) {
                         if !views.coarse_only {
-                            let mut sample = ScanSample::labelled(
-                                detector,
-                                &view,
-                                &moved,
-                                LabelledRegion::NONE,
-                            );
+                            let mut sample =
+                                ScanSample::labelled(detector, &view, &moved, LabelledRegion::NONE);
                             sample.drop_unmatched_labels();
                             samples.push(sample);
                         }
@@ -415,8 +413,11 @@ pub fn folds_from_scans(
             // that `training_folds` cuts keep a scan and its views in one fold.
             let per_scan = (1 + views.nearer) * (1 + views.coarser);
             let mut with_views = Vec::with_capacity(samples.len() * per_scan);
-            for (k, ((sample, scan), coarse)) in
-                samples.into_iter().zip(scans.iter()).zip(coarse).enumerate()
+            for (k, ((sample, scan), coarse)) in samples
+                .into_iter()
+                .zip(scans.iter())
+                .zip(coarse)
+                .enumerate()
             {
                 let centroids = sample.centroids.clone();
                 if !views.coarse_only {
@@ -459,7 +460,7 @@ pub struct TrainingViews {
 }
 
 impl TrainingViews {
-    /// The built-in model for coarse scans ([`crate::DEFAULT_COARSE_MODEL_JSON`]): two
+    /// The built-in model for coarse scans ([`crate::classifier::DEFAULT_COARSE_MODEL_JSON`]): two
     /// views from nearer, one coarser view of the scan and of each of those, trained
     /// on the coarser views only.
     pub const COARSE: TrainingViews = TrainingViews {
@@ -922,547 +923,8 @@ pub fn leg_positions(detection: &Detection) -> Vec<Point2<Laser>> {
     detection.legs.iter().map(|l| l.centre_in_laser).collect()
 }
 
-/// AdaBoost training parameters.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AdaBoostConfig {
-    /// Number of boosting rounds (trees); default 300.
-    pub rounds: usize,
-    /// Depth of each tree; 1 gives Arras et al.'s stumps. Default 3.
-    pub max_depth: usize,
-    /// The decision margin written into the model; default 0.
-    pub decision_margin: f64,
-    /// The views of the training scans that [`folds_from_scans`] adds (recorded in the
-    /// model's provenance; boosting itself does not read it).
-    pub views: TrainingViews,
-}
-
-impl Default for AdaBoostConfig {
-    fn default() -> Self {
-        AdaBoostConfig {
-            rounds: 300,
-            max_depth: 3,
-            decision_margin: 0.0,
-            views: TrainingViews::default(),
-        }
-    }
-}
-
-/// Why training could not run.
-#[derive(Debug, Clone, PartialEq, Eq, Error)]
-pub enum TrainError {
-    /// One class has no samples.
-    #[error("training needs positive and negative samples, got {positives} and {negatives}")]
-    OneClass {
-        /// Positive samples.
-        positives: usize,
-        /// Negative samples.
-        negatives: usize,
-    },
-    /// A feature value is NaN or infinite.
-    #[error("sample {sample} has a non-finite value of feature {feature}")]
-    NotFinite {
-        /// Index of the sample.
-        sample: usize,
-        /// Name of the feature.
-        feature: &'static str,
-    },
-    /// Samples and labels differ in number.
-    #[error("{samples} samples but {labels} labels")]
-    Mismatch {
-        /// Samples.
-        samples: usize,
-        /// Labels.
-        labels: usize,
-    },
-    /// The parameters make no sense.
-    #[error("AdaBoost needs rounds >= 1 and 1 <= max_depth <= 8, got {rounds} and {max_depth}")]
-    Config {
-        /// Rounds asked for.
-        rounds: usize,
-        /// Depth asked for.
-        max_depth: usize,
-    },
-}
-
-/// Trains a classifier by discrete AdaBoost on trees. `labels[i]` says whether
-/// `samples[i]` is a leg. Deterministic: no randomness, fixed tie-breaking.
-pub fn train_adaboost(
-    samples: &[FeatureVector],
-    labels: &[bool],
-    config: &AdaBoostConfig,
-    provenance: Provenance,
-) -> Result<LegClassifier, TrainError> {
-    if samples.len() != labels.len() {
-        return Err(TrainError::Mismatch {
-            samples: samples.len(),
-            labels: labels.len(),
-        });
-    }
-    if config.rounds == 0 || !(1..=MAX_DEPTH).contains(&config.max_depth) {
-        return Err(TrainError::Config {
-            rounds: config.rounds,
-            max_depth: config.max_depth,
-        });
-    }
-    let positives = labels.iter().filter(|&&l| l).count();
-    let negatives = labels.len() - positives;
-    if positives == 0 || negatives == 0 {
-        return Err(TrainError::OneClass {
-            positives,
-            negatives,
-        });
-    }
-    for (sample, x) in samples.iter().enumerate() {
-        if let Some(f) = x.iter().position(|v| !v.is_finite()) {
-            return Err(TrainError::NotFinite {
-                sample,
-                feature: FEATURE_NAMES[f],
-            });
-        }
-    }
-    let grower = TreeGrower::new(samples, labels, config.max_depth);
-    let mut w = vec![1.0 / samples.len() as f64; samples.len()];
-    let mut trees = Vec::with_capacity(config.rounds);
-    let mut votes = vec![0i8; samples.len()];
-    for _ in 0..config.rounds {
-        let nodes = grower.grow(&w);
-        let tree = Tree { alpha: 1.0, nodes };
-        let mut error = 0.0;
-        for (i, v) in votes.iter_mut().enumerate() {
-            *v = if tree.vote(&samples[i]) > 0.0 { 1 } else { -1 };
-            if (*v > 0) != labels[i] {
-                error += w[i];
-            }
-        }
-        if error >= 0.5 {
-            break;
-        }
-        let error = error.max(1e-12);
-        let alpha = 0.5 * ((1.0 - error) / error).ln();
-        let mut total = 0.0;
-        for (i, wi) in w.iter_mut().enumerate() {
-            let agree = (votes[i] > 0) == labels[i];
-            *wi *= if agree { (-alpha).exp() } else { alpha.exp() };
-            total += *wi;
-        }
-        for wi in &mut w {
-            *wi /= total;
-        }
-        trees.push(Tree { alpha, ..tree });
-    }
-    Ok(LegClassifier {
-        format: MODEL_FORMAT.to_string(),
-        features: FEATURE_NAMES.iter().map(|s| s.to_string()).collect(),
-        decision_margin: config.decision_margin,
-        trees,
-        provenance: Provenance {
-            positives,
-            negatives,
-            ..provenance
-        },
-    })
-}
-
-/// Grows weighted trees level by level over samples sorted once per feature, so that
-/// a level costs one pass over every feature's order.
-struct TreeGrower<'a> {
-    samples: &'a [FeatureVector],
-    labels: &'a [bool],
-    /// Per feature: sample indices sorted by the feature's value, and those values.
-    order: Vec<Vec<u32>>,
-    sorted_values: Vec<Vec<f64>>,
-    max_depth: usize,
-}
-
-/// Best split found so far for one open node.
-#[derive(Clone, Copy)]
-struct SplitCandidate {
-    score: f64,
-    feature: usize,
-    threshold: f64,
-}
-
-/// Running sums of one open node during a sweep over one feature.
-#[derive(Clone, Copy, Default)]
-struct Sweep {
-    pos: f64,
-    neg: f64,
-    last: Option<f64>,
-}
-
-impl<'a> TreeGrower<'a> {
-    fn new(samples: &'a [FeatureVector], labels: &'a [bool], max_depth: usize) -> Self {
-        let order: Vec<Vec<u32>> = (0..N_FEATURES)
-            .map(|f| {
-                let mut idx: Vec<u32> = (0..samples.len() as u32).collect();
-                idx.sort_by(|&a, &b| {
-                    samples[a as usize][f]
-                        .total_cmp(&samples[b as usize][f])
-                        .then(a.cmp(&b))
-                });
-                idx
-            })
-            .collect();
-        let sorted_values = order
-            .iter()
-            .enumerate()
-            .map(|(f, idx)| idx.iter().map(|&i| samples[i as usize][f]).collect())
-            .collect();
-        TreeGrower {
-            samples,
-            labels,
-            order,
-            sorted_values,
-            max_depth,
-        }
-    }
-
-    fn grow(&self, w: &[f64]) -> Vec<Node> {
-        const NONE: usize = usize::MAX;
-        // Node under construction of each sample; all start at the root.
-        let mut at = vec![0usize; self.samples.len()];
-        let mut nodes: Vec<Node> = vec![Node::Leaf { vote: -1 }];
-        let mut open: Vec<usize> = vec![0];
-        for depth in 0..=self.max_depth {
-            // Class weights per open node.
-            let mut slot = vec![NONE; nodes.len()];
-            for (s, &k) in open.iter().enumerate() {
-                slot[k] = s;
-            }
-            let mut totals = vec![(0.0f64, 0.0f64); open.len()];
-            for (i, &k) in at.iter().enumerate() {
-                if k != NONE && slot[k] != NONE {
-                    let t = &mut totals[slot[k]];
-                    if self.labels[i] {
-                        t.0 += w[i];
-                    } else {
-                        t.1 += w[i];
-                    }
-                }
-            }
-            for (s, &k) in open.iter().enumerate() {
-                let (p, n) = totals[s];
-                nodes[k] = Node::Leaf {
-                    vote: if p > n { 1 } else { -1 },
-                };
-            }
-            if depth == self.max_depth {
-                break;
-            }
-            let mut best: Vec<Option<SplitCandidate>> = vec![None; open.len()];
-            let mut sweep = vec![Sweep::default(); open.len()];
-            for (f, (idx, values)) in self.order.iter().zip(&self.sorted_values).enumerate() {
-                sweep.iter_mut().for_each(|s| *s = Sweep::default());
-                for (&i, &v) in idx.iter().zip(values) {
-                    let i = i as usize;
-                    let k = at[i];
-                    if k == NONE || slot[k] == NONE {
-                        continue;
-                    }
-                    let s = slot[k];
-                    let sw = &mut sweep[s];
-                    if let Some(last) = sw.last
-                        && v > last
-                    {
-                        // Split between `last` and `v`: below = sums so far.
-                        let (tp, tn) = totals[s];
-                        let (bp, bn) = (sw.pos, sw.neg);
-                        let (ap, an) = (tp - bp, tn - bn);
-                        let purity = |p: f64, n: f64| {
-                            let t = p + n;
-                            if t > 0.0 { (p * p + n * n) / t } else { 0.0 }
-                        };
-                        let score = purity(bp, bn) + purity(ap, an);
-                        if best[s].is_none_or(|b| score > b.score) {
-                            best[s] = Some(SplitCandidate {
-                                score,
-                                feature: f,
-                                threshold: 0.5 * (last + v),
-                            });
-                        }
-                    }
-                    if self.labels[i] {
-                        sw.pos += w[i];
-                    } else {
-                        sw.neg += w[i];
-                    }
-                    sw.last = Some(v);
-                }
-            }
-            let mut next_open = Vec::new();
-            let mut children = vec![(NONE, NONE); open.len()];
-            for (s, &k) in open.iter().enumerate() {
-                let (p, n) = totals[s];
-                // A pure node gains nothing from a split.
-                let Some(split) = best[s].filter(|_| p > 0.0 && n > 0.0) else {
-                    continue;
-                };
-                let below = nodes.len();
-                nodes.push(Node::Leaf { vote: -1 });
-                let above = nodes.len();
-                nodes.push(Node::Leaf { vote: -1 });
-                nodes[k] = Node::Split {
-                    feature: split.feature,
-                    threshold: split.threshold,
-                    below,
-                    above,
-                };
-                children[s] = (below, above);
-                next_open.push(below);
-                next_open.push(above);
-            }
-            for (i, k) in at.iter_mut().enumerate() {
-                if *k == NONE || slot[*k] == NONE {
-                    *k = NONE;
-                    continue;
-                }
-                let (below, above) = children[slot[*k]];
-                if below == NONE {
-                    *k = NONE;
-                    continue;
-                }
-                if let Node::Split {
-                    feature, threshold, ..
-                } = nodes[*k]
-                {
-                    *k = if self.samples[i][feature] <= threshold {
-                        below
-                    } else {
-                        above
-                    };
-                }
-            }
-            open = next_open;
-            if open.is_empty() {
-                break;
-            }
-        }
-        nodes
-    }
-}
-
+mod adaboost;
 #[cfg(test)]
-mod tests {
-    fn sample(v0: f64, v5: f64) -> FeatureVector {
-        let mut x = [0.0; N_FEATURES];
-        x[0] = v0;
-        x[5] = v5;
-        x
-    }
+mod tests;
 
-    /// Legs: 5 <= n and width < 0.2; everything else is not.
-    fn and_rule() -> (Vec<FeatureVector>, Vec<bool>) {
-        let mut samples = Vec::new();
-        let mut labels = Vec::new();
-        for n in 1..15 {
-            for wi in 0..10 {
-                let width = 0.05 * wi as f64;
-                samples.push(sample(n as f64, width));
-                labels.push(n >= 5 && width < 0.2);
-            }
-        }
-        (samples, labels)
-    }
-
-    #[test]
-    fn learns_a_two_feature_rule_deterministically() {
-        let (samples, labels) = and_rule();
-        let config = AdaBoostConfig {
-            rounds: 20,
-            ..AdaBoostConfig::default()
-        };
-        let model = train_adaboost(&samples, &labels, &config, Provenance::default()).unwrap();
-        for (x, &l) in samples.iter().zip(&labels) {
-            assert_eq!(model.is_leg(x), l, "{x:?}");
-        }
-        // A depth-2 tree represents the rule alone: one round suffices.
-        assert!(model.trees.len() <= 20);
-        let again = train_adaboost(&samples, &labels, &config, Provenance::default()).unwrap();
-        assert_eq!(model, again);
-        let round_trip = LegClassifier::from_json(&model.to_json()).unwrap();
-        assert_eq!(round_trip, model);
-        assert_eq!(round_trip.to_json(), model.to_json());
-        assert_eq!(
-            model.provenance.positives,
-            labels.iter().filter(|&&l| l).count()
-        );
-    }
-
-    #[test]
-    fn boosted_stumps_learn_a_threshold() {
-        let (samples, _) = and_rule();
-        let labels: Vec<bool> = samples.iter().map(|x| x[5] < 0.2).collect();
-        let config = AdaBoostConfig {
-            rounds: 5,
-            max_depth: 1,
-            ..AdaBoostConfig::default()
-        };
-        let model = train_adaboost(&samples, &labels, &config, Provenance::default()).unwrap();
-        assert!(matches!(
-            model.trees[0].nodes[0],
-            Node::Split { feature: 5, threshold, .. } if (threshold - 0.175).abs() < 1e-12
-        ));
-        for (x, &l) in samples.iter().zip(&labels) {
-            assert_eq!(model.is_leg(x), l);
-        }
-    }
-
-    #[test]
-    fn refuses_bad_training_data() {
-        let x = [sample(1.0, 0.1)];
-        let cfg = AdaBoostConfig::default();
-        assert!(matches!(
-            train_adaboost(&x, &[true], &cfg, Provenance::default()),
-            Err(TrainError::OneClass { .. })
-        ));
-        let x = [sample(f64::NAN, 0.1), sample(1.0, 0.1)];
-        assert!(matches!(
-            train_adaboost(&x, &[true, false], &cfg, Provenance::default()),
-            Err(TrainError::NotFinite {
-                sample: 0,
-                feature: "n_points"
-            })
-        ));
-        let x = [sample(2.0, 0.1), sample(1.0, 0.1)];
-        let deep = AdaBoostConfig {
-            max_depth: 0,
-            ..cfg
-        };
-        assert!(matches!(
-            train_adaboost(&x, &[true, false], &deep, Provenance::default()),
-            Err(TrainError::Config { .. })
-        ));
-    }
-
-    #[test]
-    fn the_robot_body_is_what_stays_put_in_the_sensor_frame() {
-        // Ten scans of a moving robot: a part of it at (0.2, 0.5) in every scan (a few
-        // mm of noise), a post that drifts through the frame, and in three scans a
-        // chair leg at (1, 0).
-        let sample = |k: usize| {
-            let mut s = ScanSample::default();
-            let mut push = |x: f64, y: f64| {
-                s.centroids.push(Point2::new(x, y));
-                s.centres.push(Point2::new(x, y));
-                s.features.push([k as f64; N_FEATURES]);
-                s.positive.push(false);
-            };
-            push(0.2 + 0.003 * (k % 3) as f64, 0.5);
-            push(2.0 + 0.3 * k as f64, -1.0);
-            if k < 3 {
-                push(1.0, 0.0);
-            }
-            s
-        };
-        let mut samples: Vec<ScanSample> = (0..10).map(sample).collect();
-        assert_eq!(drop_robot_body(&mut samples), 10);
-        for (k, s) in samples.iter().enumerate() {
-            assert_eq!(s.centroids.len(), if k < 3 { 2 } else { 1 });
-            assert!(s.centroids.iter().all(|c| c.x > 0.5));
-            assert_eq!(s.features.len(), s.centroids.len());
-            assert_eq!(s.positive.len(), s.centroids.len());
-            assert_eq!(s.centres.len(), s.centroids.len());
-        }
-    }
-
-    use super::*;
-
-    fn p(x: f64, y: f64) -> Point2<Laser> {
-        Point2::new(x, y)
-    }
-
-    #[test]
-    fn matches_one_to_one_within_the_radius() {
-        let truth = [p(2.0, 0.0), p(2.0, 0.3)];
-        // Two detections near the first leg, one near nothing inside, one outside.
-        let det = [p(2.05, 0.0), p(1.95, 0.02), p(3.0, 0.1), p(1.0, 2.0)];
-        let region = LabelledRegion::leg_tracker();
-        let c = match_detections(&det, &truth, 0.15, Some(&region));
-        assert_eq!(c.true_positives, 1);
-        assert_eq!(
-            c.false_positives, 2,
-            "the duplicate and the one at 3 m; not the one outside"
-        );
-        assert_eq!(c.false_negatives, 1);
-        assert!((c.precision() - 1.0 / 3.0).abs() < 1e-12);
-        assert!((c.recall() - 0.5).abs() < 1e-12);
-        assert!((c.f1() - 0.4).abs() < 1e-12);
-        let all = match_detections(&det, &truth, 0.15, None);
-        assert_eq!(all.false_positives, 3);
-        assert_eq!(MatchCounts::default().precision(), 1.0);
-        assert_eq!(MatchCounts::default().f1(), 0.0);
-    }
-
-    #[test]
-    fn the_region_test_looks_at_the_returns_not_the_centre() {
-        // Two unmatched legs whose centres (pushed away from the sensor) both lie
-        // beyond 5 m: the returns of the first lie beyond it too, those of the second
-        // inside the region, where the labeller would have labelled them.
-        let region = LabelledRegion::leg_tracker();
-        let centres = [p(5.03, 0.0), p(5.08, 0.0)];
-        let centroids = [p(5.01, 0.0), p(4.99, 0.0)];
-        let c = count_detections(&centres, &centroids, &[], Some(&region));
-        assert_eq!(
-            c.false_positives, 1,
-            "only the one whose returns are inside"
-        );
-        assert_eq!(
-            count_detections(&centres, &centroids, &[], None).false_positives,
-            2
-        );
-    }
-
-    #[test]
-    fn regions_follow_the_labellers_launch_file() {
-        let four = LabelledRegion::of_bag("positive_4_extracted.bag");
-        let one = LabelledRegion::of_bag("positive_1_extracted.bag");
-        let at = |deg: f64| p(2.0 * deg.to_radians().cos(), 2.0 * deg.to_radians().sin());
-        assert!(one.contains(at(12.0)) && !four.contains(at(12.0)));
-        assert!(four.contains(at(-14.0)) && four.contains(at(9.0)));
-        assert!(!one.contains(at(15.5)) && !one.contains(p(5.0, 0.0)));
-    }
-
-    #[test]
-    fn folds_take_one_bag_and_a_block_of_each_topic() {
-        let scan = |n: usize| ScanSample {
-            features: vec![[n as f64; N_FEATURES]],
-            ..ScanSample::default()
-        };
-        let bags = vec![vec![scan(0)], vec![scan(1)]];
-        let topics = vec![(10..14).map(scan).collect(), (20..23).map(scan).collect()];
-        let folds = training_folds(bags, topics);
-        let ids = |f: &Vec<ScanSample>| -> Vec<usize> {
-            f.iter().map(|s| s.features[0][0] as usize).collect()
-        };
-        assert_eq!(ids(&folds[0]), vec![0, 10, 11, 20, 21]);
-        assert_eq!(ids(&folds[1]), vec![1, 12, 13, 22]);
-    }
-
-    #[test]
-    fn scan_samples_count_like_the_detector() {
-        let s = ScanSample {
-            centres: vec![p(2.0, 0.0), p(3.0, 0.0), p(1.0, 2.0)],
-            centroids: vec![p(1.96, 0.0), p(2.96, 0.0), p(0.98, 1.96)],
-            labels: vec![p(1.97, 0.0)],
-            region: Some(LabelledRegion::leg_tracker()),
-            ..ScanSample::default()
-        };
-        let margins = [0.5, 0.1, 0.9];
-        assert_eq!(
-            s.count(&margins, 0.0),
-            MatchCounts {
-                true_positives: 1,
-                false_positives: 1,
-                false_negatives: 0
-            }
-        );
-        assert_eq!(
-            s.count(&margins, 0.6),
-            MatchCounts {
-                true_positives: 0,
-                false_positives: 0,
-                false_negatives: 1
-            }
-        );
-    }
-}
+pub use adaboost::{AdaBoostConfig, TrainError, train_adaboost};

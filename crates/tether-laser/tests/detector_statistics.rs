@@ -32,13 +32,10 @@ fn real_detector_statistics_by_split() {
             ("real training, model trained on it", &seen),
         ])
     );
-    // The built-in model finds more of the legs it was trained on than a model that
-    // never saw them, which is why the training split is measured on held-out folds
-    // (measured: 0.947 against 0.904).
-    assert!(
-        seen.leg_detection_prob > train.leg_detection_prob + 0.02,
-        "{seen:?} against {train:?}"
-    );
+    // The built-in model has learned its training legs: it finds them all, which is
+    // why the training split is measured on held-out folds.
+    assert!(seen.leg_detection_prob > 0.99, "{seen:?}");
+    assert!(train.leg_detection_prob < 0.95, "{train:?}");
     // Every positive bag but 6 and 7 labels 750 scans; the test split 1,102 legs less
     // than the total of 1,852 labels (issue 3's counts).
     assert!(train.person_scans >= 700, "{}", train.person_scans);

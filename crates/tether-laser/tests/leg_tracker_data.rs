@@ -20,7 +20,7 @@
 use std::path::{Path, PathBuf};
 
 use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
-use tether_laser::classifier::DEFAULT_MODEL_JSON;
+use tether_laser::classifier::{DEFAULT_COARSE_MODEL_JSON, DEFAULT_MODEL_JSON};
 use tether_laser::training::*;
 use tether_laser::{DetectorConfig, LegClassifier, LegDetector};
 use tether_recording::rosbag::{read_labelled_scans, read_scans};
@@ -99,16 +99,18 @@ fn the_labels_are_the_centroids_of_the_default_clusters() {
     );
 }
 
-#[test]
-fn training_reproduces_the_committed_model() {
-    let Some(dir) = data_dir() else { return };
+/// Trains on the training split with the default options and `views`.
+fn train_on_the_split(
+    dir: &Path,
+    views: TrainingViews,
+) -> (LegClassifier, TrainingSet, CrossValidation) {
     let bags: Vec<(&str, Labelled)> = TRAIN_POSITIVE_BAGS
         .iter()
-        .map(|b| (*b, labelled(&dir, &[b])))
+        .map(|b| (*b, labelled(dir, &[b])))
         .collect();
     let topics: Vec<Vec<LaserScan>> = TRAIN_NEGATIVE_TOPICS
         .iter()
-        .map(|t| negatives(&dir, &[t]))
+        .map(|t| negatives(dir, &[t]))
         .collect();
     let scans: Vec<usize> = bags.iter().map(|(_, s)| s.len()).collect();
     assert_eq!(scans, vec![197, 83, 175, 295]);
@@ -122,9 +124,13 @@ fn training_reproduces_the_committed_model() {
             .map(|(b, s)| (*b, s.as_slice()))
             .collect::<Vec<_>>(),
         &topics.iter().map(Vec::as_slice).collect::<Vec<_>>(),
-        default_adaboost_config().views,
+        views,
     );
-    let (model, set, cv) = train_with_cross_validation(&folds, &default_adaboost_config()).unwrap();
+    let config = AdaBoostConfig {
+        views,
+        ..default_adaboost_config()
+    };
+    let (model, set, cv) = train_with_cross_validation(&folds, &config).unwrap();
     let c = cv.best_counts();
     println!(
         "{} positives ({} labels unmatched), {} negatives; cross-validation: margin {}, \
@@ -137,15 +143,39 @@ fn training_reproduces_the_committed_model() {
         c.recall(),
         c.f1()
     );
+    (model, set, cv)
+}
+
+#[test]
+fn training_reproduces_the_committed_model() {
+    let Some(dir) = data_dir() else { return };
+    let (model, set, cv) = train_on_the_split(&dir, default_adaboost_config().views);
+    let c = cv.best_counts();
     assert_eq!(set.unmatched_labels, 0);
-    // The 1,164 labelled legs and the legs of their views from nearer and coarser.
-    assert_eq!(set.positives(), 5467);
-    // Measured: precision 0.751, recall 0.768 on the held-out folds, views included
-    // (a leg seen by a 1-degree scanner with a quarter of its beams lost is harder).
-    assert!(c.precision() > 0.74 && c.recall() > 0.75, "{c:?}");
+    assert_eq!(set.positives(), 1164);
+    // Measured: precision 0.838, recall 0.807 on the held-out folds.
+    assert!(c.precision() > 0.82 && c.recall() > 0.79, "{c:?}");
     assert!(
         model.to_json() == DEFAULT_MODEL_JSON,
         "the committed model differs from what training gives; rerun `{DEFAULT_TRAIN_COMMAND}`"
+    );
+}
+
+#[test]
+fn training_reproduces_the_committed_coarse_scan_model() {
+    let Some(dir) = data_dir() else { return };
+    let (model, set, cv) = train_on_the_split(&dir, TrainingViews::COARSE);
+    let c = cv.best_counts();
+    // The legs of the coarser views of the scans and of their views from nearer: a
+    // label whose leg no longer makes a cluster of its own is dropped.
+    assert_eq!(set.positives(), 2415);
+    // Measured: precision 0.679, recall 0.684 on the held-out folds: a leg seen by a
+    // 1-degree scanner that lost a quarter of its beams is harder to tell.
+    assert!(c.precision() > 0.66 && c.recall() > 0.66, "{c:?}");
+    assert!(
+        model.to_json() == DEFAULT_COARSE_MODEL_JSON,
+        "the committed coarse-scan model differs from what training gives; rerun \
+         `{DEFAULT_COARSE_TRAIN_COMMAND}`"
     );
 }
 
@@ -190,16 +220,17 @@ fn precision_and_recall_on_the_test_split() {
         // cluster's: none can be false there.
         assert_eq!(e.labelled.false_positives, 0, "{name}");
     }
-    // Measured: arc 0.199 / 0.315, learned 0.768 / 0.855 (issue 3 asks 0.90 / 0.90 of
-    // the learned one; see the README for what these recordings allow).
+    // Measured: arc 0.199 / 0.315, learned 0.725 / 0.769 (issue 3 asks 0.90 / 0.90 of
+    // the learned one; see the README for what these recordings allow). Neither judges
+    // the clusters at the edges of the field of view (the robot's own body there).
     let (a, l) = (arc.total(), learned.total());
     assert!(
-        l.precision() >= 0.76 && l.recall() >= 0.85,
+        l.precision() >= 0.72 && l.recall() >= 0.76,
         "learned: {l:?}"
     );
     assert!(a.recall() >= 0.30 && a.precision() >= 0.19, "arc: {a:?}");
     // design 4.6: furniture fools the arc test; the classifier is the cure (measured:
-    // 871 false legs against 178 on the rear scanner's 435 scans).
+    // 871 false legs against 201 on the rear scanner's 435 scans).
     assert!(learned.negative_false_positives * 4 < arc.negative_false_positives);
     assert!(l.precision() > 3.5 * a.precision());
 }

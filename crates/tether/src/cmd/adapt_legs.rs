@@ -168,7 +168,15 @@ pub fn run(path: &Path, args: &Args) -> anyhow::Result<()> {
         cv.margin(),
         cv.best_counts().f1()
     )?;
-    let built_in = LegClassifier::default_model()?;
+    // The built-in model a detector would use on these scans.
+    let coarse = scans
+        .first()
+        .is_some_and(|s| s.angle_increment_rad.abs() >= tether_laser::COARSE_BEAM_STEP_RAD);
+    let built_in = if coarse {
+        LegClassifier::default_coarse_model()?
+    } else {
+        LegClassifier::default_model()?
+    };
     let mut held_all = held;
     let held_labelled_scans = held_all.len();
     held_all.extend(held_empty);

@@ -8,7 +8,8 @@ use anyhow::Context;
 use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
 use tether_laser::training::{
     NEGATIVE_BAG, POSITIVE_LABEL_TOPIC, POSITIVE_SCAN_TOPIC, TRAIN_NEGATIVE_TOPICS,
-    TRAIN_POSITIVE_BAGS, TrainingViews, default_adaboost_config, folds_from_scans, train_with_cross_validation,
+    TRAIN_POSITIVE_BAGS, TrainingViews, default_adaboost_config, folds_from_scans,
+    train_with_cross_validation,
 };
 use tether_laser::{AdaBoostConfig, DetectorConfig, LegClassifier, LegDetector};
 use tether_recording::rosbag::{read_labelled_scans, read_scans};
@@ -223,7 +224,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     std::fs::write(&args.out, &json)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     let (built_in, which) = if args.coarse {
-        (LegClassifier::default_coarse_model(), "built-in coarse-scan model")
+        (
+            LegClassifier::default_coarse_model(),
+            "built-in coarse-scan model",
+        )
     } else {
         (LegClassifier::default_model(), "built-in model")
     };
