@@ -425,3 +425,50 @@ fn an_object_cut_by_the_edge_of_the_field_of_view_is_not_judged() {
         "{cut:?}"
     );
 }
+
+/// `disc_scan`'s disc seen by a scanner whose beams are `step_deg` apart over the
+/// URG-04LX's field of view.
+fn disc_scan_with_step(range_m: f64, step_deg: f64) -> LaserScan {
+    let disc = synthetic::Circle {
+        x: range_m,
+        y: 0.0,
+        r: 0.06,
+    };
+    let (min, inc) = (-2.0862f64, step_deg.to_radians());
+    let n = (4.17 / inc) as usize;
+    let ranges = (0..n)
+        .map(|i| {
+            let (s, c) = (min + i as f64 * inc).sin_cos();
+            synthetic::hit_circle(c, s, &disc).map_or(f32::INFINITY, |r| r as f32)
+        })
+        .collect();
+    LaserScan::new(Stamp::ZERO, "laser", min, inc, 0.02, 5.6, ranges).unwrap()
+}
+
+#[test]
+fn coarse_scans_go_to_the_coarse_model() {
+    // A "coarse" model that calls nothing a leg, beside the built-in fine one.
+    let mut refuse_all = LegClassifier::default_model().unwrap();
+    refuse_all.trees.truncate(1);
+    refuse_all.trees[0].nodes = vec![tether_laser::Node::Leaf { vote: -1 }];
+    let mut d = LegDetector::learned(
+        DetectorConfig::default(),
+        RangeNoiseModel::default(),
+        LegClassifier::default_model().unwrap(),
+    )
+    .unwrap()
+    .with_coarse_model(refuse_all)
+    .unwrap();
+    let step = tether_laser::COARSE_BEAM_STEP_RAD.to_degrees();
+    let fine = d.detect(&disc_scan_with_step(1.0, 0.9 * step));
+    let coarse = d.detect(&disc_scan_with_step(1.0, step));
+    // The fine model sees the disc (a leg or a weak one); the coarse one refuses all.
+    assert_eq!(fine.legs.len() + fine.weak_legs.len(), 1, "{fine:?}");
+    assert!(coarse.legs.is_empty() && coarse.weak_legs.is_empty(), "{coarse:?}");
+    // The built-in pair loads and judges both.
+    let mut builtin =
+        LegDetector::builtin(DetectorConfig::default(), RangeNoiseModel::default()).unwrap();
+    for step_deg in [0.35, 0.5, 1.0] {
+        check(&builtin.detect(&disc_scan_with_step(1.0, step_deg)));
+    }
+}
