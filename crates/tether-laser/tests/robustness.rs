@@ -464,7 +464,10 @@ fn coarse_scans_go_to_the_coarse_model() {
     let coarse = d.detect(&disc_scan_with_step(1.0, step));
     // The fine model sees the disc (a leg or a weak one); the coarse one refuses all.
     assert_eq!(fine.legs.len() + fine.weak_legs.len(), 1, "{fine:?}");
-    assert!(coarse.legs.is_empty() && coarse.weak_legs.is_empty(), "{coarse:?}");
+    assert!(
+        coarse.legs.is_empty() && coarse.weak_legs.is_empty(),
+        "{coarse:?}"
+    );
     // The built-in pair loads and judges both.
     let mut builtin =
         LegDetector::builtin(DetectorConfig::default(), RangeNoiseModel::default()).unwrap();
