@@ -17,7 +17,7 @@ pub struct AdaBoostConfig {
     pub max_depth: usize,
     /// The decision margin written into the model; default 0.
     pub decision_margin: f64,
-    /// The views of the training scans that [`folds_from_scans`] adds (recorded in the
+    /// The views of the training scans that [`super::folds_from_scans`] adds (recorded in the
     /// model's provenance; boosting itself does not read it).
     pub views: TrainingViews,
 }
