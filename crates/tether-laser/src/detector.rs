@@ -140,8 +140,8 @@ pub struct LegDetector {
     /// The classifier laid out for speed.
     compiled: CompiledClassifier,
     /// The model for scans whose beams are [`COARSE_BEAM_STEP_RAD`] or more apart, if
-    /// any ([`LegDetector::with_coarse_model`]), and its layout.
-    coarse: Option<(LegClassifier, CompiledClassifier)>,
+    /// any ([`LegDetector::with_coarse_model`]), laid out for speed.
+    coarse: Option<CompiledClassifier>,
     table: BeamTable,
     points: Vec<ScanPoint>,
     order: Vec<usize>,
@@ -188,8 +188,7 @@ impl LegDetector {
         classifier
             .validate()
             .map_err(|e| ConfigError(e.to_string()))?;
-        let compiled = CompiledClassifier::new(&classifier);
-        self.coarse = Some((classifier, compiled));
+        self.coarse = Some(CompiledClassifier::new(&classifier));
         Ok(self)
     }
 
@@ -250,7 +249,7 @@ impl LegDetector {
         out.stats = self.find_candidates(scan, learned);
         // A coarse scan goes to the coarse model when there is one.
         let compiled = match &self.coarse {
-            Some((_, coarse)) if scan.angle_increment_rad.abs() >= COARSE_BEAM_STEP_RAD => coarse,
+            Some(coarse) if scan.angle_increment_rad.abs() >= COARSE_BEAM_STEP_RAD => coarse,
             _ => &self.compiled,
         };
         let weak_floor = compiled.decision_margin() - self.config.weak_margin;
