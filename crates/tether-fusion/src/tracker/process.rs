@@ -1,0 +1,333 @@
+//! [`Tracker::process`] in its named steps (design 5.5): which observations are usable,
+//! the gated costs of each (track, observation) pairing, camera observations that two
+//! tracks explain alike left out, the Hungarian assignment, the updates, and new tracks
+//! from what no track explains.
+
+use tether_core::Stamp;
+
+use super::{Anchor, BatchResult, LN_DET_FLOOR, Observation, Source, Track, Tracker, UpdateRule};
+use crate::assign::assign;
+use crate::kalman::CvFilter;
+
+/// Gated costs, tracks x observations: `None` where a track may not take an
+/// observation.
+type Costs = Vec<Vec<Option<f64>>>;
+
+/// Costs this close make a camera observation ambiguous between two tracks (a
+/// likelihood ratio under e^2).
+const AMBIGUOUS_COST_GAP: f64 = 4.0;
+
+impl Tracker {
+    /// Processes the observations of one sensor message taken at `stamp`.
+    pub fn process(&mut self, stamp: Stamp, observations: &[Observation]) -> BatchResult {
+        if !self.advance(stamp) {
+            return BatchResult {
+                track_of: vec![None; observations.len()],
+                accepted: false,
+            };
+        }
+        let usable = self.usable(observations);
+        let mut cost = self.gated_costs(stamp, observations, &usable);
+        self.leave_out_ambiguous_camera(observations, &mut cost);
+        let assignment = assign(&cost);
+        let mut track_of = vec![None; observations.len()];
+        for (ti, oi) in assignment.iter().enumerate() {
+            let Some(oi) = *oi else { continue };
+            if self.update(ti, &observations[oi], stamp) {
+                track_of[oi] = Some(self.tracks[ti].id);
+            }
+        }
+        self.start_tracks(stamp, observations, &usable, &mut track_of);
+        BatchResult {
+            track_of,
+            accepted: true,
+        }
+    }
+
+    /// Step 1: which observations may be used at all (finite, and no more uncertain
+    /// than `max_observation_sigma_m`); the others are counted as rejected.
+    fn usable(&mut self, observations: &[Observation]) -> Vec<bool> {
+        let max_var = self.config.max_observation_sigma_m.powi(2);
+        observations
+            .iter()
+            .map(|o| {
+                let ok =
+                    o.estimate.mean.is_finite() && o.estimate.cov.principal_axes().0 <= max_var;
+                if !ok {
+                    self.stats.rejected_observations += 1;
+                }
+                ok
+            })
+            .collect()
+    }
+
+    /// Whether `o` is something that may not take up `t`, a confirmed track that has
+    /// coasted longer than `coast_lone_leg_after_s`, from farther than
+    /// `coast_lone_leg_offset_m`: a lone leg (not weak), or a camera observation of a
+    /// track the laser has seen.
+    fn far_off_coasting(&self, t: &Track, o: &Observation, stamp: Stamp) -> bool {
+        let c = &self.config;
+        c.coast_lone_leg_offset_m > 0.0
+            && ((o.source == Source::Laser && !o.leg_pair && !o.weak)
+                || (o.source == Source::Vision && t.last_laser.is_some()))
+            && t.confirmed
+            && stamp.secs_since(t.last_update) > c.coast_lone_leg_after_s
+            && t.position().mean.distance_m(o.estimate.mean) > c.coast_lone_leg_offset_m
+    }
+
+    /// Whether a weak observation may not update `t`: weak legs only keep confirmed
+    /// tracks alive, and a track silent longer than `weak_keepalive_s` only from within
+    /// `weak_max_offset_m`.
+    fn weak_refused(&self, t: &Track, o: &Observation, stamp: Stamp) -> bool {
+        o.weak
+            && (!t.confirmed
+                || (stamp.secs_since(t.last_update) > self.config.weak_keepalive_s
+                    && t.position().mean.distance_m(o.estimate.mean)
+                        > self.config.weak_max_offset_m))
+    }
+
+    /// Step 2: the cost of each pairing that passes the gates: the Mahalanobis gate,
+    /// then the physical one (no impossible jump from the last good estimate, however
+    /// uncertain the coasting filter has become; counted as `implausible_jumps`). The
+    /// cost is the negative log likelihood `d^2 + ln det S`, so that an uncertain track
+    /// does not win an observation that a certain track explains better.
+    fn gated_costs(
+        &mut self,
+        stamp: Stamp,
+        observations: &[Observation],
+        usable: &[bool],
+    ) -> Costs {
+        let gate = self.config.gate.threshold;
+        let bounds = self.config.motion;
+        let mut implausible = 0;
+        let cost = self
+            .tracks
+            .iter()
+            .map(|t| {
+                observations
+                    .iter()
+                    .zip(usable)
+                    .map(|(o, &ok)| {
+                        if !ok
+                            || self.weak_refused(t, o, stamp)
+                            || self.far_off_coasting(t, o, stamp)
+                        {
+                            return None;
+                        }
+                        let (s, y) = t.filter.innovation(&o.estimate);
+                        let d2 = s.mahalanobis_sq(y[0], y[1]);
+                        if d2 >= gate {
+                            return None;
+                        }
+                        if !t.can_reach(&o.estimate, stamp, &bounds) {
+                            implausible += 1;
+                            return None;
+                        }
+                        Some(d2 + s.det().ln().max(LN_DET_FLOOR))
+                    })
+                    .collect()
+            })
+            .collect();
+        self.stats.implausible_jumps += implausible;
+        cost
+    }
+
+    /// Step 3: a camera observation that two tracks explain about equally well (costs
+    /// within [`AMBIGUOUS_COST_GAP`]) is left out: its range is poor, so people standing
+    /// on one viewing ray (one hiding the other, a crossing) both gate with it, and
+    /// giving it to the wrong one drags that track onto someone else.
+    fn leave_out_ambiguous_camera(&mut self, observations: &[Observation], cost: &mut Costs) {
+        for (oi, o) in observations.iter().enumerate() {
+            let mut costs: Vec<f64> = cost.iter().filter_map(|row| row[oi]).collect();
+            costs.sort_by(f64::total_cmp);
+            if o.source == Source::Vision
+                && costs.len() > 1
+                && costs[1] - costs[0] < AMBIGUOUS_COST_GAP
+            {
+                for row in cost.iter_mut() {
+                    row[oi] = None;
+                }
+                self.stats.ambiguous_observations += 1;
+            }
+        }
+    }
+
+    /// Whether a camera observation assigned to track `ti` falls among people closer
+    /// than a body width (`vision_min_separation_m`): they overlap in the image, so a
+    /// box and its range may be either one's (or both merged), and only the laser
+    /// updates them.
+    fn camera_crowded(&self, ti: usize, o: &Observation) -> bool {
+        let sep = self.config.vision_min_separation_m;
+        if o.source != Source::Vision || sep <= 0.0 {
+            return false;
+        }
+        let here = self.tracks[ti].position().mean;
+        self.tracks
+            .iter()
+            .enumerate()
+            .any(|(tj, u)| tj != ti && u.confirmed && u.position().mean.distance_m(here) < sep)
+    }
+
+    /// Step 4: updates track `ti` with its assigned observation `o`; false when the
+    /// update is refused (a crowded camera observation, a bearing that does not fit, a
+    /// non-finite result). A camera observation of a track the laser supports updates
+    /// only its bearing; the rest by the sensor's [`UpdateRule`].
+    fn update(&mut self, ti: usize, o: &Observation, stamp: Stamp) -> bool {
+        if self.camera_crowded(ti, o) {
+            self.stats.ambiguous_observations += 1;
+            return false;
+        }
+        let bounds = self.config.motion;
+        let (laser_support_s, laser_rule, vision_rule) = (
+            self.config.laser_support_s,
+            self.config.laser_update,
+            self.config.vision_update,
+        );
+        let t = &mut self.tracks[ti];
+        let before = t.filter;
+        let laser_support = t
+            .last_laser
+            .is_some_and(|l| stamp.secs_since(l) <= laser_support_s);
+        match (o.source, o.bearing) {
+            (Source::Vision, Some(b)) if laser_support => {
+                if !t.filter.update_bearing(
+                    b.origin,
+                    b.bearing_rad,
+                    b.sigma_rad,
+                    crate::gate::CHI2_1DOF_99,
+                ) {
+                    // The position gated but the bearing does not fit: someone else
+                    // near the track's viewing ray.
+                    self.stats.rejected_observations += 1;
+                    return false;
+                }
+            }
+            _ => {
+                let rule = match o.source {
+                    Source::Laser | Source::Fused => laser_rule,
+                    Source::Vision => vision_rule,
+                };
+                match rule {
+                    UpdateRule::Kalman => t.filter.update(&o.estimate),
+                    UpdateRule::CovarianceIntersection => {
+                        t.filter.update_ci(&o.estimate);
+                    }
+                }
+            }
+        }
+        if !t.filter.is_finite() {
+            t.filter = before;
+            self.stats.rejected_observations += 1;
+            return false;
+        }
+        if t.filter.clamp_speed(bounds.max_speed_mps) {
+            self.stats.speed_clamps += 1;
+        }
+        self.record_update(ti, o, stamp);
+        true
+    }
+
+    /// The bookkeeping of an accepted update of track `ti` by `o`: when, by which
+    /// sensors, hits (weak or not), evidence of a whole person, distance walked,
+    /// confirmation.
+    fn record_update(&mut self, ti: usize, o: &Observation, stamp: Stamp) {
+        let confirm_hits = self.config.confirm_hits;
+        let t = &mut self.tracks[ti];
+        t.last_update = stamp;
+        t.anchor = Anchor::of(&t.filter, stamp);
+        if matches!(o.source, Source::Laser | Source::Fused) {
+            t.last_laser = Some(stamp);
+        }
+        if matches!(o.source, Source::Vision | Source::Fused) {
+            t.last_vision = Some(stamp);
+        }
+        self.stats.associated += 1;
+        if o.weak {
+            self.stats.weak_updates += 1;
+            t.weak_hits += 1;
+            return;
+        }
+        t.hits += 1;
+        t.pair_hits += u32::from(o.leg_pair);
+        if o.leg_pair || o.source != Source::Laser {
+            t.last_pair = Some(stamp);
+            t.pair_anchor = Some(t.anchor);
+        }
+        t.walked_m = t
+            .walked_m
+            .max(t.anchor.position.mean.distance_m(t.birth_position));
+        if t.hits >= confirm_hits {
+            t.confirmed = true;
+        }
+    }
+
+    /// Step 5: new tracks from the usable observations no track took, unless a track
+    /// could have made them (that track's business, not a new person's: within its
+    /// gate, reachable, and not refused as far off) or a confirmed track stands within
+    /// `spawn_separation_m`. Weak observations and those that may not spawn start none.
+    fn start_tracks(
+        &mut self,
+        stamp: Stamp,
+        observations: &[Observation],
+        usable: &[bool],
+        track_of: &mut [Option<u64>],
+    ) {
+        let gate = self.config.gate.threshold;
+        let bounds = self.config.motion;
+        let sep = self.config.spawn_separation_m;
+        for (oi, o) in observations.iter().enumerate() {
+            if track_of[oi].is_some() || !usable[oi] || !o.may_spawn || o.weak {
+                continue;
+            }
+            let near_existing = self.tracks.iter().any(|t| {
+                t.filter.mahalanobis_sq(&o.estimate) < gate
+                    && t.can_reach(&o.estimate, stamp, &bounds)
+                    && !self.far_off_coasting(t, o, stamp)
+            });
+            let beside_confirmed = sep > 0.0
+                && self
+                    .tracks
+                    .iter()
+                    .any(|t| t.confirmed && t.position().mean.distance_m(o.estimate.mean) < sep);
+            if near_existing || beside_confirmed {
+                continue;
+            }
+            let id = self.next_id;
+            self.next_id += 1;
+            let track = self.new_track(id, o, stamp);
+            self.tracks.push(track);
+            self.stats.tracks_started += 1;
+            track_of[oi] = Some(id);
+        }
+    }
+
+    /// A track started by `o` at `stamp`.
+    fn new_track(&self, id: u64, o: &Observation, stamp: Stamp) -> Track {
+        let (last_laser, last_vision) = match o.source {
+            Source::Laser => (Some(stamp), None),
+            Source::Vision => (None, Some(stamp)),
+            Source::Fused => (Some(stamp), Some(stamp)),
+        };
+        let filter = CvFilter::new(&o.estimate, self.config.initial_speed_sigma_mps);
+        let whole_person = o.leg_pair || o.source != Source::Laser;
+        Track {
+            id,
+            filter,
+            confirmed: self.config.confirm_hits <= 1,
+            hits: 1,
+            born: stamp,
+            last_update: stamp,
+            last_laser,
+            last_vision,
+            anchor: Anchor::of(&filter, stamp),
+            birth_position: o.estimate.mean,
+            walked_m: 0.0,
+            pair_hits: u32::from(o.leg_pair),
+            weak_hits: 0,
+            last_pair: whole_person.then_some(stamp),
+            pair_anchor: whole_person.then_some(Anchor::of(&filter, stamp)),
+            duplicate_since: None,
+            merged: None,
+        }
+    }
+}
