@@ -29,7 +29,9 @@ use tether_core::{Gaussian2, Point2, Pose2, Robot, Stamp, Vector2, World, wrap_a
 
 use crate::tracker::{MotionBounds, Track};
 
+mod acquire;
 mod config;
+mod update;
 
 /// Uncertainty of where a track was born (one observation of a person), m.
 const BIRTH_SIGMA_M: f64 = 0.15;
@@ -481,201 +483,32 @@ impl TargetSelector {
         self.update_with_view(now, tracks, &View::everywhere(world_from_robot))
     }
 
-    /// Updates the state from the current tracks, knowing what the sensors see.
+    /// Updates the state from the current tracks, knowing what the sensors see: the
+    /// memory of who is who brought up to date, verdicts on the tracks seen for the
+    /// first time, then one transition of the state (design 5.6).
     pub fn update_with_view(&mut self, now: Stamp, tracks: &[Track], view: &View) -> TargetState {
         self.refusals_now.clear();
-        // The tracker dropped somebody else's track as a second track on the locked
-        // target's person since the last update: the target's track may have come onto
-        // them (a bystander crossing close behind the target while it was partly
-        // hidden), and it is checked as a track led off (before the other track is
-        // forgotten below).
-        let merged_somebody_else = match self.state {
-            TargetState::Locked { track } => tracks
-                .iter()
-                .find(|t| t.id == track)
-                .and_then(|t| t.merged)
-                .filter(|&(u, when)| {
-                    self.last_now.is_none_or(|l| when > l) && self.seen_beside_long_enough(u)
-                })
-                .and_then(|(u, _)| self.last_anchors.get(&u).copied()),
-            _ => None,
-        };
+        // Before the other track is forgotten below.
+        let merged_somebody_else = self.merged_somebody_else(tracks);
         self.last_anchors = tracks.iter().map(|t| (t.id, t.anchor)).collect();
-        let fresh = |t: &Track| now.secs_since(t.last_update) <= self.config.lost_after_s;
         // Time since the previous update, capped so that a gap in the input does not
         // count as time seen together.
         let dt = self
             .last_now
             .map_or(0.0, |l| now.secs_since(l).clamp(0.0, 0.2));
         self.last_now = Some(now);
-        self.beside
-            .retain(|id, _| tracks.iter().any(|t| t.id == *id));
-        self.seen.retain(|id| tracks.iter().any(|t| t.id == *id));
-        self.former.retain(|id| tracks.iter().any(|t| t.id == *id));
-        self.born_at_target
-            .retain(|id| tracks.iter().any(|t| t.id == *id));
-        let target_here = match self.state {
-            TargetState::Locked { track } => tracks
-                .iter()
-                .find(|t| t.id == track)
-                .map(|t| t.position().mean),
-            _ => None,
-        };
-        // The target observed now, and seen whole a moment ago or observed steadily
-        // (not a coasting track that took a stray return): a track born now away from
-        // it is a second person, even before the two have been seen apart for
-        // `beside_s` (a bystander found while the target walks into an occlusion).
-        let locked = match self.state {
-            TargetState::Locked { track } => tracks.iter().find(|t| t.id == track),
-            _ => None,
-        };
-        let previous_update = match (locked, self.target_updates) {
-            (Some(t), Some((id, last, previous))) if id == t.id => {
-                if t.last_update > last {
-                    Some(last)
-                } else {
-                    previous
-                }
-            }
-            _ => None,
-        };
-        self.target_updates = locked.map(|t| (t.id, t.last_update, previous_update));
-        let target_seen_now = locked
-            .filter(|t| {
-                t.last_update == now
-                    && (t
-                        .last_pair
-                        .is_some_and(|p| now.secs_since(p) <= SEEN_WHOLE_S)
-                        || previous_update.is_some_and(|p| now.secs_since(p) <= STEADY_GAP_S))
-            })
-            .map(|t| t.position());
-        self.born_elsewhere
-            .retain(|id| tracks.iter().any(|t| t.id == *id));
-        self.born_apart
-            .retain(|id| tracks.iter().any(|t| t.id == *id));
-        // While the target is unseen (its track coasting, or lost), where it can be is
-        // bounded: a track born outside that is somebody else from birth (a bystander
-        // stepping out from behind the pillar the target walked behind).
-        let unseen_from = match self.state {
-            TargetState::Locked { track } => tracks
-                .iter()
-                .find(|t| t.id == track)
-                .filter(|t| t.last_update < now)
-                .map(|t| self.good_anchor(t)),
-            TargetState::Lost {
-                since,
-                last,
-                velocity,
-                velocity_sigma_mps,
-                ..
-            } => Some(crate::tracker::Anchor {
-                stamp: since,
-                position: last,
-                velocity,
-                velocity_sigma_mps,
-            }),
-            TargetState::Searching => None,
-        };
-        for t in tracks {
-            if !self.seen.insert(t.id) {
-                continue;
-            }
-            if target_here
-                .is_some_and(|p| p.distance_m(t.birth_position) <= self.config.encounter_distance_m)
-            {
-                self.born_at_target.insert(t.id);
-            }
-            // Apart beyond doubt: by more than `encounter_distance_m` and three
-            // standard deviations of each (a camera-born track's monocular range is
-            // loose far away).
-            let sd = |g: &Gaussian2<World>| g.cov.principal_axes().0.max(0.0).sqrt();
-            if t.born == now
-                && target_seen_now.is_some_and(|p| {
-                    p.mean.distance_m(t.birth_position)
-                        > self.config.encounter_distance_m + 3.0 * (sd(&p) + sd(&t.position()))
-                })
-            {
-                self.born_apart.insert(t.id);
-            }
-            if let Some(a) = unseen_from
-                && t.born > a.stamp
-                && !self.reachable_from(&a, t.birth_position, BIRTH_SIGMA_M, t.born)
-            {
-                self.born_elsewhere.insert(t.id);
-            }
-        }
+        self.forget_gone(tracks);
+        self.judge_new_tracks(now, tracks);
         self.state = match self.state {
             TargetState::Searching => self.choose(now, tracks, view),
-            TargetState::Locked { track } => match tracks.iter().find(|t| t.id == track) {
-                Some(t) if fresh(t) => {
-                    self.last_good = Some(self.good_anchor(t));
-                    if t.last_pair == Some(now) {
-                        self.count_beside(t, tracks, now, dt);
-                    }
-                    if let Some(u) = self.coasting_handover(now, t, tracks, view) {
-                        self.stats.handovers += 1;
-                        self.last_good = tracks.iter().find(|k| k.id == u).map(|k| k.anchor);
-                        TargetState::Locked { track: u }
-                    } else if self.led_off(t, tracks, now, dt, merged_somebody_else) {
-                        let alone = self
-                            .alone
-                            .filter(|a| now.secs_since(a.stamp) <= self.config.encounter_max_s);
-                        self.last_good = alone.or(self.last_good);
-                        self.lose_led_off(track, tracks)
-                    } else {
-                        self.through_encounter(now, t, tracks, view)
-                    }
-                }
-                found => {
-                    // Lost in company: the target's track may have been led off before
-                    // it went silent; the region starts from where it was alone.
-                    let alone = self
-                        .alone
-                        .filter(|a| now.secs_since(a.stamp) <= self.config.encounter_max_s);
-                    if let (Some(a), Some(f)) = (alone, found)
-                        && f.anchor.stamp > a.stamp
-                        && self.off_prediction_sigma(&a, f, f.anchor.stamp)
-                            > self.config.handover_within_sigma
-                    {
-                        self.lose(track, found, Some(a), tracks, view)
-                    } else {
-                        let anchor = found.map(|t| self.good_anchor(t)).or(self.last_good);
-                        self.lose(track, found, anchor, tracks, view)
-                    }
-                }
-            },
+            TargetState::Locked { track } => {
+                self.step_locked(now, track, tracks, view, dt, merged_somebody_else)
+            }
             TargetState::Lost { track, since, .. } => {
                 self.reacquire(now, track, since, tracks, view)
             }
         };
-        if let TargetState::Locked { track } = self.state {
-            self.former.insert(track);
-            self.refused.clear();
-            self.ambiguous_sets.clear();
-            if self.beside_of != Some(track) {
-                // Who was seen beside another track says nothing about this one; and
-                // a track already near the new target may be the same person (their
-                // legs tracked apart) as much as one born there.
-                self.beside.clear();
-                self.beside_of = Some(track);
-                if let Some(here) = tracks
-                    .iter()
-                    .find(|t| t.id == track)
-                    .map(|t| t.position().mean)
-                {
-                    for t in tracks {
-                        if t.id != track
-                            && t.position().mean.distance_m(here)
-                                <= self.config.encounter_distance_m
-                        {
-                            self.born_at_target.insert(t.id);
-                        }
-                    }
-                }
-            }
-        } else {
-            self.alone = None;
-        }
+        self.after_transition(tracks);
         self.state
     }
 
@@ -1130,196 +963,6 @@ impl TargetSelector {
         self.refusals_now.push((track, refusal));
         if self.refused.insert((track, refusal)) {
             self.stats.count_refusal(refusal);
-        }
-    }
-
-    fn reacquire(
-        &mut self,
-        now: Stamp,
-        track: u64,
-        since: Stamp,
-        tracks: &[Track],
-        view: &View,
-    ) -> TargetState {
-        let lost_after_s = self.config.lost_after_s;
-        let fresh = |t: &Track| now.secs_since(t.last_update) <= lost_after_s;
-        let mut candidates = Vec::new();
-        for t in tracks.iter().filter(|t| t.confirmed && fresh(t)) {
-            if t.id == track && self.others_at_loss.contains(&t.id) {
-                // Led off onto somebody else: that track is theirs now.
-                self.refuse(t.id, Refusal::SomebodyElse);
-                continue;
-            }
-            if t.id == track {
-                // The tracker kept its identity: back, if it is still where the target
-                // could be (a track that ran off after something else is not), and
-                // shows the person again: a whole person (a pair of legs, the camera)
-                // or two updates since the loss. A coasting track's reach is wide; one
-                // false positive in it (a phantom return, a bystander's leg) must not
-                // bring the lock back onto a track that has lost its person.
-                if let Some((id, hits, last_pair)) = self.evidence_at_loss
-                    && id == track
-                    && t.hits < hits + 2
-                    && t.last_pair <= last_pair
-                {
-                    self.refuse(t.id, Refusal::NoLegPair);
-                    continue;
-                }
-                // Nor does the camera alone bring it back while the laser, in use and
-                // seeing the place, has not seen it since the loss: a false box gates
-                // with a track that coasted off as readily as the person does, and
-                // the laser finds a person it can see.
-                if view.laser_in_use
-                    && (view.laser_sees)(t.position().mean)
-                    && t.last_laser.is_none_or(|l| l <= since)
-                {
-                    self.refuse(t.id, Refusal::NoLegPair);
-                    continue;
-                }
-                let p = t.position();
-                let sd = p.cov.principal_axes().0.max(0.0).sqrt();
-                if self.within_reach(p.mean, sd, now) {
-                    self.stats.reacquisitions += 1;
-                    self.stats.reacquired_same_track += 1;
-                    self.last_good = Some(t.anchor);
-                    return TargetState::Locked { track };
-                }
-                self.refuse(t.id, Refusal::OutOfReach);
-                continue;
-            }
-            match self.refusal(t, now, view) {
-                Some(r) => self.refuse(t.id, r),
-                None => candidates.push(t),
-            }
-        }
-        match candidates.as_slice() {
-            [one] => {
-                self.stats.reacquisitions += 1;
-                self.last_good = Some(one.anchor);
-                TargetState::Locked { track: one.id }
-            }
-            [] => self.restart(now, tracks, view).unwrap_or(self.state),
-            several => {
-                let ids: Vec<u64> = several.iter().map(|t| t.id).collect();
-                for &id in &ids {
-                    self.refusals_now.push((id, Refusal::Ambiguous));
-                }
-                if self.ambiguous_sets.insert(ids) {
-                    self.stats.ambiguous += 1;
-                }
-                self.state
-            }
-        }
-    }
-
-    /// Lost for `restart_after_s`: the target taken up again as at the start, by the
-    /// one track that has stood alone in the start's window for `restart_dwell_s`.
-    fn restart(&mut self, now: Stamp, tracks: &[Track], view: &View) -> Option<TargetState> {
-        let c = &self.config;
-        let TargetState::Lost { since, .. } = self.state else {
-            return None;
-        };
-        if c.restart_after_s <= 0.0 || now.secs_since(since) < c.restart_after_s {
-            self.presented = None;
-            return None;
-        }
-        let robot_from_world = view.world_from_robot.inverse();
-        let in_front: Vec<&Track> = self
-            .eligible_at_start(now, tracks, view)
-            .into_iter()
-            .filter(|t| self.in_start_window(robot_from_world * t.position().mean))
-            .collect();
-        let one = match in_front.as_slice() {
-            [t] => *t,
-            _ => {
-                self.presented = None;
-                return None;
-            }
-        };
-        let (id, anchor) = (one.id, one.anchor);
-        let from = match self.presented {
-            Some((p, from)) if p == id => from,
-            _ => {
-                self.presented = Some((id, now));
-                now
-            }
-        };
-        if now.secs_since(from) < self.config.restart_dwell_s {
-            return None;
-        }
-        self.presented = None;
-        self.stats.restarts += 1;
-        self.stats.locks += 1;
-        self.last_good = Some(anchor);
-        Some(TargetState::Locked { track: id })
-    }
-
-    /// Whether `p` (robot frame) is where the target is chosen at the start: within
-    /// `max_select_range_m` and `max_select_bearing_rad` of the heading.
-    fn in_start_window(&self, p: Point2<Robot>) -> bool {
-        p.range_m() <= self.config.max_select_range_m
-            && wrap_angle_rad(p.bearing_rad()).abs() <= self.config.max_select_bearing_rad
-    }
-
-    /// The tracks that could be chosen at the start: confirmed, fresh and vouched for
-    /// (seen by both sensors, or by the laser as a pair of legs outside static clutter).
-    fn eligible_at_start<'t>(
-        &self,
-        now: Stamp,
-        tracks: &'t [Track],
-        view: &View,
-    ) -> Vec<&'t Track> {
-        let c = &self.config;
-        tracks
-            .iter()
-            .filter(|t| t.confirmed && now.secs_since(t.last_update) <= c.lost_after_s)
-            .filter(|t| {
-                if c.require_both_sensors {
-                    t.seen_by_both(now, c.both_sensors_window_s)
-                } else if view.laser_in_use {
-                    // The user stands in front of the robot to start: a pair of legs
-                    // outside static clutter, walking or not.
-                    self.laser_refusal(t, view, false).is_none()
-                } else {
-                    true
-                }
-            })
-            .collect()
-    }
-
-    fn choose(&mut self, now: Stamp, tracks: &[Track], view: &View) -> TargetState {
-        let c = &self.config;
-        let chosen = if let Some(id) = c.track_id {
-            tracks.iter().find(|t| t.id == id)
-        } else {
-            let robot_from_world = view.world_from_robot.inverse();
-            let eligible = self
-                .eligible_at_start(now, tracks, view)
-                .into_iter()
-                .map(|t| (robot_from_world * t.position().mean, t));
-            match c.near_point_m {
-                Some([x, y]) => {
-                    let point = Point2::<Robot>::new(x, y);
-                    eligible
-                        .map(|(p, t)| (p.distance_m(point), t))
-                        .filter(|(d, _)| *d <= c.near_point_radius_m)
-                        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.id.cmp(&b.1.id)))
-                        .map(|(_, t)| t)
-                }
-                None => eligible
-                    .filter(|(p, _)| self.in_start_window(*p))
-                    .map(|(p, t)| (wrap_angle_rad(p.bearing_rad()).abs(), t))
-                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.id.cmp(&b.1.id)))
-                    .map(|(_, t)| t),
-            }
-        };
-        match chosen {
-            Some(t) => {
-                self.stats.locks += 1;
-                self.last_good = Some(t.anchor);
-                TargetState::Locked { track: t.id }
-            }
-            None => TargetState::Searching,
         }
     }
 }
