@@ -25,7 +25,7 @@
 use std::collections::BTreeSet;
 
 use serde::{Deserialize, Serialize};
-use tether_core::{Gaussian2, Point2, Pose2, Robot, Stamp, Vector2, World, wrap_angle_rad};
+use tether_core::{Gaussian2, Point2, Pose2, Robot, Stamp, Vector2, World};
 
 use crate::tracker::{MotionBounds, Track};
 

@@ -1,7 +1,9 @@
 //! Finding the target (design 5.6): the first choice, a restart, and re-acquisition of
 //! a lost target.
 
-use super::*;
+use super::{Refusal, TargetSelector, TargetState, View};
+use crate::tracker::Track;
+use tether_core::{Point2, Robot, Stamp, wrap_angle_rad};
 
 impl TargetSelector {
     pub(super) fn reacquire(
