@@ -91,6 +91,8 @@ pub enum Refusal {
     SomebodyElse,
     /// In the camera's view but not seen by both sensors.
     CameraDoesNotVouch,
+    /// Where the laser must vouch for it, only the camera has ever seen it.
+    NotSeenByLaser,
     /// Not seen as a pair of legs often enough (too few pairs, pairs in too small a
     /// share of its updates, or mostly faint legs): what the laser sees of it is not
     /// a person's steady pair of legs.
@@ -110,6 +112,7 @@ impl Refusal {
             Refusal::OutOfReach => "out_of_reach",
             Refusal::SomebodyElse => "somebody_else",
             Refusal::CameraDoesNotVouch => "camera_does_not_vouch",
+            Refusal::NotSeenByLaser => "not_seen_by_laser",
             Refusal::NoLegPair => "no_leg_pair",
             Refusal::NotWalking => "not_walking",
             Refusal::StaticClutter => "static_clutter",
@@ -118,10 +121,11 @@ impl Refusal {
     }
 
     /// Every refusal, in output order.
-    pub const ALL: [Refusal; 7] = [
+    pub const ALL: [Refusal; 8] = [
         Refusal::OutOfReach,
         Refusal::SomebodyElse,
         Refusal::CameraDoesNotVouch,
+        Refusal::NotSeenByLaser,
         Refusal::NoLegPair,
         Refusal::NotWalking,
         Refusal::StaticClutter,
@@ -214,6 +218,8 @@ pub struct TargetStats {
     pub refused_somebody_else: u64,
     /// ... the camera does not vouch.
     pub refused_camera_does_not_vouch: u64,
+    /// ... only the camera has seen it, where the laser must vouch.
+    pub refused_not_seen_by_laser: u64,
     /// ... never a pair of legs.
     pub refused_no_leg_pair: u64,
     /// ... has not walked.
@@ -246,6 +252,7 @@ impl TargetStats {
             Refusal::OutOfReach => &mut self.refused_out_of_reach,
             Refusal::SomebodyElse => &mut self.refused_somebody_else,
             Refusal::CameraDoesNotVouch => &mut self.refused_camera_does_not_vouch,
+            Refusal::NotSeenByLaser => &mut self.refused_not_seen_by_laser,
             Refusal::NoLegPair => &mut self.refused_no_leg_pair,
             Refusal::NotWalking => &mut self.refused_not_walking,
             Refusal::StaticClutter => &mut self.refused_static_clutter,
@@ -951,7 +958,12 @@ impl TargetSelector {
                     || f64::from(t.weak_hits)
                         > self.config.max_weak_share * f64::from(t.hits + t.weak_hits)))
         {
-            Some(Refusal::NoLegPair)
+            // No pair of legs because no leg at all: a track of the camera alone.
+            Some(if t.last_laser.is_none() {
+                Refusal::NotSeenByLaser
+            } else {
+                Refusal::NoLegPair
+            })
         } else if walking && t.walked_m < self.config.min_walked_m {
             Some(Refusal::NotWalking)
         } else {

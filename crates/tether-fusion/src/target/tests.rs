@@ -309,6 +309,16 @@ fn the_laser_alone_vouches_only_for_walking_leg_pairs_outside_clutter() {
         lose_then_offer(lone, false),
         (None, vec![(5, Refusal::NoLegPair)])
     );
+    // A track of the camera alone has no pair of legs either, but for its own reason:
+    // the laser never saw it.
+    let mut camera_only = walker.clone();
+    camera_only.pair_hits = 0;
+    camera_only.last_laser = None;
+    camera_only.last_vision = Some(at(1200));
+    assert_eq!(
+        lose_then_offer(camera_only, false),
+        (None, vec![(5, Refusal::NotSeenByLaser)])
+    );
     assert_eq!(
         lose_then_offer(walker, true),
         (None, vec![(5, Refusal::StaticClutter)])
