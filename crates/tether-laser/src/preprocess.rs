@@ -43,6 +43,25 @@ impl BeamTable {
             (c, s)
         }));
     }
+
+    /// The returns of `scan` as [`LaserScan::points`] gives them, `(beam index, point
+    /// in the sensor frame)`, the same values (the same `sin_cos` of the same angles,
+    /// the same products) from the table instead of trigonometry per beam. The table
+    /// must have been updated for `scan`; beams past it are left out.
+    pub fn points<'a>(
+        &'a self,
+        scan: &'a LaserScan,
+    ) -> impl Iterator<Item = (usize, Point2<Laser>)> + 'a {
+        scan.ranges_m()
+            .iter()
+            .zip(&self.cos_sin)
+            .enumerate()
+            .filter(|(_, (r, _))| r.is_finite())
+            .map(|(i, (&r, &(c, s)))| {
+                let range_m = f64::from(r);
+                (i, Point2::new(range_m * c, range_m * s))
+            })
+    }
 }
 
 /// Pre-processing counts for one scan.
@@ -178,6 +197,29 @@ mod tests {
         assert_eq!(pts[1].beam, 3);
         // Beam 3 points along 3 * 90 deg = -y.
         assert!((pts[1].point_in_laser.y + (2.0 - 0.05)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_table_gives_the_scans_own_points() {
+        let ranges: Vec<f32> = (0..720)
+            .map(|i| match i % 7 {
+                3 => f32::INFINITY,
+                _ => 0.1 + 0.013 * i as f32,
+            })
+            .collect();
+        let scan = LaserScan::new(
+            Stamp::ZERO,
+            "laser",
+            -3.1,
+            0.5f64.to_radians(),
+            0.02,
+            12.0,
+            ranges,
+        )
+        .unwrap();
+        let mut table = BeamTable::default();
+        table.update(&scan);
+        assert!(table.points(&scan).eq(scan.points()));
     }
 
     #[test]

@@ -31,7 +31,10 @@ use tether_fusion::{
     Bearing, ClutterConfig, ClutterMap, FusionRule, Gate, Observation, Refusal, TargetConfig,
     TargetSelector, TargetState, Tracker, TrackerConfig, View, complementary_fusion,
 };
-use tether_laser::{DetectorConfig, DetectorKind, LegClassifier, LegDetector, PersonKind};
+use tether_laser::preprocess::BeamTable;
+use tether_laser::{
+    Detection, DetectorConfig, DetectorKind, LegClassifier, LegDetector, PersonKind,
+};
 
 /// How laser and camera are combined.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -265,6 +268,11 @@ pub struct PipelineStats {
 pub struct Pipeline {
     config: PipelineConfig,
     detector: LegDetector,
+    /// Buffers kept between scans: the detection, the beams' directions (no
+    /// trigonometry per return) and the returns in the robot frame.
+    detection: Detection,
+    beams: BeamTable,
+    scan_obstacles: Vec<Point2<Robot>>,
     tracker: Tracker,
     selector: TargetSelector,
     spring: VirtualSpring,
@@ -355,6 +363,9 @@ impl Pipeline {
             laser_view: None,
             scan_gap_s: 0.0,
             detector,
+            detection: Detection::default(),
+            beams: BeamTable::default(),
+            scan_obstacles: Vec::new(),
             tracker,
             spring,
             command: Twist::STOP,
@@ -426,7 +437,8 @@ impl Pipeline {
             self.stats.unusable_scans += 1;
             return self.idle_tick(scan.stamp, TickInput::Scan);
         }
-        let detection = self.detector.detect(scan);
+        let mut detection = std::mem::take(&mut self.detection);
+        self.detector.detect_into(scan, &mut detection);
         let people: Vec<LaserPerson> = detection
             .people
             .iter()
@@ -443,10 +455,15 @@ impl Pipeline {
             .collect();
         let (first, last) = (scan.angle_min_rad, scan.angle_max_rad());
         self.laser_view = Some((first.min(last), first.max(last), scan.range_max_m));
-        let robot_from_laser = self.config.laser.robot_from_laser();
-        let obstacles: Vec<Point2<Robot>> =
-            scan.points().map(|(_, p)| robot_from_laser * p).collect();
-        self.on_laser_people(scan.stamp, &people, &obstacles, world_from_robot)
+        self.detection = detection;
+        let robot_from_laser = self.config.laser.robot_from_laser().point_map();
+        self.beams.update(scan);
+        let mut obstacles = std::mem::take(&mut self.scan_obstacles);
+        obstacles.clear();
+        obstacles.extend(self.beams.points(scan).map(|(_, p)| robot_from_laser(p)));
+        let tick = self.on_laser_people(scan.stamp, &people, &obstacles, world_from_robot);
+        self.scan_obstacles = obstacles;
+        tick
     }
 
     /// The people found in one scan (laser frame) and the scan's returns (robot frame,
@@ -1015,11 +1032,12 @@ impl Pipeline {
         let attach = world_from_robot * Point2::new(self.config.follower.attach_ahead_m, 0.0);
         // Only returns nearer than the target (plus a margin) can stand between.
         let reach_m = (robot_from_world * target_at).range_m() + 1.0;
+        let to_world = world_from_robot.point_map();
         let obstacles: Vec<Point2<World>> = self
             .obstacle_points
             .iter()
-            .filter(|p| p.range_m() <= reach_m)
-            .map(|p| world_from_robot * *p)
+            .filter(|p| p.range_at_most(reach_m))
+            .map(|p| to_world(*p))
             .collect();
         let aim = self.trails.aim(
             world_from_robot,
@@ -1096,7 +1114,7 @@ impl Pipeline {
             .obstacle_points
             .iter()
             .copied()
-            .filter(|p| p.range_m() <= near_m)
+            .filter(|p| p.range_at_most(near_m))
             .collect();
         let blocked = |v: f64, w: f64| {
             // The free space needed grows with the braking distance at this speed.
