@@ -130,25 +130,27 @@ impl<F: Frame> Point2<F> {
         self.x.hypot(self.y)
     }
 
-    /// Exactly `self.range_m() <= limit_m`, mostly without the `hypot`: the computed
-    /// `x^2 + y^2` is within a few ulps of the true square, and `hypot` within one of
-    /// the true range, so when the sum of squares lies outside
-    /// `limit_m^2 (1 -+ 1e-12)` it decides the comparison (for limits in `(1e-100,
-    /// 1e100)`, where neither square over- or underflows to matter); near the limit,
-    /// and for non-finite input, `hypot` decides. Several times cheaper on the many
-    /// returns of a scan (unit test `range_at_most_is_range_m_compared`).
+    /// Exactly `self.range_m() <= limit_m`, mostly without the `hypot`
+    /// ([`hypot_vs_limit`]). Several times cheaper on the many returns of a scan.
     pub fn range_at_most(self, limit_m: f64) -> bool {
-        if limit_m > 1e-100 && limit_m < 1e100 {
-            let sq = self.x * self.x + self.y * self.y;
-            let limit_sq = limit_m * limit_m;
-            if sq < limit_sq * (1.0 - 1e-12) {
-                return true;
-            }
-            if sq > limit_sq * (1.0 + 1e-12) {
-                return false;
-            }
+        hypot_vs_limit(self.x, self.y, limit_m).unwrap_or_else(|| self.range_m() <= limit_m)
+    }
+
+    /// Exactly `self.distance_m(other) < limit_m`, mostly without the `hypot`
+    /// ([`hypot_vs_limit`]).
+    pub fn distance_below(self, other: Self, limit_m: f64) -> bool {
+        let v = self - other;
+        hypot_vs_limit(v.x, v.y, limit_m).unwrap_or_else(|| self.distance_m(other) < limit_m)
+    }
+
+    /// Exactly `self.distance_m(other) > limit_m`, mostly without the `hypot`
+    /// ([`hypot_vs_limit`]).
+    pub fn distance_above(self, other: Self, limit_m: f64) -> bool {
+        let v = self - other;
+        match hypot_vs_limit(v.x, v.y, limit_m) {
+            Some(below) => !below,
+            None => self.distance_m(other) > limit_m,
         }
-        self.range_m() <= limit_m
     }
 
     /// Direction from the origin, rad, counter-clockwise from +x.
@@ -361,6 +363,28 @@ impl<F: Frame> Mul<f64> for Vector2<F> {
     }
 }
 
+/// `hypot(x, y)` against `limit_m` where the sum of squares decides it: `Some(true)`
+/// when the length is surely below the limit, `Some(false)` when surely above, `None`
+/// near it (and for non-finite input), where only `hypot` itself can tell. The computed
+/// `x^2 + y^2` is within a few ulps of the true square and `hypot` within one of the
+/// true length, so a sum of squares outside `limit_m^2 (1 -+ 1e-12)` decides both `<`
+/// and `<=`, for limits in `(1e-100, 1e100)`, where neither square over- or underflows
+/// to matter (unit test `range_at_most_is_range_m_compared`).
+fn hypot_vs_limit(x: f64, y: f64, limit_m: f64) -> Option<bool> {
+    if !(limit_m > 1e-100 && limit_m < 1e100) {
+        return None;
+    }
+    let sq = x * x + y * y;
+    let limit_sq = limit_m * limit_m;
+    if sq < limit_sq * (1.0 - 1e-12) {
+        Some(true)
+    } else if sq > limit_sq * (1.0 + 1e-12) {
+        Some(false)
+    } else {
+        None
+    }
+}
+
 /// `point_in_to = to_from * point_in_from`.
 impl<To: Frame, From: Frame> Mul<Point2<From>> for Pose2<To, From> {
     type Output = Point2<To>;
@@ -403,11 +427,23 @@ mod tests {
             let r =
                 limit * (1.0 + (unit() - 0.5) * [1e-15, 1e-12, 1e-9, 1.0][(unit() * 4.0) as usize]);
             let q = p(r * bearing.cos(), r * bearing.sin());
+            let o = p(0.25 * limit, -0.5 * limit);
             for at in [q, p(q.x.next_up(), q.y), p(q.x, q.y.next_down())] {
                 assert_eq!(
                     at.range_at_most(limit),
                     at.range_m() <= limit,
                     "{at:?} {limit}"
+                );
+                let from_o = p(at.x + o.x, at.y + o.y);
+                assert_eq!(
+                    from_o.distance_below(o, limit),
+                    from_o.distance_m(o) < limit,
+                    "{from_o:?} {limit}"
+                );
+                assert_eq!(
+                    from_o.distance_above(o, limit),
+                    from_o.distance_m(o) > limit,
+                    "{from_o:?} {limit}"
                 );
             }
         }
@@ -427,6 +463,8 @@ mod tests {
                 q.range_m() <= limit,
                 "{q:?} {limit}"
             );
+            assert_eq!(q.distance_below(p(0.0, 0.0), limit), q.range_m() < limit);
+            assert_eq!(q.distance_above(p(0.0, 0.0), limit), q.range_m() > limit);
         }
     }
 

@@ -92,10 +92,13 @@ pub fn preprocess_into(
     let n = scan.len().min(table.cos_sin.len());
     let seam = seam_beam(scan, table);
     stats.seam_beam = seam;
-    for k in 0..n {
-        let i = (seam + k) % n;
-        let (r, (c, s)) = (scan.ranges_m()[i], table.cos_sin[i]);
-        let beam = k;
+    // Beam order from the seam: beams `seam..n`, then `0..seam` (no remainder per beam).
+    let ranges = &scan.ranges_m()[..n];
+    let cos_sin = &table.cos_sin[..n];
+    let start = seam.checked_rem(n).unwrap_or(0);
+    let from_seam = (start..n).chain(0..start);
+    for (beam, i) in from_seam.enumerate() {
+        let (r, (c, s)) = (ranges[i], cos_sin[i]);
         if !r.is_finite() {
             stats.no_return += 1;
             continue;

@@ -45,8 +45,8 @@ pub struct Trails {
     robot: VecDeque<(Stamp, Point2<World>)>,
 }
 
-/// Shortest distance from `p` to the segment `a`-`b`.
-fn segment_distance(a: Point2<World>, b: Point2<World>, p: Point2<World>) -> f64 {
+/// The point of the segment `a b` nearest to `p`.
+fn closest_on_segment(a: Point2<World>, b: Point2<World>, p: Point2<World>) -> Point2<World> {
     let d = b - a;
     let len2 = d.dot(d);
     let t = if len2 > 0.0 {
@@ -54,7 +54,7 @@ fn segment_distance(a: Point2<World>, b: Point2<World>, p: Point2<World>) -> f64
     } else {
         0.0
     };
-    (a + d * t).distance_m(p)
+    a + d * t
 }
 
 impl Trails {
@@ -113,8 +113,11 @@ impl Trails {
         obstacles: &[Point2<World>],
         clearance_m: f64,
     ) -> bool {
+        // `distance_above` and `distance_below` are `distance_m` compared, mostly
+        // without its `hypot`.
         obstacles.iter().any(|o| {
-            o.distance_m(target) > TARGET_RADIUS_M && segment_distance(a, b, *o) < clearance_m
+            o.distance_above(target, TARGET_RADIUS_M)
+                && closest_on_segment(a, b, *o).distance_below(*o, clearance_m)
         })
     }
 
