@@ -97,29 +97,42 @@ pub fn preprocess_into(
     let cos_sin = &table.cos_sin[..n];
     let start = seam.checked_rem(n).unwrap_or(0);
     let from_seam = (start..n).chain(0..start);
+    // Every beam's point is written at the end of the kept ones and kept by moving the
+    // end past it: no branch on which beams returned, which on a scanner that loses
+    // beams at random (a quarter on the YDLIDAR X4) the CPU cannot predict.
+    out.resize(
+        n,
+        ScanPoint {
+            beam: 0,
+            range_m: 0.0,
+            bearing_rad: 0.0,
+            point_in_laser: Point2::ORIGIN,
+        },
+    );
+    let mut kept = 0;
     for (beam, i) in from_seam.enumerate() {
         let (r, (c, s)) = (ranges[i], cos_sin[i]);
-        if !r.is_finite() {
-            stats.no_return += 1;
-            continue;
-        }
+        let returned = r.is_finite();
         let measured_m = f64::from(r);
+        // (A beam of no return is corrected too, to no use: the correction is
+        // arithmetic, and the beam is dropped whatever it gives.)
         let range_m = if unbiased {
             measured_m
         } else {
             noise.corrected_m(measured_m)
         };
-        if !(range_m.is_finite() && range_m > 0.0) {
-            stats.bad_after_correction += 1;
-            continue;
-        }
-        out.push(ScanPoint {
+        let good = range_m.is_finite() && range_m > 0.0;
+        stats.no_return += usize::from(!returned);
+        stats.bad_after_correction += usize::from(returned & !good);
+        out[kept] = ScanPoint {
             beam,
             range_m,
             bearing_rad: scan.angle_min_rad + i as f64 * scan.angle_increment_rad,
             point_in_laser: Point2::new(range_m * c, range_m * s),
-        });
+        };
+        kept += usize::from(returned & good);
     }
+    out.truncate(kept);
     stats
 }
 
@@ -152,13 +165,19 @@ pub fn seam_beam(scan: &LaserScan, table: &BeamTable) -> usize {
     };
     let mut prev = point(last);
     let (mut best, mut best_gap_sq) = (0, f64::NEG_INFINITY);
-    for i in (0..n).filter(|&i| ranges[i].is_finite()) {
+    // Every beam is visited and a beam of no return changes nothing: no branch on
+    // which beams returned (see `preprocess_into`).
+    for i in 0..n {
+        let returned = ranges[i].is_finite();
         let p = point(i);
         let gap_sq = (p.0 - prev.0).powi(2) + (p.1 - prev.1).powi(2);
-        if gap_sq > best_gap_sq {
+        if returned & (gap_sq > best_gap_sq) {
             (best, best_gap_sq) = (i, gap_sq);
         }
-        prev = p;
+        let keep = if returned { u64::MAX } else { 0 };
+        let select =
+            |new: f64, old: f64| f64::from_bits((new.to_bits() & keep) | (old.to_bits() & !keep));
+        prev = (select(p.0, prev.0), select(p.1, prev.1));
     }
     best
 }
