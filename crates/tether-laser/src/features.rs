@@ -123,22 +123,30 @@ pub fn add_context(candidates: &mut [Candidate]) {
         let (head, tail) = candidates.split_at_mut(i + 1);
         let a = &mut head[i];
         let a_leg_sized = a.features[WIDTH] <= LEG_SIZED_MAX_WIDTH_M;
+        // `a`'s own in locals, not read back from memory pair after pair.
+        let [mut nearest, mut nearest_leg, mut within] =
+            [FIRST, FIRST + 1, FIRST + 2].map(|k| a.features[k]);
         for b in tail {
             let v = a.centroid_in_laser - b.centroid_in_laser;
             let d_sq = v.x * v.x + v.y * v.y;
-            a.features[FIRST] = a.features[FIRST].min(d_sq);
+            nearest = nearest.min(d_sq);
             b.features[FIRST] = b.features[FIRST].min(d_sq);
             if b.features[WIDTH] <= LEG_SIZED_MAX_WIDTH_M {
-                a.features[FIRST + 1] = a.features[FIRST + 1].min(d_sq);
+                nearest_leg = nearest_leg.min(d_sq);
             }
             if a_leg_sized {
                 b.features[FIRST + 1] = b.features[FIRST + 1].min(d_sq);
             }
             if d_sq < stride_sq_above && d_sq.sqrt() <= STRIDE_M {
-                a.features[FIRST + 2] += 1.0;
+                within += 1.0;
                 b.features[FIRST + 2] += 1.0;
             }
         }
+        (
+            a.features[FIRST],
+            a.features[FIRST + 1],
+            a.features[FIRST + 2],
+        ) = (nearest, nearest_leg, within);
     }
     for f in candidates.iter_mut().map(|c| &mut c.features) {
         f[FIRST] = FEATURE_CAP_M.min(f[FIRST].sqrt());
@@ -451,13 +459,11 @@ fn free_space(
     let lo_beam = first_beam.saturating_sub(window);
     let hi_beam = last_beam.saturating_add(window);
     let lo = view.points.partition_point(|p| p.beam < lo_beam);
+    let hi = lo + view.points[lo..].partition_point(|p| p.beam <= hi_beam);
     let mut nearest_sq = f64::INFINITY;
     let mut surface = [0.0; SURFACE_RADII_M.len()];
     let radii_sq = SURFACE_RADII_M.map(|r| r * r);
-    for (p, &k) in view.points[lo..].iter().zip(&view.cluster_of[lo..]) {
-        if p.beam > hi_beam {
-            break;
-        }
+    for (p, &k) in view.points[lo..hi].iter().zip(&view.cluster_of[lo..hi]) {
         if k == cluster {
             continue;
         }
@@ -468,13 +474,11 @@ fn free_space(
         if d_sq < nearest_sq {
             nearest_sq = d_sq;
         }
-        if d_sq < radii_sq[radii_sq.len() - 1] {
-            let footprint = p.range_m * dphi;
-            for (s, r_sq) in surface.iter_mut().zip(radii_sq) {
-                if d_sq < r_sq {
-                    *s += footprint;
-                }
-            }
+        // Adding 0 to a non-negative sum leaves it as it is: every return adds, with
+        // no branch on whether it lies within a radius (which the CPU cannot predict).
+        let footprint = p.range_m * dphi;
+        for (s, r_sq) in surface.iter_mut().zip(radii_sq) {
+            *s += if d_sq < r_sq { footprint } else { 0.0 };
         }
     }
     (nearest_sq.sqrt().min(r_max), surface)
