@@ -131,9 +131,10 @@ pub fn add_context(candidates: &mut [Candidate]) {
             let d_sq = v.x * v.x + v.y * v.y;
             nearest = nearest.min(d_sq);
             b.features[FIRST] = b.features[FIRST].min(d_sq);
-            if b.features[WIDTH] <= LEG_SIZED_MAX_WIDTH_M {
-                nearest_leg = nearest_leg.min(d_sq);
-            }
+            // A select, not a branch on widths the CPU cannot predict (the minimum
+            // with infinity changes nothing).
+            let leg_sized = b.features[WIDTH] <= LEG_SIZED_MAX_WIDTH_M;
+            nearest_leg = nearest_leg.min(if leg_sized { d_sq } else { f64::INFINITY });
             if a_leg_sized {
                 b.features[FIRST + 1] = b.features[FIRST + 1].min(d_sq);
             }
