@@ -44,23 +44,30 @@ impl BeamTable {
         }));
     }
 
-    /// The returns of `scan` as [`LaserScan::points`] gives them, `(beam index, point
-    /// in the sensor frame)`, the same values (the same `sin_cos` of the same angles,
-    /// the same products) from the table instead of trigonometry per beam. The table
-    /// must have been updated for `scan`; beams past it are left out.
-    pub fn points<'a>(
-        &'a self,
-        scan: &'a LaserScan,
-    ) -> impl Iterator<Item = (usize, Point2<Laser>)> + 'a {
-        scan.ranges_m()
-            .iter()
-            .zip(&self.cos_sin)
-            .enumerate()
-            .filter(|(_, (r, _))| r.is_finite())
-            .map(|(i, (&r, &(c, s)))| {
-                let range_m = f64::from(r);
-                (i, Point2::new(range_m * c, range_m * s))
-            })
+    /// `out` = the points of [`LaserScan::points`] through `map`, in order: the same
+    /// values (the same `sin_cos` of the same angles, the same products) from the
+    /// table instead of trigonometry per beam, and without a branch on which beams
+    /// returned (every beam's point is written at the end of the kept ones, which only
+    /// move past it when the beam returned): on a scanner that loses beams at random,
+    /// the CPU cannot predict that branch. `map` also sees the non-finite points of
+    /// beams of no return; what it makes of them is dropped. The table must have been
+    /// updated for `scan`; beams past it are left out.
+    pub fn points_into<T: Copy>(
+        &self,
+        scan: &LaserScan,
+        map: impl Fn(Point2<Laser>) -> T,
+        out: &mut Vec<T>,
+    ) {
+        out.clear();
+        let ranges = &scan.ranges_m()[..scan.len().min(self.cos_sin.len())];
+        out.resize(ranges.len(), map(Point2::ORIGIN));
+        let mut kept = 0;
+        for (&r, &(c, s)) in ranges.iter().zip(&self.cos_sin) {
+            let range_m = f64::from(r);
+            out[kept] = map(Point2::new(range_m * c, range_m * s));
+            kept += usize::from(r.is_finite());
+        }
+        out.truncate(kept);
     }
 }
 
@@ -241,7 +248,20 @@ mod tests {
         .unwrap();
         let mut table = BeamTable::default();
         table.update(&scan);
-        assert!(table.points(&scan).eq(scan.points()));
+        let mut points = vec![Point2::ORIGIN; 3];
+        table.points_into(&scan, |p| p, &mut points);
+        assert!(points.iter().copied().eq(scan.points().map(|(_, p)| p)));
+        let mut doubled = Vec::new();
+        table.points_into(
+            &scan,
+            |p| Point2::<Laser>::new(2.0 * p.x, 2.0 * p.y),
+            &mut doubled,
+        );
+        assert!(
+            doubled.iter().copied().eq(scan
+                .points()
+                .map(|(_, p)| Point2::new(2.0 * p.x, 2.0 * p.y)))
+        );
     }
 
     #[test]

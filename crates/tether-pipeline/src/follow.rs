@@ -187,6 +187,30 @@ impl Trails {
     }
 }
 
+/// `out` = `items` for which `keep` holds, each through `map`, in order: what
+/// `items.iter().filter(keep).map(map).collect()` gives, into a buffer kept between
+/// ticks, and with no branch on `keep` (every item is written at the end of the kept
+/// ones, which only move past it when it is kept), which on a scan's returns the CPU
+/// cannot predict.
+pub fn keep_mapped<T: Copy, U: Copy>(
+    items: &[T],
+    keep: impl Fn(&T) -> bool,
+    map: impl Fn(T) -> U,
+    out: &mut Vec<U>,
+) {
+    out.clear();
+    let Some(&first) = items.first() else {
+        return;
+    };
+    out.resize(items.len(), map(first));
+    let mut kept = 0;
+    for item in items {
+        out[kept] = map(*item);
+        kept += usize::from(keep(item));
+    }
+    out.truncate(kept);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

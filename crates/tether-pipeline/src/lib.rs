@@ -459,8 +459,8 @@ impl Pipeline {
         let robot_from_laser = self.config.laser.robot_from_laser().point_map();
         self.beams.update(scan);
         let mut obstacles = std::mem::take(&mut self.scan_obstacles);
-        obstacles.clear();
-        obstacles.extend(self.beams.points(scan).map(|(_, p)| robot_from_laser(p)));
+        self.beams
+            .points_into(scan, robot_from_laser, &mut obstacles);
         let tick = self.on_laser_people(scan.stamp, &people, &obstacles, world_from_robot);
         self.scan_obstacles = obstacles;
         tick
@@ -1032,13 +1032,13 @@ impl Pipeline {
         let attach = world_from_robot * Point2::new(self.config.follower.attach_ahead_m, 0.0);
         // Only returns nearer than the target (plus a margin) can stand between.
         let reach_m = (robot_from_world * target_at).range_m() + 1.0;
-        let to_world = world_from_robot.point_map();
-        let obstacles: Vec<Point2<World>> = self
-            .obstacle_points
-            .iter()
-            .filter(|p| p.range_at_most(reach_m))
-            .map(|p| to_world(*p))
-            .collect();
+        let mut obstacles = Vec::new();
+        follow::keep_mapped(
+            &self.obstacle_points,
+            |p| p.range_at_most(reach_m),
+            world_from_robot.point_map(),
+            &mut obstacles,
+        );
         let aim = self.trails.aim(
             world_from_robot,
             attach,
@@ -1110,12 +1110,13 @@ impl Pipeline {
             + safety.corridor_margin_m
             + safety.stop_distance_m
             + top * top / (2.0 * decel);
-        let near: Vec<Point2<Robot>> = self
-            .obstacle_points
-            .iter()
-            .copied()
-            .filter(|p| p.range_at_most(near_m))
-            .collect();
+        let mut near = Vec::new();
+        follow::keep_mapped(
+            &self.obstacle_points,
+            |p| p.range_at_most(near_m),
+            |p| p,
+            &mut near,
+        );
         let blocked = |v: f64, w: f64| {
             // The free space needed grows with the braking distance at this speed.
             let reach = SafetyConfig {
