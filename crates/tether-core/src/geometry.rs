@@ -130,21 +130,25 @@ impl<F: Frame> Point2<F> {
         self.x.hypot(self.y)
     }
 
-    /// Exactly `self.range_m() <= limit_m`, mostly without the `hypot`
-    /// ([`hypot_vs_limit`]). Several times cheaper on the many returns of a scan.
+    /// Exactly `self.range_m() <= limit_m`, mostly without the `hypot`: the computed
+    /// `x^2 + y^2` is within a few ulps of the true square and `hypot` within one of
+    /// the true length, so a sum of squares outside `limit_m^2 (1 -+ 1e-12)` decides
+    /// the comparison (for limits in `(1e-100, 1e100)`, where neither square over- or
+    /// underflows to matter); near the limit, and for non-finite input, `hypot` does.
+    /// Several times cheaper on the many returns of a scan.
     pub fn range_at_most(self, limit_m: f64) -> bool {
         hypot_vs_limit(self.x, self.y, limit_m).unwrap_or_else(|| self.range_m() <= limit_m)
     }
 
-    /// Exactly `self.distance_m(other) < limit_m`, mostly without the `hypot`
-    /// ([`hypot_vs_limit`]).
+    /// Exactly `self.distance_m(other) < limit_m`, mostly without the `hypot` (as
+    /// [`Point2::range_at_most`]).
     pub fn distance_below(self, other: Self, limit_m: f64) -> bool {
         let v = self - other;
         hypot_vs_limit(v.x, v.y, limit_m).unwrap_or_else(|| self.distance_m(other) < limit_m)
     }
 
-    /// Exactly `self.distance_m(other) > limit_m`, mostly without the `hypot`
-    /// ([`hypot_vs_limit`]).
+    /// Exactly `self.distance_m(other) > limit_m`, mostly without the `hypot` (as
+    /// [`Point2::range_at_most`]).
     pub fn distance_above(self, other: Self, limit_m: f64) -> bool {
         let v = self - other;
         match hypot_vs_limit(v.x, v.y, limit_m) {

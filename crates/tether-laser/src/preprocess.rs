@@ -174,8 +174,8 @@ pub fn seam_beam(scan: &LaserScan, table: &BeamTable) -> usize {
     let (mut best, mut best_gap_sq) = (0, f64::NEG_INFINITY);
     // Every beam is visited and a beam of no return changes nothing: no branch on
     // which beams returned (see `preprocess_into`).
-    for i in 0..n {
-        let returned = ranges[i].is_finite();
+    for (i, r) in ranges[..n].iter().enumerate() {
+        let returned = r.is_finite();
         let p = point(i);
         let gap_sq = (p.0 - prev.0).powi(2) + (p.1 - prev.1).powi(2);
         if returned & (gap_sq > best_gap_sq) {
