@@ -58,7 +58,8 @@ impl BeamTable {
         map: impl Fn(Point2<Laser>) -> T,
         out: &mut Vec<T>,
     ) {
-        out.clear();
+        // Whatever the buffer holds from the last scan is written over: only a longer
+        // scan makes it fill new room.
         let ranges = &scan.ranges_m()[..scan.len().min(self.cos_sin.len())];
         out.resize(ranges.len(), map(Point2::ORIGIN));
         let mut kept = 0;
@@ -93,7 +94,6 @@ pub fn preprocess_into(
     table: &BeamTable,
     out: &mut Vec<ScanPoint>,
 ) -> PreprocessStats {
-    out.clear();
     let mut stats = PreprocessStats::default();
     let unbiased = noise.bias_m.0.is_empty();
     let n = scan.len().min(table.cos_sin.len());
@@ -106,7 +106,8 @@ pub fn preprocess_into(
     let from_seam = (start..n).chain(0..start);
     // Every beam's point is written at the end of the kept ones and kept by moving the
     // end past it: no branch on which beams returned, which on a scanner that loses
-    // beams at random (a quarter on the YDLIDAR X4) the CPU cannot predict.
+    // beams at random (a quarter on the YDLIDAR X4) the CPU cannot predict. What `out`
+    // holds from the last scan is written over (only a longer scan fills new room).
     out.resize(
         n,
         ScanPoint {

@@ -198,10 +198,12 @@ pub fn keep_mapped<T: Copy, U: Copy>(
     map: impl Fn(T) -> U,
     out: &mut Vec<U>,
 ) {
-    out.clear();
     let Some(&first) = items.first() else {
+        out.clear();
         return;
     };
+    // What `out` holds from the last call is written over: only more items fill new
+    // room.
     out.resize(items.len(), map(first));
     let mut kept = 0;
     for item in items {
