@@ -201,7 +201,7 @@ impl SafetyConfig {
             points_in_robot
                 .iter()
                 .filter(|p| p.is_finite() && p.x > -0.05)
-                .any(|p| p.distance_m(centre) < reach)
+                .any(|p| p.distance_below(centre, reach))
                 .then_some(s)
         })
     }

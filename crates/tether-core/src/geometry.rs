@@ -130,6 +130,33 @@ impl<F: Frame> Point2<F> {
         self.x.hypot(self.y)
     }
 
+    /// Exactly `self.range_m() <= limit_m`, mostly without the `hypot`: the computed
+    /// `x^2 + y^2` is within a few ulps of the true square and `hypot` within one of
+    /// the true length, so a sum of squares outside `limit_m^2 (1 -+ 1e-12)` decides
+    /// the comparison (for limits in `(1e-100, 1e100)`, where neither square over- or
+    /// underflows to matter); near the limit, and for non-finite input, `hypot` does.
+    /// Several times cheaper on the many returns of a scan.
+    pub fn range_at_most(self, limit_m: f64) -> bool {
+        hypot_vs_limit(self.x, self.y, limit_m).unwrap_or_else(|| self.range_m() <= limit_m)
+    }
+
+    /// Exactly `self.distance_m(other) < limit_m`, mostly without the `hypot` (as
+    /// [`Point2::range_at_most`]).
+    pub fn distance_below(self, other: Self, limit_m: f64) -> bool {
+        let v = self - other;
+        hypot_vs_limit(v.x, v.y, limit_m).unwrap_or_else(|| self.distance_m(other) < limit_m)
+    }
+
+    /// Exactly `self.distance_m(other) > limit_m`, mostly without the `hypot` (as
+    /// [`Point2::range_at_most`]).
+    pub fn distance_above(self, other: Self, limit_m: f64) -> bool {
+        let v = self - other;
+        match hypot_vs_limit(v.x, v.y, limit_m) {
+            Some(below) => !below,
+            None => self.distance_m(other) > limit_m,
+        }
+    }
+
     /// Direction from the origin, rad, counter-clockwise from +x.
     pub fn bearing_rad(self) -> f64 {
         self.y.atan2(self.x)
@@ -231,6 +258,15 @@ impl<F: Frame> Point3<F> {
 }
 
 impl<To: Frame, From: Frame> Pose2<To, From> {
+    /// `p -> self * p` with the rotation's sine and cosine computed once: for many
+    /// points, the same results as `self * p` each (the same values, the same formula)
+    /// without a `sin_cos` per point.
+    pub fn point_map(self) -> impl Fn(Point2<From>) -> Point2<To> + Copy {
+        let (s, c) = self.yaw.sin_cos();
+        let (x, y) = (self.x, self.y);
+        move |p: Point2<From>| Point2::new(c * p.x - s * p.y + x, s * p.x + c * p.y + y)
+    }
+
     /// The identity transform (only meaningful when `To` and `From` coincide).
     pub const IDENTITY: Self = Pose2::new(0.0, 0.0, 0.0);
 
@@ -331,6 +367,28 @@ impl<F: Frame> Mul<f64> for Vector2<F> {
     }
 }
 
+/// `hypot(x, y)` against `limit_m` where the sum of squares decides it: `Some(true)`
+/// when the length is surely below the limit, `Some(false)` when surely above, `None`
+/// near it (and for non-finite input), where only `hypot` itself can tell. The computed
+/// `x^2 + y^2` is within a few ulps of the true square and `hypot` within one of the
+/// true length, so a sum of squares outside `limit_m^2 (1 -+ 1e-12)` decides both `<`
+/// and `<=`, for limits in `(1e-100, 1e100)`, where neither square over- or underflows
+/// to matter (unit test `range_at_most_is_range_m_compared`).
+fn hypot_vs_limit(x: f64, y: f64, limit_m: f64) -> Option<bool> {
+    if !(limit_m > 1e-100 && limit_m < 1e100) {
+        return None;
+    }
+    let sq = x * x + y * y;
+    let limit_sq = limit_m * limit_m;
+    if sq < limit_sq * (1.0 - 1e-12) {
+        Some(true)
+    } else if sq > limit_sq * (1.0 + 1e-12) {
+        Some(false)
+    } else {
+        None
+    }
+}
+
 /// `point_in_to = to_from * point_in_from`.
 impl<To: Frame, From: Frame> Mul<Point2<From>> for Pose2<To, From> {
     type Output = Point2<To>;
@@ -355,6 +413,76 @@ mod tests {
     use crate::frame::{Laser, Robot, World};
     use proptest::prelude::*;
     use std::f64::consts::PI;
+
+    #[test]
+    fn range_at_most_is_range_m_compared() {
+        let p = |x: f64, y: f64| Point2::<Laser>::new(x, y);
+        let mut state = 7u64;
+        let mut unit = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        // Points at and next to the limit's circle, where the shortcut must step aside.
+        for _ in 0..200_000 {
+            let limit = [0.5, 1.0, 2.3, 7.0, 1e-90, 1e90][(unit() * 6.0) as usize];
+            let bearing = unit() * 2.0 * PI;
+            let r =
+                limit * (1.0 + (unit() - 0.5) * [1e-15, 1e-12, 1e-9, 1.0][(unit() * 4.0) as usize]);
+            let q = p(r * bearing.cos(), r * bearing.sin());
+            let o = p(0.25 * limit, -0.5 * limit);
+            for at in [q, p(q.x.next_up(), q.y), p(q.x, q.y.next_down())] {
+                assert_eq!(
+                    at.range_at_most(limit),
+                    at.range_m() <= limit,
+                    "{at:?} {limit}"
+                );
+                let from_o = p(at.x + o.x, at.y + o.y);
+                assert_eq!(
+                    from_o.distance_below(o, limit),
+                    from_o.distance_m(o) < limit,
+                    "{from_o:?} {limit}"
+                );
+                assert_eq!(
+                    from_o.distance_above(o, limit),
+                    from_o.distance_m(o) > limit,
+                    "{from_o:?} {limit}"
+                );
+            }
+        }
+        for (q, limit) in [
+            (p(f64::NAN, 0.0), 1.0),
+            (p(f64::INFINITY, 0.0), 1.0),
+            (p(1e300, 1e300), 1.0),
+            (p(1e-300, 0.0), 1e-300),
+            (p(0.0, 0.0), 0.0),
+            (p(0.5, 0.0), -1.0),
+            (p(0.5, 0.0), f64::NAN),
+            (p(0.5, 0.0), f64::INFINITY),
+            (p(3.0, 4.0), 5.0),
+        ] {
+            assert_eq!(
+                q.range_at_most(limit),
+                q.range_m() <= limit,
+                "{q:?} {limit}"
+            );
+            assert_eq!(q.distance_below(p(0.0, 0.0), limit), q.range_m() < limit);
+            assert_eq!(q.distance_above(p(0.0, 0.0), limit), q.range_m() > limit);
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn point_map_is_the_pose_applied(
+            x in -1e3..1e3f64, y in -1e3..1e3f64, yaw in -10.0..10.0f64,
+            px in -1e3..1e3f64, py in -1e3..1e3f64,
+        ) {
+            let pose = Pose2::<World, Robot>::new(x, y, yaw);
+            let q = Point2::<Robot>::new(px, py);
+            prop_assert_eq!(pose.point_map()(q), pose * q);
+        }
+    }
 
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() < 1e-9 * (1.0 + a.abs().max(b.abs()))

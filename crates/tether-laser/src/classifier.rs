@@ -334,9 +334,11 @@ impl LegClassifier {
 /// becomes a split whose two children vote alike, which changes no vote. A tree is
 /// then `D` comparisons with no branch on the path taken, and its `2^D` leaves hold
 /// `alpha_t h_t`. [`CompiledClassifier::margin_if_leg`] sums the trees in order and
-/// stops as soon as even a unanimous vote of the trees left could not lift the sum to
-/// the decision margin (a non-leg rarely needs them all); a leg is summed in full, so
-/// its margin is exactly [`LegClassifier::margin`] (same terms, same order).
+/// stops once even a unanimous vote of the trees left could not lift the sum to the
+/// decision margin (checked every few trees; a non-leg rarely needs them all); a leg
+/// is summed in full, so its margin is exactly [`LegClassifier::margin`] (same terms,
+/// same order). Stopping is safe to 1e-9 of the total weight, far more than the
+/// rounding of the sums, so whether and where it stops never changes the answer.
 #[derive(Debug, Clone, Default)]
 pub struct CompiledClassifier {
     depth: usize,
@@ -347,8 +349,12 @@ pub struct CompiledClassifier {
     leaves: Vec<f64>,
     alphas: Vec<f64>,
     /// The same trees in fixed-size records when the model is [`SHALLOW_DEPTH`] deep
-    /// (the default model is): no bounds check per node, the feature index in a byte,
-    /// the alphas still to come precomputed. A quarter faster than the general layout.
+    /// (both built-in models are) and every leaf votes +1 or -1: no bounds check per
+    /// node (a byte indexes the padded features), the path's nodes computed from its
+    /// comparisons, the vote's sign put on the weight, the alphas still to come
+    /// precomputed: on the simulated office's 720-beam scans (34 candidates each, the
+    /// coarse model) about 26 us a scan, against 38 us for records walked node by
+    /// node with an exit check per tree.
     shallow: Vec<ShallowTree>,
     total: f64,
     decision_margin: f64,
@@ -358,18 +364,24 @@ pub struct CompiledClassifier {
 const SHALLOW_DEPTH: usize = 3;
 
 /// Length of the feature vector as [`ShallowTree`]s read it: the features, then NaN
-/// (what a split on a feature index out of range sees, as `x.get()` would), a power of
-/// two so that a masked index needs no bounds check.
-const PADDED_FEATURES: usize = 32;
+/// (what a split on a feature index out of range sees, as `x.get()` would), as many
+/// as a byte indexes, so that a feature index needs neither a bounds check nor a mask.
+const PADDED_FEATURES: usize = 256;
+
+/// Trees summed between two checks of [`CompiledClassifier::margin_if_at_least`]'s
+/// early exit: the check costs about as much as a tree, and stopping a few trees later
+/// changes nothing but the work.
+const TREES_PER_CHECK: usize = 8;
 
 /// A tree of depth [`SHALLOW_DEPTH`], complete, in heap order.
 #[derive(Debug, Clone, Copy, Default)]
 struct ShallowTree {
     thresholds: [f64; 7],
-    /// Feature indices, below [`PADDED_FEATURES`].
+    /// Feature indices (into the padded vector).
     features: [u8; 7],
-    /// The leaves' votes, +1, -1 or 0 (a malformed path).
-    votes: [i8; 8],
+    /// Bit `l` set when leaf `l` votes -1, clear when it votes +1 (a model with any
+    /// other vote does not get this layout).
+    against_leaves: u8,
     alpha: f64,
     /// The sum of the alphas of the trees after this one, as the sequence
     /// `total - alpha_0 - alpha_1 - ...` gives it.
@@ -377,15 +389,21 @@ struct ShallowTree {
 }
 
 impl ShallowTree {
-    /// `alpha h(x)`.
+    /// `alpha h(x)`. The three comparisons of the path, each picking the next node
+    /// (`above`: the value is not at or below the threshold, as for NaN): node 0, then
+    /// `1 + c0`, then `3 + 2 c0 + c1`, and leaf `2 (2 c0 + c1) + c2`. The vote's sign
+    /// is put on `alpha` directly, which is `alpha * (+-1.0)` exactly.
     #[inline(always)]
     fn vote(&self, x: &[f64; PADDED_FEATURES]) -> f64 {
-        let mut k = 0;
-        for _ in 0..SHALLOW_DEPTH {
-            let value = x[usize::from(self.features[k & 7]) & (PADDED_FEATURES - 1)];
-            k = 2 * k + 1 + usize::from(!(value <= self.thresholds[k & 7]));
-        }
-        self.alpha * f64::from(self.votes[(k - 7) & 7])
+        let above = |k: usize| {
+            let value = x[usize::from(self.features[k & 7])];
+            usize::from(!(value <= self.thresholds[k & 7]))
+        };
+        let c0 = above(0);
+        let path = 2 * c0 + above(1 + c0);
+        let leaf = 2 * path + above(3 + path);
+        let against = u64::from((self.against_leaves >> (leaf & 7)) & 1);
+        f64::from_bits(self.alpha.to_bits() ^ (against << 63))
     }
 }
 
@@ -438,6 +456,7 @@ impl CompiledClassifier {
         if depth == SHALLOW_DEPTH {
             let (n_splits, n_leaves) = ((1 << depth) - 1, 1 << depth);
             let mut alpha_left = out.total;
+            let mut every_vote_is_plus_or_minus_one = true;
             for (t, &alpha) in out.alphas.iter().enumerate() {
                 alpha_left -= alpha;
                 let mut tree = ShallowTree {
@@ -451,20 +470,22 @@ impl CompiledClassifier {
                         out.features[t * n_splits + k].min(PADDED_FEATURES as u32 - 1) as u8;
                 }
                 for k in 0..n_leaves {
-                    tree.votes[k] = if out.leaves[t * n_leaves + k] > 0.0 {
-                        1
-                    } else if out.leaves[t * n_leaves + k] < 0.0 {
-                        -1
-                    } else {
-                        0
-                    };
+                    let leaf = out.leaves[t * n_leaves + k];
+                    tree.against_leaves |= u8::from(leaf < 0.0) << k;
+                    every_vote_is_plus_or_minus_one &= leaf != 0.0;
                 }
                 out.shallow.push(tree);
             }
-            // The records hold every tree: the general layout is not kept twice.
-            out.features = Vec::new();
-            out.thresholds = Vec::new();
-            out.leaves = Vec::new();
+            if every_vote_is_plus_or_minus_one {
+                // The records hold every tree: the general layout is not kept twice.
+                out.features = Vec::new();
+                out.thresholds = Vec::new();
+                out.leaves = Vec::new();
+            } else {
+                // A path without a leaf (a model that was not validated) votes 0,
+                // which only the general layout holds.
+                out.shallow = Vec::new();
+            }
         }
         out
     }
@@ -492,11 +513,19 @@ impl CompiledClassifier {
         if !self.shallow.is_empty() {
             let mut padded = [f64::NAN; PADDED_FEATURES];
             padded[..N_FEATURES].copy_from_slice(x);
-            for tree in &self.shallow {
-                vote += tree.vote(&padded);
-                if vote + tree.alpha_left < needed {
+            // The same terms in the same order; the exit checked after every
+            // [`TREES_PER_CHECK`] trees.
+            let mut groups = self.shallow.chunks_exact(TREES_PER_CHECK);
+            for group in &mut groups {
+                for tree in group {
+                    vote += tree.vote(&padded);
+                }
+                if vote + group[TREES_PER_CHECK - 1].alpha_left < needed {
                     return None;
                 }
+            }
+            for tree in groups.remainder() {
+                vote += tree.vote(&padded);
             }
             let margin = vote / total;
             return (margin >= min_margin).then_some(margin);
@@ -662,6 +691,16 @@ mod tests {
         let compiled = CompiledClassifier::new(&mixed);
         let x = [0.0; N_FEATURES];
         assert_eq!(compiled.margin_if_leg(&x).is_some(), mixed.is_leg(&x));
+        // A path that ends nowhere (a model that was not validated) votes 0: the
+        // fixed-size records, which hold only +1 and -1, are not used.
+        let mut broken = model.clone();
+        broken.trees[0].nodes[0] = split(0, thresholds[0][0], 1, 99);
+        let compiled = CompiledClassifier::new(&broken);
+        assert!(compiled.shallow.is_empty());
+        for x in [[0.0; N_FEATURES], [1e9; N_FEATURES]] {
+            let exact = broken.margin(&x);
+            assert_eq!(compiled.margin_if_at_least(&x, -1.0), Some(exact));
+        }
     }
 
     #[test]

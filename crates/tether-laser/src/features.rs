@@ -109,27 +109,49 @@ pub struct Candidate {
 pub fn add_context(candidates: &mut [Candidate]) {
     const FIRST: usize = N_SEGMENT_FEATURES + N_SCAN_FEATURES;
     const WIDTH: usize = 5;
+    // Each pair once: `a - b` is exactly `-(b - a)`, so both see the same squared
+    // distance. The nearest distances are kept squared: `sqrt` is correctly rounded,
+    // hence monotone, and the square root of the least square is the least distance.
+    // Only squares near the stride need the distance itself.
+    let stride_sq_above = 1.01 * STRIDE_M * STRIDE_M;
+    for f in candidates.iter_mut().map(|c| &mut c.features) {
+        f[FIRST] = f64::INFINITY;
+        f[FIRST + 1] = f64::INFINITY;
+        f[FIRST + 2] = 0.0;
+    }
     for i in 0..candidates.len() {
-        let (mut nearest, mut nearest_leg, mut within) = (FEATURE_CAP_M, FEATURE_CAP_M, 0.0);
-        let here = candidates[i].centroid_in_laser;
-        for (j, other) in candidates.iter().enumerate() {
-            if i == j {
-                continue;
+        let (head, tail) = candidates.split_at_mut(i + 1);
+        let a = &mut head[i];
+        let a_leg_sized = a.features[WIDTH] <= LEG_SIZED_MAX_WIDTH_M;
+        // `a`'s own in locals, not read back from memory pair after pair.
+        let [mut nearest, mut nearest_leg, mut within] =
+            [FIRST, FIRST + 1, FIRST + 2].map(|k| a.features[k]);
+        for b in tail {
+            let v = a.centroid_in_laser - b.centroid_in_laser;
+            let d_sq = v.x * v.x + v.y * v.y;
+            nearest = nearest.min(d_sq);
+            b.features[FIRST] = b.features[FIRST].min(d_sq);
+            // A select, not a branch on widths the CPU cannot predict (the minimum
+            // with infinity changes nothing).
+            let leg_sized = b.features[WIDTH] <= LEG_SIZED_MAX_WIDTH_M;
+            nearest_leg = nearest_leg.min(if leg_sized { d_sq } else { f64::INFINITY });
+            if a_leg_sized {
+                b.features[FIRST + 1] = b.features[FIRST + 1].min(d_sq);
             }
-            let v = here - other.centroid_in_laser;
-            let d = (v.x * v.x + v.y * v.y).sqrt();
-            nearest = nearest.min(d);
-            if other.features[WIDTH] <= LEG_SIZED_MAX_WIDTH_M {
-                nearest_leg = nearest_leg.min(d);
-            }
-            if d <= STRIDE_M {
+            if d_sq < stride_sq_above && d_sq.sqrt() <= STRIDE_M {
                 within += 1.0;
+                b.features[FIRST + 2] += 1.0;
             }
         }
-        let f = &mut candidates[i].features;
-        f[FIRST] = nearest;
-        f[FIRST + 1] = nearest_leg;
-        f[FIRST + 2] = within;
+        (
+            a.features[FIRST],
+            a.features[FIRST + 1],
+            a.features[FIRST + 2],
+        ) = (nearest, nearest_leg, within);
+    }
+    for f in candidates.iter_mut().map(|c| &mut c.features) {
+        f[FIRST] = FEATURE_CAP_M.min(f[FIRST].sqrt());
+        f[FIRST + 1] = FEATURE_CAP_M.min(f[FIRST + 1].sqrt());
     }
 }
 
@@ -438,13 +460,11 @@ fn free_space(
     let lo_beam = first_beam.saturating_sub(window);
     let hi_beam = last_beam.saturating_add(window);
     let lo = view.points.partition_point(|p| p.beam < lo_beam);
+    let hi = lo + view.points[lo..].partition_point(|p| p.beam <= hi_beam);
     let mut nearest_sq = f64::INFINITY;
     let mut surface = [0.0; SURFACE_RADII_M.len()];
     let radii_sq = SURFACE_RADII_M.map(|r| r * r);
-    for (p, &k) in view.points[lo..].iter().zip(&view.cluster_of[lo..]) {
-        if p.beam > hi_beam {
-            break;
-        }
+    for (p, &k) in view.points[lo..hi].iter().zip(&view.cluster_of[lo..hi]) {
         if k == cluster {
             continue;
         }
@@ -455,13 +475,11 @@ fn free_space(
         if d_sq < nearest_sq {
             nearest_sq = d_sq;
         }
-        if d_sq < radii_sq[radii_sq.len() - 1] {
-            let footprint = p.range_m * dphi;
-            for (s, r_sq) in surface.iter_mut().zip(radii_sq) {
-                if d_sq < r_sq {
-                    *s += footprint;
-                }
-            }
+        // Adding 0 to a non-negative sum leaves it as it is: every return adds, with
+        // no branch on whether it lies within a radius (which the CPU cannot predict).
+        let footprint = p.range_m * dphi;
+        for (s, r_sq) in surface.iter_mut().zip(radii_sq) {
+            *s += if d_sq < r_sq { footprint } else { 0.0 };
         }
     }
     (nearest_sq.sqrt().min(r_max), surface)
@@ -644,6 +662,63 @@ mod tests {
         assert!((c[1].features[idx("nearest_leg_sized_candidate_m")] - 0.3).abs() < 1e-12);
         assert_eq!(c[3].features[idx("nearest_candidate_m")], FEATURE_CAP_M);
         assert_eq!(c[3].features[idx("candidates_within_stride")], 0.0);
+    }
+
+    /// The definitions of [`add_context`], pair by pair in both directions.
+    fn context_by_definition(candidates: &mut [Candidate]) {
+        const FIRST: usize = N_SEGMENT_FEATURES + N_SCAN_FEATURES;
+        for i in 0..candidates.len() {
+            let (mut nearest, mut nearest_leg, mut within) = (FEATURE_CAP_M, FEATURE_CAP_M, 0.0);
+            for (j, other) in candidates.iter().enumerate() {
+                if i == j {
+                    continue;
+                }
+                let v = candidates[i].centroid_in_laser - other.centroid_in_laser;
+                let d_computed = (v.x * v.x + v.y * v.y).sqrt();
+                nearest = nearest.min(d_computed);
+                if other.features[idx("width_m")] <= LEG_SIZED_MAX_WIDTH_M {
+                    nearest_leg = nearest_leg.min(d_computed);
+                }
+                if d_computed <= STRIDE_M {
+                    within += 1.0;
+                }
+            }
+            let f = &mut candidates[i].features;
+            (f[FIRST], f[FIRST + 1], f[FIRST + 2]) = (nearest, nearest_leg, within);
+        }
+    }
+
+    proptest::proptest! {
+        /// Bit for bit the definitions, with centroids on and around the stride and
+        /// widths on both sides of the leg-sized bound.
+        #[test]
+        fn context_is_the_definition_bit_for_bit(
+            raw in proptest::collection::vec((-3.0..3.0f64, -3.0..3.0f64, 0.0..0.5f64, 0u8..4), 0..40),
+        ) {
+            let mut cands: Vec<Candidate> = Vec::new();
+            for (k, &(x, y, width, snap)) in raw.iter().enumerate() {
+                // Some centroids exactly a stride or nearly from an earlier one.
+                let (x, y) = match (snap, cands.last()) {
+                    (1, Some(c)) => (c.centroid_in_laser.x + STRIDE_M, c.centroid_in_laser.y),
+                    (2, Some(c)) => (c.centroid_in_laser.x, (c.centroid_in_laser.y + STRIDE_M).next_up()),
+                    _ => (x, y),
+                };
+                let mut features = [0.0; N_FEATURES];
+                features[idx("width_m")] = if k % 5 == 0 { LEG_SIZED_MAX_WIDTH_M } else { width };
+                cands.push(Candidate {
+                    segment: Segment { start: 0, end: 1 },
+                    centroid_in_laser: Point2::new(x, y),
+                    features,
+                });
+            }
+            let mut expected = cands.clone();
+            context_by_definition(&mut expected);
+            add_context(&mut cands);
+            for (a, b) in cands.iter().zip(&expected) {
+                let (fa, fb) = (a.features.map(f64::to_bits), b.features.map(f64::to_bits));
+                proptest::prop_assert_eq!(fa, fb);
+            }
+        }
     }
 
     #[test]

@@ -43,6 +43,33 @@ impl BeamTable {
             (c, s)
         }));
     }
+
+    /// `out` = the points of [`LaserScan::points`] through `map`, in order: the same
+    /// values (the same `sin_cos` of the same angles, the same products) from the
+    /// table instead of trigonometry per beam, and without a branch on which beams
+    /// returned (every beam's point is written at the end of the kept ones, which only
+    /// move past it when the beam returned): on a scanner that loses beams at random,
+    /// the CPU cannot predict that branch. `map` also sees the non-finite points of
+    /// beams of no return; what it makes of them is dropped. The table must have been
+    /// updated for `scan`; beams past it are left out.
+    pub fn points_into<T: Copy>(
+        &self,
+        scan: &LaserScan,
+        map: impl Fn(Point2<Laser>) -> T,
+        out: &mut Vec<T>,
+    ) {
+        // Whatever the buffer holds from the last scan is written over: only a longer
+        // scan makes it fill new room.
+        let ranges = &scan.ranges_m()[..scan.len().min(self.cos_sin.len())];
+        out.resize(ranges.len(), map(Point2::ORIGIN));
+        let mut kept = 0;
+        for (&r, &(c, s)) in ranges.iter().zip(&self.cos_sin) {
+            let range_m = f64::from(r);
+            out[kept] = map(Point2::new(range_m * c, range_m * s));
+            kept += usize::from(r.is_finite());
+        }
+        out.truncate(kept);
+    }
 }
 
 /// Pre-processing counts for one scan.
@@ -67,37 +94,53 @@ pub fn preprocess_into(
     table: &BeamTable,
     out: &mut Vec<ScanPoint>,
 ) -> PreprocessStats {
-    out.clear();
     let mut stats = PreprocessStats::default();
     let unbiased = noise.bias_m.0.is_empty();
     let n = scan.len().min(table.cos_sin.len());
     let seam = seam_beam(scan, table);
     stats.seam_beam = seam;
-    for k in 0..n {
-        let i = (seam + k) % n;
-        let (r, (c, s)) = (scan.ranges_m()[i], table.cos_sin[i]);
-        let beam = k;
-        if !r.is_finite() {
-            stats.no_return += 1;
-            continue;
-        }
+    // Beam order from the seam: beams `seam..n`, then `0..seam` (no remainder per beam).
+    let ranges = &scan.ranges_m()[..n];
+    let cos_sin = &table.cos_sin[..n];
+    let start = seam.checked_rem(n).unwrap_or(0);
+    let from_seam = (start..n).chain(0..start);
+    // Every beam's point is written at the end of the kept ones and kept by moving the
+    // end past it: no branch on which beams returned, which on a scanner that loses
+    // beams at random (a quarter on the YDLIDAR X4) the CPU cannot predict. What `out`
+    // holds from the last scan is written over (only a longer scan fills new room).
+    out.resize(
+        n,
+        ScanPoint {
+            beam: 0,
+            range_m: 0.0,
+            bearing_rad: 0.0,
+            point_in_laser: Point2::ORIGIN,
+        },
+    );
+    let mut kept = 0;
+    for (beam, i) in from_seam.enumerate() {
+        let (r, (c, s)) = (ranges[i], cos_sin[i]);
+        let returned = r.is_finite();
         let measured_m = f64::from(r);
+        // (A beam of no return is corrected too, to no use: the correction is
+        // arithmetic, and the beam is dropped whatever it gives.)
         let range_m = if unbiased {
             measured_m
         } else {
             noise.corrected_m(measured_m)
         };
-        if !(range_m.is_finite() && range_m > 0.0) {
-            stats.bad_after_correction += 1;
-            continue;
-        }
-        out.push(ScanPoint {
+        let good = range_m.is_finite() && range_m > 0.0;
+        stats.no_return += usize::from(!returned);
+        stats.bad_after_correction += usize::from(returned & !good);
+        out[kept] = ScanPoint {
             beam,
             range_m,
             bearing_rad: scan.angle_min_rad + i as f64 * scan.angle_increment_rad,
             point_in_laser: Point2::new(range_m * c, range_m * s),
-        });
+        };
+        kept += usize::from(returned & good);
     }
+    out.truncate(kept);
     stats
 }
 
@@ -130,13 +173,19 @@ pub fn seam_beam(scan: &LaserScan, table: &BeamTable) -> usize {
     };
     let mut prev = point(last);
     let (mut best, mut best_gap_sq) = (0, f64::NEG_INFINITY);
-    for i in (0..n).filter(|&i| ranges[i].is_finite()) {
+    // Every beam is visited and a beam of no return changes nothing: no branch on
+    // which beams returned (see `preprocess_into`).
+    for (i, r) in ranges[..n].iter().enumerate() {
+        let returned = r.is_finite();
         let p = point(i);
         let gap_sq = (p.0 - prev.0).powi(2) + (p.1 - prev.1).powi(2);
-        if gap_sq > best_gap_sq {
+        if returned & (gap_sq > best_gap_sq) {
             (best, best_gap_sq) = (i, gap_sq);
         }
-        prev = p;
+        let keep = if returned { u64::MAX } else { 0 };
+        let select =
+            |new: f64, old: f64| f64::from_bits((new.to_bits() & keep) | (old.to_bits() & !keep));
+        prev = (select(p.0, prev.0), select(p.1, prev.1));
     }
     best
 }
@@ -178,6 +227,42 @@ mod tests {
         assert_eq!(pts[1].beam, 3);
         // Beam 3 points along 3 * 90 deg = -y.
         assert!((pts[1].point_in_laser.y + (2.0 - 0.05)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_table_gives_the_scans_own_points() {
+        let ranges: Vec<f32> = (0..720)
+            .map(|i| match i % 7 {
+                3 => f32::INFINITY,
+                _ => 0.1 + 0.013 * i as f32,
+            })
+            .collect();
+        let scan = LaserScan::new(
+            Stamp::ZERO,
+            "laser",
+            -3.1,
+            0.5f64.to_radians(),
+            0.02,
+            12.0,
+            ranges,
+        )
+        .unwrap();
+        let mut table = BeamTable::default();
+        table.update(&scan);
+        let mut points = vec![Point2::ORIGIN; 3];
+        table.points_into(&scan, |p| p, &mut points);
+        assert!(points.iter().copied().eq(scan.points().map(|(_, p)| p)));
+        let mut doubled = Vec::new();
+        table.points_into(
+            &scan,
+            |p| Point2::<Laser>::new(2.0 * p.x, 2.0 * p.y),
+            &mut doubled,
+        );
+        assert!(
+            doubled.iter().copied().eq(scan
+                .points()
+                .map(|(_, p)| Point2::new(2.0 * p.x, 2.0 * p.y)))
+        );
     }
 
     #[test]

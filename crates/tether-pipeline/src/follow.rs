@@ -45,8 +45,8 @@ pub struct Trails {
     robot: VecDeque<(Stamp, Point2<World>)>,
 }
 
-/// Shortest distance from `p` to the segment `a`-`b`.
-fn segment_distance(a: Point2<World>, b: Point2<World>, p: Point2<World>) -> f64 {
+/// The point of the segment `a b` nearest to `p`.
+fn closest_on_segment(a: Point2<World>, b: Point2<World>, p: Point2<World>) -> Point2<World> {
     let d = b - a;
     let len2 = d.dot(d);
     let t = if len2 > 0.0 {
@@ -54,7 +54,7 @@ fn segment_distance(a: Point2<World>, b: Point2<World>, p: Point2<World>) -> f64
     } else {
         0.0
     };
-    (a + d * t).distance_m(p)
+    a + d * t
 }
 
 impl Trails {
@@ -113,8 +113,11 @@ impl Trails {
         obstacles: &[Point2<World>],
         clearance_m: f64,
     ) -> bool {
+        // `distance_above` and `distance_below` are `distance_m` compared, mostly
+        // without its `hypot`.
         obstacles.iter().any(|o| {
-            o.distance_m(target) > TARGET_RADIUS_M && segment_distance(a, b, *o) < clearance_m
+            o.distance_above(target, TARGET_RADIUS_M)
+                && closest_on_segment(a, b, *o).distance_below(*o, clearance_m)
         })
     }
 
@@ -182,6 +185,32 @@ impl Trails {
             .iter()
             .any(|(t, p)| now.secs_since(*t) > 0.5 && p.distance_m(behind) < 0.15)
     }
+}
+
+/// `out` = `items` for which `keep` holds, each through `map`, in order: what
+/// `items.iter().filter(keep).map(map).collect()` gives, into a buffer kept between
+/// ticks, and with no branch on `keep` (every item is written at the end of the kept
+/// ones, which only move past it when it is kept), which on a scan's returns the CPU
+/// cannot predict.
+pub fn keep_mapped<T: Copy, U: Copy>(
+    items: &[T],
+    keep: impl Fn(&T) -> bool,
+    map: impl Fn(T) -> U,
+    out: &mut Vec<U>,
+) {
+    let Some(&first) = items.first() else {
+        out.clear();
+        return;
+    };
+    // What `out` holds from the last call is written over: only more items fill new
+    // room.
+    out.resize(items.len(), map(first));
+    let mut kept = 0;
+    for item in items {
+        out[kept] = map(*item);
+        kept += usize::from(keep(item));
+    }
+    out.truncate(kept);
 }
 
 #[cfg(test)]

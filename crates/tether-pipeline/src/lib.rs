@@ -31,7 +31,10 @@ use tether_fusion::{
     Bearing, ClutterConfig, ClutterMap, FusionRule, Gate, Observation, Refusal, TargetConfig,
     TargetSelector, TargetState, Tracker, TrackerConfig, View, complementary_fusion,
 };
-use tether_laser::{DetectorConfig, DetectorKind, LegClassifier, LegDetector, PersonKind};
+use tether_laser::preprocess::BeamTable;
+use tether_laser::{
+    Detection, DetectorConfig, DetectorKind, LegClassifier, LegDetector, PersonKind,
+};
 
 /// How laser and camera are combined.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -265,6 +268,11 @@ pub struct PipelineStats {
 pub struct Pipeline {
     config: PipelineConfig,
     detector: LegDetector,
+    /// Buffers kept between scans: the detection, the beams' directions (no
+    /// trigonometry per return) and the returns in the robot frame.
+    detection: Detection,
+    beams: BeamTable,
+    scan_obstacles: Vec<Point2<Robot>>,
     tracker: Tracker,
     selector: TargetSelector,
     spring: VirtualSpring,
@@ -275,6 +283,11 @@ pub struct Pipeline {
     /// carry them to a camera frame's time.
     last_laser_people: Option<(Stamp, Vec<LaserMemory>)>,
     obstacle_points: Vec<Point2<Robot>>,
+    /// The returns of the last scan that can be in the way within the stop distance
+    /// (the obstacle stop), kept from scan to scan; and a buffer for those that can
+    /// stand between the robot and the target.
+    near_obstacles: Vec<Point2<Robot>>,
+    obstacles_in_world: Vec<Point2<World>>,
     per_frame_target: Option<(Stamp, Gaussian2<World>)>,
     trails: follow::Trails,
     motion: MotionState,
@@ -355,6 +368,9 @@ impl Pipeline {
             laser_view: None,
             scan_gap_s: 0.0,
             detector,
+            detection: Detection::default(),
+            beams: BeamTable::default(),
+            scan_obstacles: Vec::new(),
             tracker,
             spring,
             command: Twist::STOP,
@@ -362,6 +378,8 @@ impl Pipeline {
             last_scan: None,
             last_laser_people: None,
             obstacle_points: Vec::new(),
+            near_obstacles: Vec::new(),
+            obstacles_in_world: Vec::new(),
             per_frame_target: None,
             trails: follow::Trails::default(),
             motion: MotionState::default(),
@@ -426,7 +444,8 @@ impl Pipeline {
             self.stats.unusable_scans += 1;
             return self.idle_tick(scan.stamp, TickInput::Scan);
         }
-        let detection = self.detector.detect(scan);
+        let mut detection = std::mem::take(&mut self.detection);
+        self.detector.detect_into(scan, &mut detection);
         let people: Vec<LaserPerson> = detection
             .people
             .iter()
@@ -443,10 +462,15 @@ impl Pipeline {
             .collect();
         let (first, last) = (scan.angle_min_rad, scan.angle_max_rad());
         self.laser_view = Some((first.min(last), first.max(last), scan.range_max_m));
-        let robot_from_laser = self.config.laser.robot_from_laser();
-        let obstacles: Vec<Point2<Robot>> =
-            scan.points().map(|(_, p)| robot_from_laser * p).collect();
-        self.on_laser_people(scan.stamp, &people, &obstacles, world_from_robot)
+        self.detection = detection;
+        let robot_from_laser = self.config.laser.robot_from_laser().point_map();
+        self.beams.update(scan);
+        let mut obstacles = std::mem::take(&mut self.scan_obstacles);
+        self.beams
+            .points_into(scan, robot_from_laser, &mut obstacles);
+        let tick = self.on_laser_people(scan.stamp, &people, &obstacles, world_from_robot);
+        self.scan_obstacles = obstacles;
+        tick
     }
 
     /// The people found in one scan (laser frame) and the scan's returns (robot frame,
@@ -466,6 +490,13 @@ impl Pipeline {
         let world_from_laser = world_from_robot * self.config.laser.robot_from_laser();
         self.obstacle_points.clear();
         self.obstacle_points.extend_from_slice(obstacles_in_robot);
+        let near_m = self.obstacle_reach_m();
+        follow::keep_mapped(
+            obstacles_in_robot,
+            |p| p.range_at_most(near_m),
+            |p| p,
+            &mut self.near_obstacles,
+        );
         // People standing in learned static clutter are clutter: they neither start nor
         // feed tracks (a coasting track walking past a bush must not take it).
         let world: Vec<Gaussian2<World>> = people
@@ -1015,12 +1046,13 @@ impl Pipeline {
         let attach = world_from_robot * Point2::new(self.config.follower.attach_ahead_m, 0.0);
         // Only returns nearer than the target (plus a margin) can stand between.
         let reach_m = (robot_from_world * target_at).range_m() + 1.0;
-        let obstacles: Vec<Point2<World>> = self
-            .obstacle_points
-            .iter()
-            .filter(|p| p.range_m() <= reach_m)
-            .map(|p| world_from_robot * *p)
-            .collect();
+        let mut obstacles = std::mem::take(&mut self.obstacles_in_world);
+        follow::keep_mapped(
+            &self.obstacle_points,
+            |p| p.range_at_most(reach_m),
+            world_from_robot.point_map(),
+            &mut obstacles,
+        );
         let aim = self.trails.aim(
             world_from_robot,
             attach,
@@ -1029,6 +1061,7 @@ impl Pipeline {
             safety.robot_radius_m + safety.corridor_margin_m,
             self.config.follower_always_trail,
         );
+        self.obstacles_in_world = obstacles;
         // The spring sees a person in the aim's direction at the (possibly
         // along-the-trail) distance.
         let direction = aim.point - attach;
@@ -1085,19 +1118,7 @@ impl Pipeline {
         let safety = &self.config.safety;
         let current = self.motion.twist;
         let decel = self.config.limits.max_decel_mps2;
-        // Returns within reach of the footprint at the highest speed: the rest cannot
-        // be in the way within the stop distance.
-        let top = self.config.limits.max_speed_mps;
-        let near_m = safety.robot_radius_m
-            + safety.corridor_margin_m
-            + safety.stop_distance_m
-            + top * top / (2.0 * decel);
-        let near: Vec<Point2<Robot>> = self
-            .obstacle_points
-            .iter()
-            .copied()
-            .filter(|p| p.range_m() <= near_m)
-            .collect();
+        let near = &self.near_obstacles;
         let blocked = |v: f64, w: f64| {
             // The free space needed grows with the braking distance at this speed.
             let reach = SafetyConfig {
@@ -1106,9 +1127,20 @@ impl Pipeline {
             };
             v > 0.0
                 && (reach.obstacle_ahead_m(near.iter().copied()).is_some()
-                    || reach.obstacle_on_arc_m(&near, v, w).is_some())
+                    || reach.obstacle_on_arc_m(near, v, w).is_some())
         };
         blocked(desired.v_mps, desired.w_radps) || blocked(current.v_mps, current.w_radps)
+    }
+
+    /// How far from the robot a return can be in the way within the stop distance
+    /// (design 6, safety 3): the footprint's reach at the highest speed, m.
+    fn obstacle_reach_m(&self) -> f64 {
+        let safety = &self.config.safety;
+        let top = self.config.limits.max_speed_mps;
+        safety.robot_radius_m
+            + safety.corridor_margin_m
+            + safety.stop_distance_m
+            + top * top / (2.0 * self.config.limits.max_decel_mps2)
     }
 
     /// The reverse rule (design 6, safety 4): the laser does not see behind, so the

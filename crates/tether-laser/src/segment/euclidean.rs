@@ -280,12 +280,19 @@ pub(super) fn euclidean_components(
         grid,
         chain_of,
         parent,
+        windows,
         ..
     } = scratch;
     let budget = work_per_point.saturating_mul(n);
+    windows.update(distance_m, dphi);
+    let window_of = Window {
+        exact: &window,
+        table: windows,
+        n,
+    };
     if work_per_point > 0
         && runs_components(
-            points, dphi, distance_m, &window, budget, run_start, run_range, parent,
+            points, distance_m, &window_of, budget, run_start, run_range, parent,
         )
         .is_some()
     {
@@ -370,6 +377,92 @@ pub(super) fn euclidean_components(
     false
 }
 
+/// The beam window of a range: the rule's own computation, `exact`, and a table that
+/// answers most questions about it without the `asin`.
+pub(super) struct Window<'a> {
+    /// The window of a return at a range, in beams (`usize::MAX`: unbounded).
+    pub(super) exact: &'a dyn Fn(f64) -> usize,
+    pub(super) table: &'a WindowTable,
+    /// The number of returns of the scan (a window as wide is unbounded).
+    pub(super) n: usize,
+}
+
+impl Window<'_> {
+    /// Whether a return `gap` beams after one at `range_m` lies inside the latter's
+    /// window: `gap < exact(range_m)`, from the table where it decides, else from
+    /// `exact(range_m)`, computed once into `cache` (which must belong to `range_m`).
+    fn inside(&self, range_m: f64, gap: usize, cache: &mut Option<usize>) -> bool {
+        self.table
+            .decides(range_m, gap, self.n)
+            .unwrap_or_else(|| gap < *cache.get_or_insert_with(|| (self.exact)(range_m)))
+    }
+}
+
+/// Ranges at which the beam window `floor(asin(d / r) / dphi)` crosses each width `m`,
+/// for one `d` and `dphi`: the window is at least `m` beams exactly when
+/// `r <= T_m = d / sin(m dphi)` (for `m dphi <= pi / 2`; the window only narrows as
+/// the range grows). Kept between scans; [`WindowTable::decides`] answers from it
+/// away from the crossings, and leaves the rest to the computation.
+#[derive(Debug, Clone, Default)]
+pub(super) struct WindowTable {
+    /// `d` and `dphi`, as bits, that the table is for (`None`: none yet).
+    key: Option<(u64, u64)>,
+    /// For each `m`: `T_m (1 - 1e-6)` and `T_m (1 + 1e-6)`.
+    crossings: Vec<(f64, f64)>,
+}
+
+/// Widest window [`WindowTable`] holds the crossing of, beams.
+const TABLE_BEAMS: usize = 256;
+
+/// Widest angle `m dphi` that [`WindowTable`] holds the crossing of, rad: below pi / 2
+/// with room, so that `sin` is well away from its maximum and `T_m` from `d`.
+const TABLE_ANGLE_RAD: f64 = 1.4;
+
+impl WindowTable {
+    /// Makes the table fit `distance_m` and `dphi` (recomputing it only if they
+    /// changed).
+    pub(super) fn update(&mut self, distance_m: f64, dphi: f64) {
+        let key = (distance_m.to_bits(), dphi.to_bits());
+        if self.key == Some(key) {
+            return;
+        }
+        self.key = Some(key);
+        self.crossings.clear();
+        if !(distance_m > 0.0 && distance_m.is_finite() && dphi > 0.0 && dphi.is_finite()) {
+            return;
+        }
+        for m in 0..=TABLE_BEAMS {
+            let angle = m as f64 * dphi;
+            if angle > TABLE_ANGLE_RAD {
+                break;
+            }
+            let t = distance_m / angle.sin();
+            // (`m = 0` crosses nowhere: an infinite `t` decides nothing.)
+            self.crossings.push((t * (1.0 - 1e-6), t * (1.0 + 1e-6)));
+        }
+    }
+
+    /// `Some(gap < window(range_m))` where the table decides it, for a scan of `n`
+    /// returns. With `m = gap + 1`: below `T_m (1 - 1e-6)`, `d / r` exceeds
+    /// `sin(m dphi)` by a relative 1e-6, so (`asin' >= 1`, `sin x >= 2 x / pi`) the
+    /// window's quotient exceeds `m` by a relative 6e-7, far past the rounding of the
+    /// division, the `asin` (within an ulp) and the quotient; and `r <= d` gives the
+    /// unbounded window. Above `T_m (1 + 1e-6)` the quotient falls short of `m` by as
+    /// much, so the window is below `m`, unless `m > n` (a quotient of `n` or more is
+    /// unbounded). `None` in between and beyond the table.
+    fn decides(&self, range_m: f64, gap: usize, n: usize) -> Option<bool> {
+        let m = gap.checked_add(1)?;
+        let &(below, above) = self.crossings.get(m)?;
+        if range_m < below {
+            Some(true)
+        } else if range_m > above && m <= n {
+            Some(false)
+        } else {
+            None
+        }
+    }
+}
+
 /// The run-based pass (tether's first implementation, quadratic in the worst case):
 /// consecutive joined points form runs, and runs are merged by union-find wherever a
 /// point of one joins a point of a later run. A later run is visited while it starts
@@ -384,9 +477,8 @@ pub(super) fn euclidean_components(
 )]
 fn runs_components(
     points: &[ScanPoint],
-    dphi: f64,
     distance_m: f64,
-    window: &impl Fn(f64) -> usize,
+    window: &Window<'_>,
     budget: usize,
     runs: &mut Vec<u32>,
     span: &mut Vec<(f64, f64)>,
@@ -394,9 +486,9 @@ fn runs_components(
 ) -> Option<usize> {
     let n = points.len();
     let d_sq = distance_m * distance_m;
-    let joined = |a: &ScanPoint, b: &ScanPoint, window_a: usize| {
+    let close = |a: &ScanPoint, b: &ScanPoint| {
         let d = b.point_in_laser - a.point_in_laser;
-        b.beam < a.beam.saturating_add(window_a) && d.x * d.x + d.y * d.y < d_sq
+        d.x * d.x + d.y * d.y < d_sq
     };
     // Runs of consecutive joined returns: connected already. Each run's range
     // interval lets whole runs be passed over.
@@ -404,26 +496,14 @@ fn runs_components(
     span.clear();
     runs.push(0);
     span.push((points[0].range_m, points[0].range_m));
-    // Neighbouring beams are within the window of every range below this (a window of
-    // 2 beams or more), with a margin for rounding; beyond it the window is computed.
-    let adjacent_below_m = if 2.0 * dphi < std::f64::consts::FRAC_PI_2 {
-        0.999 * distance_m / (2.0 * dphi).sin()
-    } else {
-        0.0
-    };
     for k in 1..n {
-        let (a, r) = (&points[k - 1], points[k].range_m);
-        let w = if points[k].beam == a.beam + 1 && a.range_m < adjacent_below_m {
-            2
-        } else {
-            window(a.range_m)
-        };
-        if joined(a, &points[k], w) {
+        let (a, b) = (&points[k - 1], &points[k]);
+        if window.inside(a.range_m, b.beam - a.beam, &mut None) && close(a, b) {
             let last = span.len() - 1;
-            span[last] = (span[last].0.min(r), span[last].1.max(r));
+            span[last] = (span[last].0.min(b.range_m), span[last].1.max(b.range_m));
         } else {
             runs.push(k as u32);
-            span.push((r, r));
+            span.push((b.range_m, b.range_m));
         }
     }
     let n_runs = runs.len();
@@ -433,7 +513,7 @@ fn runs_components(
     let mut work = 0usize;
     for r in 0..n_runs {
         // No return of the run reaches farther than the window of its nearest range.
-        let reach = window(span[r].0);
+        let mut reach = None;
         for i in runs[r] as usize..runs[r + 1] as usize {
             let a = &points[i];
             let mut window_a = None;
@@ -443,7 +523,7 @@ fn runs_components(
                     return None;
                 }
                 let (lo, hi) = (runs[other] as usize, runs[other + 1] as usize);
-                if points[lo].beam - a.beam >= reach {
+                if !window.inside(span[r].0, points[lo].beam - a.beam, &mut reach) {
                     break;
                 }
                 // Returns closer than `distance_m` differ by less than that in range.
@@ -454,11 +534,10 @@ fn runs_components(
                 if find(parent, r as u32) == find(parent, other as u32) {
                     continue;
                 }
-                let w = *window_a.get_or_insert_with(|| window(a.range_m));
                 if points[lo..hi]
                     .iter()
-                    .take_while(|b| b.beam - a.beam < w)
-                    .any(|b| joined(a, b, w))
+                    .take_while(|b| window.inside(a.range_m, b.beam - a.beam, &mut window_a))
+                    .any(|b| close(a, b))
                 {
                     union(parent, r as u32, other as u32);
                 }
@@ -675,6 +754,69 @@ fn sweep_components(
             if points[j].beam < reach[i] && d.x * d.x + d.y * d.y < d_sq {
                 union(parent, i as u32, j as u32);
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::WindowTable;
+
+    /// Wherever the table decides, it says what the computation says: ranges spread
+    /// over the scanner's reach and packed around every crossing, for the common beam
+    /// steps, every gap the table holds and scans of a few sizes.
+    #[test]
+    fn the_window_table_decides_as_the_computation() {
+        let (mut decided, mut asked) = (0usize, 0usize);
+        for step_deg in [0.25, 0.352, 0.5, 1.0] {
+            let dphi = f64::to_radians(step_deg);
+            for distance_m in [0.13, 0.2] {
+                let mut table = WindowTable::default();
+                table.update(distance_m, dphi);
+                for n in [40usize, 500, 5000] {
+                    let exact = |r: f64| -> usize {
+                        if r > distance_m && dphi > 0.0 {
+                            let beams = (distance_m / r).asin() / dphi;
+                            if beams < n as f64 {
+                                beams as usize
+                            } else {
+                                usize::MAX
+                            }
+                        } else {
+                            usize::MAX
+                        }
+                    };
+                    let mut ranges: Vec<f64> =
+                        (0..4000).map(|k| 0.01 * 1.0025f64.powi(k)).collect();
+                    for &(below, above) in &table.crossings {
+                        let t = 0.5 * (below + above);
+                        for r in [below, above, t, t.next_up(), t.next_down()] {
+                            ranges.extend([r, r.next_up(), r.next_down(), r * (1.0 + 1e-7)]);
+                        }
+                    }
+                    for &r in ranges.iter().filter(|r| r.is_finite()) {
+                        for gap in 1..table.crossings.len() + 2 {
+                            let held = gap + 1 < table.crossings.len() && gap < n;
+                            asked += usize::from(held);
+                            if let Some(inside) = table.decides(r, gap, n) {
+                                decided += usize::from(held);
+                                assert_eq!(inside, gap < exact(r), "r {r} gap {gap} n {n}");
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // It must decide nearly everything it holds to be worth having.
+        assert!(decided as f64 > 0.99 * asked as f64, "{decided} of {asked}");
+    }
+
+    #[test]
+    fn no_table_for_a_geometry_without_windows() {
+        for (d, dphi) in [(0.13, 0.0), (0.13, -0.01), (0.0, 0.01), (f64::NAN, 0.01)] {
+            let mut table = WindowTable::default();
+            table.update(d, dphi);
+            assert_eq!(table.decides(1.0, 1, 100), None);
         }
     }
 }

@@ -202,6 +202,8 @@ pub struct ClusterScratch {
     run_range: Vec<(f64, f64)>,
     /// The grid of the Euclidean rule.
     grid: euclidean::GridScratch,
+    /// Where the Euclidean rule's beam window changes width.
+    windows: euclidean::WindowTable,
     /// Chain of each point: a run, or a chain of the grid (either way a set of
     /// points known to be connected).
     chain_of: Vec<u32>,
