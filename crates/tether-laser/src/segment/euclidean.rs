@@ -228,6 +228,21 @@ impl Grid<'_> {
     }
 }
 
+/// leg_tracker's beam window: a return at range `r` joins returns fewer than
+/// `floor(asin(distance_m / r) / dphi)` beams after it (every later beam, `usize::MAX`,
+/// when that reaches the `n` beams of the scan or `r` is within `distance_m`).
+fn beam_window(r: f64, distance_m: f64, dphi: f64, n: usize) -> usize {
+    if r > distance_m && dphi > 0.0 {
+        let beams = (distance_m / r).asin() / dphi;
+        if beams < n as f64 {
+            beams as usize
+        } else {
+            usize::MAX
+        }
+    } else {
+        usize::MAX
+    }
+}
 /// The connected components of [`Breakpoint::Euclidean`]'s graph, as union-find
 /// parents (`scratch.parent`) of sets of points known to be connected: the runs of
 /// `scratch.run_start` when this returns true, else the grid's chains
@@ -260,20 +275,7 @@ pub(super) fn euclidean_components(
 ) -> bool {
     let n = points.len();
     let d_sq = distance_m * distance_m;
-    // leg_tracker's beam window: a return at range `r` joins returns fewer than
-    // `floor(asin(distance_m / r) / dphi)` beams after it.
-    let window = |r: f64| -> usize {
-        if r > distance_m && dphi > 0.0 {
-            let beams = (distance_m / r).asin() / dphi;
-            if beams < n as f64 {
-                beams as usize
-            } else {
-                usize::MAX
-            }
-        } else {
-            usize::MAX
-        }
-    };
+    let window = |r: f64| beam_window(r, distance_m, dphi, n);
     let ClusterScratch {
         run_start,
         run_range,
@@ -760,7 +762,7 @@ fn sweep_components(
 
 #[cfg(test)]
 mod tests {
-    use super::WindowTable;
+    use super::{WindowTable, beam_window};
 
     /// Wherever the table decides, it says what the computation says: ranges spread
     /// over the scanner's reach and packed around every crossing, for the common beam
@@ -774,18 +776,7 @@ mod tests {
                 let mut table = WindowTable::default();
                 table.update(distance_m, dphi);
                 for n in [40usize, 500, 5000] {
-                    let exact = |r: f64| -> usize {
-                        if r > distance_m && dphi > 0.0 {
-                            let beams = (distance_m / r).asin() / dphi;
-                            if beams < n as f64 {
-                                beams as usize
-                            } else {
-                                usize::MAX
-                            }
-                        } else {
-                            usize::MAX
-                        }
-                    };
+                    let exact = |r: f64| beam_window(r, distance_m, dphi, n);
                     let mut ranges: Vec<f64> =
                         (0..4000).map(|k| 0.01 * 1.0025f64.powi(k)).collect();
                     for &(below, above) in &table.crossings {
