@@ -718,6 +718,7 @@ fn a_run_killed_while_driving_leaves_the_base_stopped_by_its_guard() {
     assert_eq!(last().as_deref(), Some("0.000 0.000"), "{}", run.stderr());
     assert!(run.stderr().contains("no command from tether for 500 ms"));
     // ...and a tether that comes back drives again.
+    let before_resume = lines.lock().unwrap().len();
     run.signal("-CONT");
     let resumed = Instant::now();
     while last().as_deref() == Some("0.000 0.000") {
@@ -728,6 +729,20 @@ fn a_run_killed_while_driving_leaves_the_base_stopped_by_its_guard() {
         );
         std::thread::sleep(Duration::from_millis(20));
     }
+    // Driving steadily again (the last three commands), so that the last command
+    // before the kill is not a stop of tether's own (the ticks right after the pause
+    // may stop for the stale scans).
+    wait_until(
+        &mut run,
+        &lines,
+        |l| {
+            l.len() >= before_resume + 3
+                && l[l.len() - 3..]
+                    .iter()
+                    .all(|l| json(l)["v_mps"].as_f64().unwrap_or(0.0) > 0.05)
+        },
+        "tether did not drive steadily after SIGCONT",
+    );
     run.signal("-KILL");
     let killed = Instant::now();
     // tether sends nothing after SIGKILL: the stop is the guard's.
