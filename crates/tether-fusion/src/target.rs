@@ -91,8 +91,14 @@ pub enum Refusal {
     SomebodyElse,
     /// In the camera's view but not seen by both sensors.
     CameraDoesNotVouch,
-    /// Where the laser must vouch for it, only the camera has ever seen it.
+    /// Where the laser must vouch for it, the laser has not seen it: only the camera has
+    /// ever seen the track, or (the lost target's own track) the laser, in use and
+    /// seeing the place, has not seen it since the loss.
     NotSeenByLaser,
+    /// The lost target's own track is back with no more than it had when lost (no new
+    /// pair of legs, fewer than two updates since): a coasting track's wide reach takes
+    /// a stray return as readily as the person.
+    NoNewEvidence,
     /// Not seen as a pair of legs often enough (too few pairs, pairs in too small a
     /// share of its updates, or mostly faint legs): what the laser sees of it is not
     /// a person's steady pair of legs.
@@ -113,6 +119,7 @@ impl Refusal {
             Refusal::SomebodyElse => "somebody_else",
             Refusal::CameraDoesNotVouch => "camera_does_not_vouch",
             Refusal::NotSeenByLaser => "not_seen_by_laser",
+            Refusal::NoNewEvidence => "no_new_evidence",
             Refusal::NoLegPair => "no_leg_pair",
             Refusal::NotWalking => "not_walking",
             Refusal::StaticClutter => "static_clutter",
@@ -121,11 +128,12 @@ impl Refusal {
     }
 
     /// Every refusal, in output order.
-    pub const ALL: [Refusal; 8] = [
+    pub const ALL: [Refusal; 9] = [
         Refusal::OutOfReach,
         Refusal::SomebodyElse,
         Refusal::CameraDoesNotVouch,
         Refusal::NotSeenByLaser,
+        Refusal::NoNewEvidence,
         Refusal::NoLegPair,
         Refusal::NotWalking,
         Refusal::StaticClutter,
@@ -220,6 +228,8 @@ pub struct TargetStats {
     pub refused_camera_does_not_vouch: u64,
     /// ... only the camera has seen it, where the laser must vouch.
     pub refused_not_seen_by_laser: u64,
+    /// ... the lost target's own track, back with nothing new since the loss.
+    pub refused_no_new_evidence: u64,
     /// ... never a pair of legs.
     pub refused_no_leg_pair: u64,
     /// ... has not walked.
@@ -253,6 +263,7 @@ impl TargetStats {
             Refusal::SomebodyElse => &mut self.refused_somebody_else,
             Refusal::CameraDoesNotVouch => &mut self.refused_camera_does_not_vouch,
             Refusal::NotSeenByLaser => &mut self.refused_not_seen_by_laser,
+            Refusal::NoNewEvidence => &mut self.refused_no_new_evidence,
             Refusal::NoLegPair => &mut self.refused_no_leg_pair,
             Refusal::NotWalking => &mut self.refused_not_walking,
             Refusal::StaticClutter => &mut self.refused_static_clutter,

@@ -35,7 +35,7 @@ impl TargetSelector {
                     && t.hits < hits + 2
                     && t.last_pair <= last_pair
                 {
-                    self.refuse(t.id, Refusal::NoLegPair);
+                    self.refuse(t.id, Refusal::NoNewEvidence);
                     continue;
                 }
                 // Nor does the camera alone bring it back while the laser, in use and
@@ -46,7 +46,7 @@ impl TargetSelector {
                     && (view.laser_sees)(t.position().mean)
                     && t.last_laser.is_none_or(|l| l <= since)
                 {
-                    self.refuse(t.id, Refusal::NoLegPair);
+                    self.refuse(t.id, Refusal::NotSeenByLaser);
                     continue;
                 }
                 let p = t.position();

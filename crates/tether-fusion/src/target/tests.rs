@@ -198,11 +198,45 @@ fn one_stray_return_does_not_bring_back_a_lost_target_s_track() {
             .locked_track(),
         None
     );
-    assert_eq!(s.refusals(), &[(1, Refusal::NoLegPair)]);
+    assert_eq!(s.refusals(), &[(1, Refusal::NoNewEvidence)]);
     // The person again: a second update (or a pair of legs) brings the lock back.
     let again = single_leg_update(&stray, 2.4, 0.4, 1300);
     assert_eq!(
         s.update(at(1300), &[again], Pose2::IDENTITY).locked_track(),
+        Some(1)
+    );
+}
+
+#[test]
+fn the_camera_alone_does_not_bring_back_a_lost_track_the_laser_can_see() {
+    let mut s = selector();
+    let t = track(1, 2.0, 0.0, 0, true);
+    s.update(at(0), std::slice::from_ref(&t), Pose2::IDENTITY);
+    let lost = s.update(at(1100), std::slice::from_ref(&t), Pose2::IDENTITY);
+    assert_eq!(lost.loss_reason(), Some(LossReason::Unseen));
+    // Two camera updates since the loss (more than it had), none by the laser.
+    let mut boxed = single_leg_update(&t, 2.2, 0.1, 1200);
+    boxed.hits += 1;
+    boxed.last_laser = Some(at(0));
+    boxed.last_vision = Some(at(1200));
+    assert_eq!(
+        s.update(at(1200), std::slice::from_ref(&boxed), Pose2::IDENTITY)
+            .locked_track(),
+        None
+    );
+    assert_eq!(s.refusals(), &[(1, Refusal::NotSeenByLaser)]);
+    assert_eq!(s.stats().refused_not_seen_by_laser, 1);
+    // Where the laser cannot see, the camera's word is enough.
+    let mut s2 = selector();
+    s2.update(at(0), std::slice::from_ref(&t), Pose2::IDENTITY);
+    s2.update(at(1100), std::slice::from_ref(&t), Pose2::IDENTITY);
+    let blind = View {
+        laser_sees: &|_| false,
+        ..View::everywhere(Pose2::IDENTITY)
+    };
+    assert_eq!(
+        s2.update_with_view(at(1200), std::slice::from_ref(&boxed), &blind)
+            .locked_track(),
         Some(1)
     );
 }
