@@ -22,16 +22,20 @@
 //! follows a bystander. The state and the counters always say why the target is lost
 //! and why a candidate was refused.
 
-use std::collections::BTreeSet;
+use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 use tether_core::{Gaussian2, Point2, Pose2, Robot, Stamp, Vector2, World};
 
-use crate::tracker::{MotionBounds, Track};
+use crate::tracker::{Anchor, MotionBounds, Track};
+use memory::{Lock, Locked, Lost, Notes};
 
 mod acquire;
 mod config;
+mod locked;
+mod memory;
 mod update;
+mod vouch;
 
 /// Uncertainty of where a track was born (one observation of a person), m.
 const BIRTH_SIGMA_M: f64 = 0.15;
@@ -307,58 +311,39 @@ impl View<'_> {
 pub struct TargetSelector {
     config: TargetConfig,
     motion: MotionBounds,
-    state: TargetState,
+    /// The state and its memory.
+    lock: Lock,
     stats: TargetStats,
-    /// The locked track's last good estimate, kept in case the tracker drops the track
-    /// between two calls.
-    last_good: Option<crate::tracker::Anchor>,
-    /// Confirmed tracks other than the target when it was lost: other people.
-    others_at_loss: BTreeSet<u64>,
-    /// For each other track, how long it has been updated together with the locked
-    /// target and apart from it, s.
-    beside: std::collections::BTreeMap<u64, f64>,
+    /// What is known about each track the tracker has (its verdicts).
+    notes: BTreeMap<u64, Notes>,
     /// The previous update's stamp.
     last_now: Option<Stamp>,
-    /// The locked track `beside` is about.
-    beside_of: Option<u64>,
-    /// The target's state the last time it was alone (no other track within
-    /// `encounter_distance_m`): what carries it through a close encounter.
-    alone: Option<crate::tracker::Anchor>,
-    /// For each track that is somebody else, how long the target's track has stayed on
-    /// it, s.
-    on_other: std::collections::BTreeMap<u64, f64>,
-    /// Tracks the selector has seen (to notice births).
-    seen: BTreeSet<u64>,
-    /// Tracks born, while the target was unseen, where it could not have been.
-    born_elsewhere: BTreeSet<u64>,
-    /// Tracks born apart from the target while it was observed (seen whole a moment
-    /// before, or steadily): somebody else if still away from it when it is lost (the
-    /// target's track, not the new one, may have been on the wrong thing).
-    born_apart: BTreeSet<u64>,
-    /// Tracks that have been the target: the same person, whatever the tracker has
-    /// done since, until shown otherwise.
-    former: BTreeSet<u64>,
-    /// Tracks born within `encounter_distance_m` of the locked target, or that were
-    /// that near it when it was locked: perhaps the target itself (taken up by a new
-    /// track, or its legs tracked apart).
-    born_at_target: BTreeSet<u64>,
-    /// Refusals already counted in this loss (track, reason).
-    refused: BTreeSet<(u64, Refusal)>,
-    /// The candidate sets already counted as ambiguous in this loss.
-    ambiguous_sets: BTreeSet<Vec<u64>>,
-    /// This tick's refusals.
+    /// This update's refusals.
     refusals_now: Vec<(u64, Refusal)>,
-    /// While lost for `restart_after_s`: the one track standing in front of the robot,
-    /// and since when.
-    presented: Option<(u64, Stamp)>,
-    /// The lost target's track as it was when lost: its (not weak) updates and its last
-    /// evidence of a whole person. Coming back, it must show more than that.
-    evidence_at_loss: Option<(u64, u32, Option<Stamp>)>,
-    /// The locked track, its last update and the update before that.
-    target_updates: Option<(u64, Stamp, Option<Stamp>)>,
     /// Every track's last good estimate at the previous update: what a track the
     /// tracker has since merged into another one was doing.
-    last_anchors: std::collections::BTreeMap<u64, crate::tracker::Anchor>,
+    last_anchors: BTreeMap<u64, Anchor>,
+}
+
+/// What `Locked` does at an update.
+enum LockedStep {
+    /// Keeps its track.
+    Stay,
+    /// Hands the target over to another track.
+    HandOver(u64),
+    /// Loses the target, for this reason, searching from this estimate (`None`: a
+    /// track never seen, nothing to search from).
+    Lose(LossReason, Option<Anchor>),
+}
+
+/// What `Lost` does at an update.
+enum LostStep {
+    /// Keeps searching.
+    Stay,
+    /// Takes up this track as the target.
+    Reacquire(u64),
+    /// Takes up this track as at the start.
+    Restart(u64),
 }
 
 impl TargetSelector {
@@ -373,33 +358,18 @@ impl TargetSelector {
         TargetSelector {
             config,
             motion,
-            state: TargetState::Searching,
+            lock: Lock::Searching,
             stats: TargetStats::default(),
-            last_good: None,
-            others_at_loss: BTreeSet::new(),
-            beside: std::collections::BTreeMap::new(),
+            notes: BTreeMap::new(),
             last_now: None,
-            beside_of: None,
-            alone: None,
-            on_other: std::collections::BTreeMap::new(),
-            seen: BTreeSet::new(),
-            former: BTreeSet::new(),
-            born_elsewhere: BTreeSet::new(),
-            born_apart: BTreeSet::new(),
-            born_at_target: BTreeSet::new(),
-            refused: BTreeSet::new(),
-            ambiguous_sets: BTreeSet::new(),
             refusals_now: Vec::new(),
-            presented: None,
-            evidence_at_loss: None,
-            target_updates: None,
-            last_anchors: std::collections::BTreeMap::new(),
+            last_anchors: BTreeMap::new(),
         }
     }
 
     /// Current state.
     pub fn state(&self) -> TargetState {
-        self.state
+        self.lock.state()
     }
 
     /// Counters.
@@ -422,17 +392,11 @@ impl TargetSelector {
     /// than that, direction is anybody's guess), with the reachable distance as
     /// standard deviation. `None` unless lost.
     pub fn lost_prediction(&self, now: Stamp) -> Option<Gaussian2<World>> {
-        let TargetState::Lost {
-            since,
-            last,
-            velocity,
-            ..
-        } = self.state
-        else {
+        let Lock::Lost(Lost { from, .. }) = &self.lock else {
             return None;
         };
-        let dt = now.secs_since(since).max(0.0);
-        let mean = last.mean + velocity * dt.min(1.0);
+        let (last, dt) = (from.position, now.secs_since(from.stamp).max(0.0));
+        let mean = last.mean + from.velocity * dt.min(1.0);
         let reach = (self.motion.max_speed_mps * dt).max(0.1);
         let cov = tether_core::Cov2::new(
             last.cov.xx() + reach * reach,
@@ -445,34 +409,15 @@ impl TargetSelector {
 
     /// Whether the lost target could be at `p` (standard deviation `p_sigma_m`) at `now`.
     pub fn within_reach(&self, p: Point2<World>, p_sigma_m: f64, now: Stamp) -> bool {
-        let TargetState::Lost {
-            since,
-            last,
-            velocity,
-            velocity_sigma_mps,
-            ..
-        } = self.state
-        else {
-            return false;
-        };
-        let from = crate::tracker::Anchor {
-            stamp: since,
-            position: last,
-            velocity,
-            velocity_sigma_mps,
-        };
-        self.reachable_from(&from, p, p_sigma_m, now)
+        match &self.lock {
+            Lock::Lost(l) => self.reachable_from(&l.from, p, p_sigma_m, now),
+            _ => false,
+        }
     }
 
     /// Whether a person last seen at `from` could be at `p` (standard deviation
     /// `p_sigma_m`) at `now`.
-    fn reachable_from(
-        &self,
-        from: &crate::tracker::Anchor,
-        p: Point2<World>,
-        p_sigma_m: f64,
-        now: Stamp,
-    ) -> bool {
+    fn reachable_from(&self, from: &Anchor, p: Point2<World>, p_sigma_m: f64, now: Stamp) -> bool {
         let sd = from.position.cov.principal_axes().0.max(0.0).sqrt();
         let margin = 3.0 * (sd + p_sigma_m) + self.config.region_margin_m;
         // A lost person is no longer bound by the coasting cap: the region grows with
@@ -506,8 +451,9 @@ impl TargetSelector {
     /// first time, then one transition of the state (design 5.6).
     pub fn update_with_view(&mut self, now: Stamp, tracks: &[Track], view: &View) -> TargetState {
         self.refusals_now.clear();
+        let mut lock = std::mem::take(&mut self.lock);
         // Before the other track is forgotten below.
-        let merged_somebody_else = self.merged_somebody_else(tracks);
+        let merged_somebody_else = self.merged_somebody_else(&lock, tracks);
         self.last_anchors = tracks.iter().map(|t| (t.id, t.anchor)).collect();
         // Time since the previous update, capped so that a gap in the input does not
         // count as time seen together.
@@ -515,19 +461,99 @@ impl TargetSelector {
             .last_now
             .map_or(0.0, |l| now.secs_since(l).clamp(0.0, 0.2));
         self.last_now = Some(now);
-        self.forget_gone(tracks);
-        self.judge_new_tracks(now, tracks);
-        self.state = match self.state {
-            TargetState::Searching => self.choose(now, tracks, view),
-            TargetState::Locked { track } => {
-                self.step_locked(now, track, tracks, view, dt, merged_somebody_else)
-            }
-            TargetState::Lost { track, since, .. } => {
-                self.reacquire(now, track, since, tracks, view)
-            }
+        self.forget_gone(&mut lock, tracks);
+        self.judge_new_tracks(&mut lock, now, tracks);
+        let tick = Tick {
+            now,
+            tracks,
+            view,
+            dt,
         };
-        self.after_transition(tracks);
-        self.state
+        self.lock = self.transition(lock, &tick, merged_somebody_else);
+        self.lock.state()
+    }
+
+    /// One transition of the lock: every transition there is, and the memory each
+    /// starts its state with (design 5.6, the table of transitions).
+    fn transition(
+        &mut self,
+        lock: Lock,
+        tick: &Tick,
+        merged_somebody_else: Option<Anchor>,
+    ) -> Lock {
+        match lock {
+            Lock::Searching => match self.choose(tick.now, tick.tracks, tick.view) {
+                None => Lock::Searching,
+                Some(id) => {
+                    self.stats.locks += 1;
+                    self.lock_onto(id, None, tick.tracks)
+                }
+            },
+            Lock::Locked(mut l) => match self.step_locked(&mut l, tick, merged_somebody_else) {
+                LockedStep::Stay => Lock::Locked(l),
+                LockedStep::HandOver(to) => {
+                    self.stats.handovers += 1;
+                    // The same person on another track: its walk when it was last
+                    // alone still carries it; the company of the old track is asked
+                    // about again.
+                    let mut next = self.lock_onto(to, None, tick.tracks);
+                    if let Lock::Locked(n) = &mut next {
+                        n.alone = l.alone;
+                    }
+                    next
+                }
+                LockedStep::Lose(reason, from) => {
+                    self.stats.count_loss(reason);
+                    match from {
+                        Some(from) => Lock::Lost(self.lost(l, reason, from, tick.tracks)),
+                        // Locked without ever having seen the track (a user's id that
+                        // vanished): nothing to bound the search by.
+                        None => Lock::Searching,
+                    }
+                }
+            },
+            Lock::Lost(mut l) => match self.step_lost(&mut l, tick) {
+                LostStep::Stay => Lock::Lost(l),
+                LostStep::Reacquire(id) => {
+                    self.stats.reacquisitions += 1;
+                    if id == l.track {
+                        self.stats.reacquired_same_track += 1;
+                    }
+                    self.lock_onto(id, Some(l), tick.tracks)
+                }
+                LostStep::Restart(id) => {
+                    self.stats.restarts += 1;
+                    self.stats.locks += 1;
+                    self.lock_onto(id, Some(l), tick.tracks)
+                }
+            },
+        }
+    }
+
+    /// The lock on track `id` (`lost`: the loss it ends). The lost track itself comes
+    /// back with the company it kept; a new track starts afresh, and the tracks already
+    /// near it are noted as born at it (they may be the same person, its legs tracked
+    /// apart).
+    fn lock_onto(&mut self, id: u64, lost: Option<Lost>, tracks: &[Track]) -> Lock {
+        let found = tracks.iter().find(|t| t.id == id);
+        let mut locked = Locked::new(id, found.map(|t| t.anchor));
+        self.notes.entry(id).or_default().former = true;
+        match lost {
+            Some(lost) if lost.track == id => locked.company = lost.company,
+            _ => {
+                if let Some(here) = found.map(|t| t.position().mean) {
+                    for t in tracks {
+                        if t.id != id
+                            && t.position().mean.distance_m(here)
+                                <= self.config.encounter_distance_m
+                        {
+                            self.notes.entry(t.id).or_default().at_target = true;
+                        }
+                    }
+                }
+            }
+        }
+        Lock::Locked(locked)
     }
 
     /// Track `t`'s last good estimate: its estimate after its last update, unless the
@@ -537,7 +563,7 @@ impl TargetSelector {
     /// take a phantom return, the edge of a pillar or a bystander's leg that its wide
     /// reach covers, and run off after them; where the person can be is bounded from
     /// where they were last seen whole, never from that runaway (design 5; issue 14).
-    fn good_anchor(&self, t: &Track) -> crate::tracker::Anchor {
+    fn good_anchor(&self, t: &Track) -> Anchor {
         let last = t.anchor;
         let Some(p) = t.pair_anchor else {
             return last;
@@ -560,13 +586,13 @@ impl TargetSelector {
     /// How many standard deviations track `t` is (at `at`) from where the target, alone
     /// at `a`, would be: `|p_t - (p_a + v_a dt)| / sqrt(sigma_a^2 + sigma_t^2 + (sigma_v
     /// dt)^2 + (A dt^2 / 2)^2)`, `A` = `encounter_accel_mps2`.
-    fn off_prediction_sigma(&self, a: &crate::tracker::Anchor, t: &Track, at: Stamp) -> f64 {
+    fn off_prediction_sigma(&self, a: &Anchor, t: &Track, at: Stamp) -> f64 {
         self.off_walk_sigma(a, &t.position(), at)
     }
 
     /// How many standard deviations the estimate `g` (at `at`) is from where the walk
     /// of `a` leads: the formula of [`Self::off_prediction_sigma`].
-    fn off_walk_sigma(&self, a: &crate::tracker::Anchor, g: &Gaussian2<World>, at: Stamp) -> f64 {
+    fn off_walk_sigma(&self, a: &Anchor, g: &Gaussian2<World>, at: Stamp) -> f64 {
         let dt = at.secs_since(a.stamp).max(0.0);
         let predicted = a.position.mean + a.velocity * dt;
         let sd2 = |c: &tether_core::Cov2| c.principal_axes().0.max(0.0);
@@ -581,7 +607,7 @@ impl TargetSelector {
     /// The squared normalised distance of track `t` (at `at`) from the target's motion
     /// when it was alone at `a`: the position term of [`Self::off_prediction_sigma`]
     /// squared plus `|v_t - v_a|^2 / (sigma_va^2 + sigma_vt^2 + (A dt)^2)`.
-    fn off_motion_sq(&self, a: &crate::tracker::Anchor, t: &Track, at: Stamp) -> f64 {
+    fn off_motion_sq(&self, a: &Anchor, t: &Track, at: Stamp) -> f64 {
         let dt = at.secs_since(a.stamp).max(0.0);
         let dv = t.velocity() - a.velocity;
         let sigma_vt = t.anchor.velocity_sigma_mps;
@@ -591,403 +617,29 @@ impl TargetSelector {
         self.off_prediction_sigma(a, t, at).powi(2) + dv.norm().powi(2) / var_v.max(1e-6)
     }
 
-    /// The locked target `t`, carried through close encounters: while another track is
-    /// within `encounter_distance_m`, the target's motion from when it was last alone
-    /// is the reference; a target track that leaves it far behind while exactly one
-    /// other track (a person the laser vouches for, not somebody else) follows it hands
-    /// the target over to that track.
-    fn through_encounter(
-        &mut self,
-        now: Stamp,
-        t: &Track,
-        tracks: &[Track],
-        view: &View,
-    ) -> TargetState {
-        let c = &self.config;
-        let here = t.position().mean;
-        let fresh = |u: &Track| now.secs_since(u.last_update) <= c.lost_after_s;
-        let company = tracks.iter().any(|u| {
-            u.id != t.id && fresh(u) && u.position().mean.distance_m(here) < c.encounter_distance_m
-        });
-        if !company {
-            if t.last_update == now {
-                self.alone = Some(self.good_anchor(t));
-            }
-            return TargetState::Locked { track: t.id };
-        }
-        let Some(a) = self
-            .alone
-            .filter(|a| now.secs_since(a.stamp) <= c.encounter_max_s && now > a.stamp)
-        else {
-            return TargetState::Locked { track: t.id };
-        };
-        let d_target = self.off_motion_sq(&a, t, now);
-        // The candidates are the company: a swap of identities happens between tracks
-        // that meet, and a track away from the target that only fits the reference's
-        // extrapolation is not one (the target may have turned where it was hidden).
-        let mut others: Vec<(f64, &Track)> = tracks
-            .iter()
-            .filter(|u| {
-                u.id != t.id
-                    && u.confirmed
-                    && u.last_update == now
-                    && u.position().mean.distance_m(here) < c.encounter_distance_m
-            })
-            .map(|u| (self.off_motion_sq(&a, u, now), u))
-            .collect();
-        others.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.id.cmp(&y.1.id)));
-        let margin = c.handover_margin;
-        match others.as_slice() {
-            [(d, u), rest @ ..]
-                if *d <= c.handover_within_sigma.powi(2)
-                    && d_target - d >= margin
-                    && rest.first().is_none_or(|(d2, _)| d2 - d >= margin)
-                    && !self.is_somebody_else(u)
-                    && (!view.laser_in_use || self.laser_refusal(u, view, false).is_none()) =>
-            {
-                self.stats.handovers += 1;
-                self.last_good = Some(u.anchor);
-                TargetState::Locked { track: u.id }
-            }
-            _ => TargetState::Locked { track: t.id },
-        }
+    /// Whether track `id` has been seen beside the target (locked or lost) for
+    /// `beside_s`.
+    #[cfg(test)]
+    fn seen_beside(&mut self, id: u64) -> bool {
+        let beside_s = self.config.beside_s;
+        self.lock
+            .company_mut()
+            .is_some_and(|c| c.seen_beside_for(id, beside_s))
     }
 
-    /// Adds `dt_s` to every other confirmed track seen now as a whole person, apart from
-    /// the target
-    /// (called when the target itself was seen now as a whole person: a pair of legs,
-    /// or by the camera, so that a target led off by clutter does not make the person
-    /// it left somebody else).
-    fn count_beside(&mut self, target: &Track, tracks: &[Track], now: Stamp, dt_s: f64) {
-        let here = target.position().mean;
-        for u in tracks {
-            if u.id != target.id
-                && u.confirmed
-                && u.last_pair == Some(now)
-                && u.position().mean.distance_m(here) > self.config.beside_distance_m
-            {
-                *self.beside.entry(u.id).or_insert(0.0) += dt_s;
-            }
-        }
+    /// The notes on track `id` (all false for a track not noted).
+    fn notes_of(&self, id: u64) -> Notes {
+        self.notes.get(&id).copied().unwrap_or_default()
     }
+}
 
-    /// Whether `u` was somebody else already when the target was last seen at `a`: a
-    /// track older than that observation, not born at the target nor ever the target,
-    /// and not where the target was last seen.
-    fn there_before(&self, u: &Track, a: &crate::tracker::Anchor) -> bool {
-        u.born <= a.stamp
-            && !self.born_at_target.contains(&u.id)
-            && !self.former.contains(&u.id)
-            && u.position().mean.distance_m(a.position.mean) > self.config.encounter_distance_m
-    }
-
-    /// Whether another track `u` is surely somebody else: both were seen as whole
-    /// people, apart, at the same instants for `beside_s`.
-    fn is_somebody_else(&self, u: &Track) -> bool {
-        self.seen_beside_long_enough(u.id)
-    }
-
-    /// Whether track `id` has been seen beside the target for `beside_s` (the time is a
-    /// sum of scan intervals: five 0.1 s intervals make 0.49999999999999994 s, which
-    /// counts as 0.5 s).
-    fn seen_beside_long_enough(&self, id: u64) -> bool {
-        self.beside
-            .get(&id)
-            .is_some_and(|&s| s >= self.config.beside_s - 1e-6)
-    }
-
-    /// Adds `dt_s` to the time the target's track `t` has spent on each track of
-    /// somebody else (within `led_off_distance_m`); true once one reaches
-    /// `led_off_after_s`. While the target's track carries on its motion from when it
-    /// was last alone (within `handover_within_sigma`, [`Self::off_motion_sq`]), it is
-    /// the other track that came onto the target's person (a phantom swept along by
-    /// the robot's turn, a track that lost its own person), not the target that was
-    /// led off: nothing accrues.
-    ///
-    /// When the tracker has just merged somebody else's track into the target's (the
-    /// two stayed on one spot for its `duplicate_after_s`; `merged`: the other track's
-    /// last good estimate), the target's track now follows one of the two people: it
-    /// is led off when it carries on the other person's motion better than the
-    /// target's from when it was last alone (`encounter_max_s` ago at most). Two
-    /// tracks that have walked together for longer than that are one person's legs
-    /// tracked apart, or two people walking as one, and the merge changes nothing.
-    fn led_off(
-        &mut self,
-        t: &Track,
-        tracks: &[Track],
-        now: Stamp,
-        dt_s: f64,
-        merged: Option<crate::tracker::Anchor>,
-    ) -> bool {
-        let alone = self
-            .alone
-            .filter(|a| now.secs_since(a.stamp) <= self.config.encounter_max_s && now > a.stamp);
-        if let Some(other) = merged {
-            let d_other = self.off_motion_sq(&other, t, now);
-            if alone.is_some_and(|a| d_other < self.off_motion_sq(&a, t, now)) {
-                return true;
-            }
-        }
-        let on_course = alone.is_some_and(|a| {
-            self.off_motion_sq(&a, t, now) <= self.config.handover_within_sigma.powi(2)
-        });
-        if on_course {
-            self.on_other.clear();
-            return false;
-        }
-        let here = t.position().mean;
-        let fresh = |u: &Track| now.secs_since(u.last_update) <= self.config.lost_after_s;
-        let on: Vec<u64> = tracks
-            .iter()
-            .filter(|u| u.id != t.id && u.confirmed && fresh(u))
-            .filter(|u| u.position().mean.distance_m(here) < self.config.led_off_distance_m)
-            .filter(|u| self.is_somebody_else(u))
-            .map(|u| u.id)
-            .collect();
-        self.on_other.retain(|id, _| on.contains(id));
-        let mut led = false;
-        for id in on {
-            let s = self.on_other.entry(id).or_insert(0.0);
-            *s += dt_s;
-            led |= *s >= self.config.led_off_after_s - 1e-6;
-        }
-        led
-    }
-
-    /// The target's track `track` was led off onto somebody else: lost, and neither
-    /// that track nor the one it merged with can take the target up again.
-    fn lose_led_off(&mut self, track: u64, tracks: &[Track]) -> TargetState {
-        let others: Vec<u64> = self.on_other.keys().copied().collect();
-        let last = self.last_good;
-        self.stats.count_loss(LossReason::LedOff);
-        let state = self.lose_with(track, LossReason::LedOff, last, tracks);
-        self.others_at_loss.insert(track);
-        self.others_at_loss.extend(others);
-        self.on_other.clear();
-        state
-    }
-
-    /// Lost `track` (`found`: its track, if the tracker still has it), searched for
-    /// from `anchor`.
-    fn lose(
-        &mut self,
-        track: u64,
-        found: Option<&Track>,
-        anchor: Option<crate::tracker::Anchor>,
-        tracks: &[Track],
-        view: &View,
-    ) -> TargetState {
-        let reason = if view.sensor_gap {
-            LossReason::SensorGap
-        } else if found.is_none() {
-            LossReason::TrackDropped
-        } else if anchor.is_some_and(|a| {
-            // Heading out of view: where it would be a few tenths of a second on.
-            !(view.laser_sees)(a.position.mean + a.velocity * 0.5)
-        }) {
-            LossReason::LeftView
-        } else {
-            LossReason::Unseen
-        };
-        self.stats.count_loss(reason);
-        self.lose_with(track, reason, anchor, tracks)
-    }
-
-    /// The lost state for `track`, lost for `reason` with `anchor` as its last good
-    /// estimate; notes who is somebody else.
-    fn lose_with(
-        &mut self,
-        track: u64,
-        reason: LossReason,
-        anchor: Option<crate::tracker::Anchor>,
-        tracks: &[Track],
-    ) -> TargetState {
-        // Somebody else: a track seen beside the target, apart from it, for long enough
-        // (`beside_s`), or one already there before the target's last observation, not
-        // born at the target, and away from where the target was last seen. A track
-        // born at the target, or standing where it was lost, may be the target itself,
-        // taken up by a new track while the old one coasted or was led off.
-        self.others_at_loss = tracks
-            .iter()
-            .filter(|t| t.confirmed && t.id != track)
-            .filter(|t| {
-                self.seen_beside_long_enough(t.id)
-                    || anchor.is_some_and(|a| self.there_before(t, &a))
-                    || (self.born_apart.contains(&t.id)
-                        && anchor.is_some_and(|a| {
-                            t.position().mean.distance_m(a.position.mean)
-                                > self.config.encounter_distance_m
-                        }))
-            })
-            .map(|t| t.id)
-            .collect();
-        self.refused.clear();
-        self.ambiguous_sets.clear();
-        self.evidence_at_loss = tracks
-            .iter()
-            .find(|t| t.id == track)
-            .map(|t| (track, t.hits, t.last_pair));
-        match anchor {
-            Some(a) => TargetState::Lost {
-                track,
-                reason,
-                since: a.stamp,
-                last: a.position,
-                velocity: a.velocity,
-                velocity_sigma_mps: a.velocity_sigma_mps,
-            },
-            // Locked without ever having seen the track (a user's id that vanished):
-            // nothing to bound the search by.
-            None => TargetState::Searching,
-        }
-    }
-
-    /// Why `t` cannot be the lost target, if it cannot (`None`: a candidate).
-    fn refusal(&self, t: &Track, now: Stamp, view: &View) -> Option<Refusal> {
-        let p = t.position();
-        let sd = p.cov.principal_axes().0.max(0.0).sqrt();
-        if !self.within_reach(p.mean, sd, now) {
-            return Some(Refusal::OutOfReach);
-        }
-        if self.others_at_loss.contains(&t.id) || self.born_elsewhere.contains(&t.id) {
-            return Some(Refusal::SomebodyElse);
-        }
-        self.vouching_refusal(t, now, view)
-    }
-
-    /// Why the sensors do not vouch for `t` as the target taken up again.
-    fn vouching_refusal(&self, t: &Track, now: Stamp, view: &View) -> Option<Refusal> {
-        if (view.camera_sees)(t.position().mean) && self.config.require_both_sensors {
-            // Where the camera sees, both sensors vouch (as at the start).
-            return (!t.seen_by_both(now, self.config.both_sensors_window_s))
-                .then_some(Refusal::CameraDoesNotVouch);
-        }
-        if !view.laser_in_use {
-            return None;
-        }
-        self.laser_refusal(t, view, true)
-    }
-
-    /// While the target's track `t` coasts (no observation for `handover_coast_s`),
-    /// the other track that takes up the target, if one clearly does. Candidates are
-    /// tracks updated now, within `encounter_distance_m` of the target's track's last
-    /// observation or of where its walk from when it was last alone leads, where the
-    /// target could have gone since, not somebody else, seen by both sensors or
-    /// vouched for by the laser as a person standing would be at the start. The
-    /// tracker has given the person's observations to another track (the target's
-    /// track went astray, or its person was split in two); waiting for the loss would
-    /// leave the target with a track that runs off.
-    ///
-    /// Alone, the one candidate takes the target. In company (another track came
-    /// within `encounter_distance_m`, `encounter_max_s` ago at most), the target's last
-    /// observation may already be dragged towards the person it met, so the region
-    /// is bounded from its state when it was last alone, and of several candidates the
-    /// one whose motion carries on that state ([`Self::off_motion_sq`]) takes it only
-    /// if it fits better than the next by `handover_margin`: somebody crossing behind
-    /// the target walks another way.
-    fn coasting_handover(
-        &self,
-        now: Stamp,
-        t: &Track,
-        tracks: &[Track],
-        view: &View,
-    ) -> Option<u64> {
-        if now.secs_since(t.last_update) <= self.config.handover_coast_s {
-            return None;
-        }
-        // In company, the target's own last observation may already be dragged off by
-        // the person it met: the reference is its motion when it was last alone, and
-        // the candidates are every track that continues it.
-        let alone = self
-            .alone
-            .filter(|al| now.secs_since(al.stamp) <= self.config.encounter_max_s && now > al.stamp);
-        // Where the target was last seen whole: a track that coasts on single legs may
-        // be running off after somebody else's.
-        let good = self.good_anchor(t);
-        let a = alone.unwrap_or(good);
-        // Near where the target was last seen, or where its motion from when it was
-        // alone would have taken it.
-        let r = self.config.encounter_distance_m;
-        let near = |p: Point2<World>| {
-            p.distance_m(t.anchor.position.mean) <= r
-                || p.distance_m(good.position.mean) <= r
-                || alone.is_some_and(|al| {
-                    p.distance_m(al.position.mean + al.velocity * now.secs_since(al.stamp)) <= r
-                })
-        };
-        let candidates = tracks.iter().filter(|u| {
-            u.id != t.id
-                && u.confirmed
-                && u.last_update == now
-                && near(u.position().mean)
-                && self.reachable_from(
-                    &a,
-                    u.position().mean,
-                    u.position().cov.principal_axes().0.max(0.0).sqrt(),
-                    now,
-                )
-                && !self.is_somebody_else(u)
-                && !self.born_elsewhere.contains(&u.id)
-                && !self.there_before(u, &t.anchor)
-                && (u.seen_by_both(now, self.config.both_sensors_window_s)
-                    || (view.laser_in_use && self.laser_refusal(u, view, false).is_none())
-                    || (!view.laser_in_use && self.vouching_refusal(u, now, view).is_none()))
-        });
-        let candidates: Vec<&Track> = candidates.collect();
-        let (Some(al), [_, _, ..]) = (alone, candidates.as_slice()) else {
-            return match candidates.as_slice() {
-                [u] => Some(u.id),
-                _ => None,
-            };
-        };
-        // Several tracks where the target could be: the one that carries on its motion
-        // from when it was alone, clearly better than the next.
-        let mut ranked: Vec<(f64, u64)> = candidates
-            .iter()
-            .map(|u| (self.off_motion_sq(&al, u, now), u.id))
-            .collect();
-        ranked.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-        match ranked.as_slice() {
-            [(d, u), (d2, _), ..] if d2 - d >= self.config.handover_margin => Some(*u),
-            _ => None,
-        }
-    }
-
-    /// Why the laser alone does not vouch that `t` is a person (`walking`: it must also
-    /// have walked).
-    fn laser_refusal(&self, t: &Track, view: &View, walking: bool) -> Option<Refusal> {
-        if (view.in_clutter)(t.position().mean) {
-            Some(Refusal::StaticClutter)
-        } else if t.pair_hits
-            < if walking {
-                self.config.min_leg_pairs
-            } else {
-                self.config.min_leg_pairs_standing
-            }
-            || (walking
-                && (f64::from(t.pair_hits) < self.config.min_pair_share * f64::from(t.hits)
-                    || f64::from(t.weak_hits)
-                        > self.config.max_weak_share * f64::from(t.hits + t.weak_hits)))
-        {
-            // No pair of legs because no leg at all: a track of the camera alone.
-            Some(if t.last_laser.is_none() {
-                Refusal::NotSeenByLaser
-            } else {
-                Refusal::NoLegPair
-            })
-        } else if walking && t.walked_m < self.config.min_walked_m {
-            Some(Refusal::NotWalking)
-        } else {
-            None
-        }
-    }
-
-    fn refuse(&mut self, track: u64, refusal: Refusal) {
-        self.refusals_now.push((track, refusal));
-        if self.refused.insert((track, refusal)) {
-            self.stats.count_refusal(refusal);
-        }
-    }
+/// One update's input.
+struct Tick<'a, 'v> {
+    now: Stamp,
+    tracks: &'a [Track],
+    view: &'a View<'v>,
+    /// Time since the previous update (capped), s.
+    dt: f64,
 }
 
 #[cfg(test)]

@@ -1,104 +1,97 @@
 //! Finding the target (design 5.6): the first choice, a restart, and re-acquisition of
 //! a lost target.
 
-use super::{Refusal, TargetSelector, TargetState, View};
+use super::memory::Lost;
+use super::{LostStep, Refusal, TargetSelector, Tick, View};
 use crate::tracker::Track;
 use tether_core::{Point2, Robot, Stamp, wrap_angle_rad};
 
 impl TargetSelector {
-    pub(super) fn reacquire(
-        &mut self,
-        now: Stamp,
-        track: u64,
-        since: Stamp,
-        tracks: &[Track],
-        view: &View,
-    ) -> TargetState {
+    /// One step of `Lost`: the lost track itself back, exactly one candidate
+    /// re-acquired, several an ambiguity (the robot waits), none a restart when it is
+    /// time. Every track not taken is refused with its reason.
+    pub(super) fn step_lost(&mut self, l: &mut Lost, tick: &Tick) -> LostStep {
+        let (now, tracks, view) = (tick.now, tick.tracks, tick.view);
         let lost_after_s = self.config.lost_after_s;
         let fresh = |t: &Track| now.secs_since(t.last_update) <= lost_after_s;
         let mut candidates = Vec::new();
         for t in tracks.iter().filter(|t| t.confirmed && fresh(t)) {
-            if t.id == track && self.others_at_loss.contains(&t.id) {
-                // Led off onto somebody else: that track is theirs now.
-                self.refuse(t.id, Refusal::SomebodyElse);
-                continue;
-            }
-            if t.id == track {
-                // The tracker kept its identity: back, if it is still where the target
-                // could be (a track that ran off after something else is not), and
-                // shows the person again: a whole person (a pair of legs, the camera)
-                // or two updates since the loss. A coasting track's reach is wide; one
-                // false positive in it (a phantom return, a bystander's leg) must not
-                // bring the lock back onto a track that has lost its person.
-                if let Some((id, hits, last_pair)) = self.evidence_at_loss
-                    && id == track
-                    && t.hits < hits + 2
-                    && t.last_pair <= last_pair
-                {
-                    self.refuse(t.id, Refusal::NoNewEvidence);
-                    continue;
+            let refusal = if t.id == l.track {
+                match self.own_track_refusal(l, t, now, view) {
+                    None => return LostStep::Reacquire(t.id),
+                    Some(r) => r,
                 }
-                // Nor does the camera alone bring it back while the laser, in use and
-                // seeing the place, has not seen it since the loss: a false box gates
-                // with a track that coasted off as readily as the person does, and
-                // the laser finds a person it can see.
-                if view.laser_in_use
-                    && (view.laser_sees)(t.position().mean)
-                    && t.last_laser.is_none_or(|l| l <= since)
-                {
-                    self.refuse(t.id, Refusal::NotSeenByLaser);
-                    continue;
+            } else {
+                match self.refusal(l, t, now, view) {
+                    None => {
+                        candidates.push(t.id);
+                        continue;
+                    }
+                    Some(r) => r,
                 }
-                let p = t.position();
-                let sd = p.cov.principal_axes().0.max(0.0).sqrt();
-                if self.within_reach(p.mean, sd, now) {
-                    self.stats.reacquisitions += 1;
-                    self.stats.reacquired_same_track += 1;
-                    self.last_good = Some(t.anchor);
-                    return TargetState::Locked { track };
-                }
-                self.refuse(t.id, Refusal::OutOfReach);
-                continue;
-            }
-            match self.refusal(t, now, view) {
-                Some(r) => self.refuse(t.id, r),
-                None => candidates.push(t),
-            }
+            };
+            self.refuse(l, t.id, refusal);
         }
         match candidates.as_slice() {
-            [one] => {
-                self.stats.reacquisitions += 1;
-                self.last_good = Some(one.anchor);
-                TargetState::Locked { track: one.id }
-            }
-            [] => self.restart(now, tracks, view).unwrap_or(self.state),
+            [one] => LostStep::Reacquire(*one),
+            [] => self
+                .restart(now, l, tracks, view)
+                .map_or(LostStep::Stay, LostStep::Restart),
             several => {
-                let ids: Vec<u64> = several.iter().map(|t| t.id).collect();
-                for &id in &ids {
+                for &id in several {
                     self.refusals_now.push((id, Refusal::Ambiguous));
                 }
-                if self.ambiguous_sets.insert(ids) {
+                if l.ambiguous_sets.insert(several.to_vec()) {
                     self.stats.ambiguous += 1;
                 }
-                self.state
+                LostStep::Stay
             }
         }
+    }
+
+    /// Why the lost target's own track `t` is not taken back (`None`: it is). Not when
+    /// led off onto somebody else (that track is theirs now). The tracker kept its
+    /// identity: back, if it is still where the target could be (a track that ran off
+    /// after something else is not), and shows the person again: a whole person (a pair
+    /// of legs, the camera) or two updates since the loss. A coasting track's reach is
+    /// wide; one false positive in it (a phantom return, a bystander's leg) must not
+    /// bring the lock back onto a track that has lost its person. Nor does the camera
+    /// alone bring it back while the laser, in use and seeing the place, has not seen it
+    /// since the loss: a false box gates with a track that coasted off as readily as the
+    /// person does, and the laser finds a person it can see.
+    fn own_track_refusal(&self, l: &Lost, t: &Track, now: Stamp, view: &View) -> Option<Refusal> {
+        if l.others.contains(&t.id) {
+            return Some(Refusal::SomebodyElse);
+        }
+        if let Some((hits, last_pair)) = l.evidence
+            && t.hits < hits + 2
+            && t.last_pair <= last_pair
+        {
+            return Some(Refusal::NoNewEvidence);
+        }
+        if view.laser_in_use
+            && (view.laser_sees)(t.position().mean)
+            && t.last_laser.is_none_or(|last| last <= l.from.stamp)
+        {
+            return Some(Refusal::NotSeenByLaser);
+        }
+        let p = t.position();
+        let sd = p.cov.principal_axes().0.max(0.0).sqrt();
+        (!self.reachable_from(&l.from, p.mean, sd, now)).then_some(Refusal::OutOfReach)
     }
 
     /// Lost for `restart_after_s`: the target taken up again as at the start, by the
     /// one track that has stood alone in the start's window for `restart_dwell_s`.
     pub(super) fn restart(
-        &mut self,
+        &self,
         now: Stamp,
+        l: &mut Lost,
         tracks: &[Track],
         view: &View,
-    ) -> Option<TargetState> {
+    ) -> Option<u64> {
         let c = &self.config;
-        let TargetState::Lost { since, .. } = self.state else {
-            return None;
-        };
-        if c.restart_after_s <= 0.0 || now.secs_since(since) < c.restart_after_s {
-            self.presented = None;
+        if c.restart_after_s <= 0.0 || now.secs_since(l.from.stamp) < c.restart_after_s {
+            l.presented = None;
             return None;
         }
         let robot_from_world = view.world_from_robot.inverse();
@@ -107,29 +100,22 @@ impl TargetSelector {
             .into_iter()
             .filter(|t| self.in_start_window(robot_from_world * t.position().mean))
             .collect();
-        let one = match in_front.as_slice() {
-            [t] => *t,
-            _ => {
-                self.presented = None;
-                return None;
-            }
+        let [one] = in_front.as_slice() else {
+            l.presented = None;
+            return None;
         };
-        let (id, anchor) = (one.id, one.anchor);
-        let from = match self.presented {
-            Some((p, from)) if p == id => from,
+        let from = match l.presented {
+            Some((p, from)) if p == one.id => from,
             _ => {
-                self.presented = Some((id, now));
+                l.presented = Some((one.id, now));
                 now
             }
         };
-        if now.secs_since(from) < self.config.restart_dwell_s {
+        if now.secs_since(from) < c.restart_dwell_s {
             return None;
         }
-        self.presented = None;
-        self.stats.restarts += 1;
-        self.stats.locks += 1;
-        self.last_good = Some(anchor);
-        Some(TargetState::Locked { track: id })
+        l.presented = None;
+        Some(one.id)
     }
 
     /// Whether `p` (robot frame) is where the target is chosen at the start: within
@@ -165,39 +151,32 @@ impl TargetSelector {
             .collect()
     }
 
-    pub(super) fn choose(&mut self, now: Stamp, tracks: &[Track], view: &View) -> TargetState {
+    /// The track chosen at the start, if one is: the user's track id, else the
+    /// eligible track nearest the user's point, else the eligible track in the start
+    /// window nearest the heading.
+    pub(super) fn choose(&self, now: Stamp, tracks: &[Track], view: &View) -> Option<u64> {
         let c = &self.config;
-        let chosen = if let Some(id) = c.track_id {
-            tracks.iter().find(|t| t.id == id)
-        } else {
-            let robot_from_world = view.world_from_robot.inverse();
-            let eligible = self
-                .eligible_at_start(now, tracks, view)
-                .into_iter()
-                .map(|t| (robot_from_world * t.position().mean, t));
-            match c.near_point_m {
-                Some([x, y]) => {
-                    let point = Point2::<Robot>::new(x, y);
-                    eligible
-                        .map(|(p, t)| (p.distance_m(point), t))
-                        .filter(|(d, _)| *d <= c.near_point_radius_m)
-                        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.id.cmp(&b.1.id)))
-                        .map(|(_, t)| t)
-                }
-                None => eligible
-                    .filter(|(p, _)| self.in_start_window(*p))
-                    .map(|(p, t)| (wrap_angle_rad(p.bearing_rad()).abs(), t))
-                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.id.cmp(&b.1.id)))
-                    .map(|(_, t)| t),
-            }
-        };
-        match chosen {
-            Some(t) => {
-                self.stats.locks += 1;
-                self.last_good = Some(t.anchor);
-                TargetState::Locked { track: t.id }
-            }
-            None => TargetState::Searching,
+        if let Some(id) = c.track_id {
+            return tracks.iter().find(|t| t.id == id).map(|t| t.id);
         }
+        let robot_from_world = view.world_from_robot.inverse();
+        let eligible = self
+            .eligible_at_start(now, tracks, view)
+            .into_iter()
+            .map(|t| (robot_from_world * t.position().mean, t));
+        let chosen = match c.near_point_m {
+            Some([x, y]) => {
+                let point = Point2::<Robot>::new(x, y);
+                eligible
+                    .map(|(p, t)| (p.distance_m(point), t))
+                    .filter(|(d, _)| *d <= c.near_point_radius_m)
+                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.id.cmp(&b.1.id)))
+            }
+            None => eligible
+                .filter(|(p, _)| self.in_start_window(*p))
+                .map(|(p, t)| (wrap_angle_rad(p.bearing_rad()).abs(), t))
+                .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.id.cmp(&b.1.id))),
+        };
+        chosen.map(|(_, t)| t.id)
     }
 }

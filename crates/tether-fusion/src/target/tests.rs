@@ -667,10 +667,7 @@ fn merge_run(merged_track: impl Fn(i64) -> (f64, f64), merged_v: (f64, f64)) -> 
         }
         state = s.update(at(ms), &tracks, Pose2::IDENTITY);
         if ms == 1400 {
-            assert!(
-                s.is_somebody_else(&tracks[1]),
-                "the bystander was seen apart"
-            );
+            assert!(s.seen_beside(tracks[1].id), "the bystander was seen apart");
         }
         if state.locked_track().is_none() {
             break;
