@@ -32,10 +32,10 @@ use memory::{Lock, Locked, Lost, Notes};
 
 mod acquire;
 mod config;
+mod eligible;
 mod locked;
 mod memory;
 mod update;
-mod vouch;
 
 /// Uncertainty of where a track was born (one observation of a person), m.
 const BIRTH_SIGMA_M: f64 = 0.15;

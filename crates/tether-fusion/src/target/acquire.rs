@@ -1,6 +1,7 @@
 //! Finding the target (design 5.6): the first choice, a restart, and re-acquisition of
 //! a lost target.
 
+use super::eligible::Question;
 use super::memory::Lost;
 use super::{LostStep, Refusal, TargetSelector, Tick, View};
 use crate::tracker::Track;
@@ -12,22 +13,24 @@ impl TargetSelector {
     /// time. Every track not taken is refused with its reason.
     pub(super) fn step_lost(&mut self, l: &mut Lost, tick: &Tick) -> LostStep {
         let (now, tracks, view) = (tick.now, tick.tracks, tick.view);
-        let lost_after_s = self.config.lost_after_s;
-        let fresh = |t: &Track| now.secs_since(t.last_update) <= lost_after_s;
         let mut candidates = Vec::new();
-        for t in tracks.iter().filter(|t| t.confirmed && fresh(t)) {
+        let considered: Vec<&Track> = tracks
+            .iter()
+            .filter(|t| self.considered(&Question::Reacquire { lost: l }, t, now))
+            .collect();
+        for t in considered {
             let refusal = if t.id == l.track {
                 match self.own_track_refusal(l, t, now, view) {
                     None => return LostStep::Reacquire(t.id),
                     Some(r) => r,
                 }
             } else {
-                match self.refusal(l, t, now, view) {
-                    None => {
+                match self.may_be_target(&Question::Reacquire { lost: l }, t, now, view) {
+                    Ok(()) => {
                         candidates.push(t.id);
                         continue;
                     }
-                    Some(r) => r,
+                    Err(r) => r,
                 }
             };
             self.refuse(l, t.id, refusal);
@@ -125,29 +128,17 @@ impl TargetSelector {
             && wrap_angle_rad(p.bearing_rad()).abs() <= self.config.max_select_bearing_rad
     }
 
-    /// The tracks that could be chosen at the start: confirmed, fresh and vouched for
-    /// (seen by both sensors, or by the laser as a pair of legs outside static clutter).
+    /// The tracks that could be chosen at the start ([`Question::Start`]).
     pub(super) fn eligible_at_start<'t>(
         &self,
         now: Stamp,
         tracks: &'t [Track],
         view: &View,
     ) -> Vec<&'t Track> {
-        let c = &self.config;
+        let q = Question::Start;
         tracks
             .iter()
-            .filter(|t| t.confirmed && now.secs_since(t.last_update) <= c.lost_after_s)
-            .filter(|t| {
-                if c.require_both_sensors {
-                    t.seen_by_both(now, c.both_sensors_window_s)
-                } else if view.laser_in_use {
-                    // The user stands in front of the robot to start: a pair of legs
-                    // outside static clutter, walking or not.
-                    self.laser_refusal(t, view, false).is_none()
-                } else {
-                    true
-                }
-            })
+            .filter(|t| self.considered(&q, t, now) && self.may_be_target(&q, t, now, view).is_ok())
             .collect()
     }
 

@@ -2,10 +2,11 @@
 //! a coasting target, lost as led off onto somebody else, carried through a close
 //! encounter, or lost when the track is gone or silent.
 
+use super::eligible::Question;
 use super::memory::{Company, Locked, Lost};
 use super::{LockedStep, LossReason, TargetSelector, Tick, View};
 use crate::tracker::{Anchor, Track};
-use tether_core::{Point2, Stamp, World};
+use tether_core::Stamp;
 
 impl TargetSelector {
     /// One step of `Locked` (`merged_somebody_else`: see
@@ -152,14 +153,13 @@ impl TargetSelector {
         // The candidates are the company: a swap of identities happens between tracks
         // that meet, and a track away from the target that only fits the reference's
         // extrapolation is not one (the target may have turned where it was hidden).
+        let q = Question::Encounter {
+            target: t,
+            locked: l,
+        };
         let mut others: Vec<(f64, &Track)> = tracks
             .iter()
-            .filter(|u| {
-                u.id != t.id
-                    && u.confirmed
-                    && u.last_update == now
-                    && u.position().mean.distance_m(here) < c.encounter_distance_m
-            })
+            .filter(|u| self.considered(&q, u, now) && self.where_target_can_be(&q, u, now))
             .map(|u| (self.off_motion_sq(&a, u, now), u))
             .collect();
         others.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.id.cmp(&y.1.id)));
@@ -169,8 +169,7 @@ impl TargetSelector {
                 if *d <= c.handover_within_sigma.powi(2)
                     && d_target - d >= margin
                     && rest.first().is_none_or(|(d2, _)| d2 - d >= margin)
-                    && !l.company.seen_beside_for(u.id, c.beside_s)
-                    && (!view.laser_in_use || self.laser_refusal(u, view, false).is_none()) =>
+                    && self.may_be_target(&q, u, now, view).is_ok() =>
             {
                 Some(u.id)
             }
@@ -295,37 +294,15 @@ impl TargetSelector {
         // Where the target was last seen whole: a track that coasts on single legs may
         // be running off after somebody else's.
         let good = self.good_anchor(t);
-        let a = alone.unwrap_or(good);
-        // Near where the target was last seen, or where its motion from when it was
-        // alone would have taken it.
-        let r = c.encounter_distance_m;
-        let near = |p: Point2<World>| {
-            p.distance_m(t.anchor.position.mean) <= r
-                || p.distance_m(good.position.mean) <= r
-                || alone.is_some_and(|al| {
-                    p.distance_m(al.position.mean + al.velocity * now.secs_since(al.stamp)) <= r
-                })
+        let q = Question::Coasting {
+            target: t,
+            locked: l,
+            alone,
+            good,
         };
         let candidates: Vec<&Track> = tracks
             .iter()
-            .filter(|u| {
-                u.id != t.id
-                    && u.confirmed
-                    && u.last_update == now
-                    && near(u.position().mean)
-                    && self.reachable_from(
-                        &a,
-                        u.position().mean,
-                        u.position().cov.principal_axes().0.max(0.0).sqrt(),
-                        now,
-                    )
-                    && !l.company.seen_beside_for(u.id, c.beside_s)
-                    && !self.notes_of(u.id).elsewhere
-                    && !self.there_before(u, &t.anchor)
-                    && (u.seen_by_both(now, c.both_sensors_window_s)
-                        || (view.laser_in_use && self.laser_refusal(u, view, false).is_none())
-                        || (!view.laser_in_use && self.vouching_refusal(u, now, view).is_none()))
-            })
+            .filter(|u| self.considered(&q, u, now) && self.may_be_target(&q, u, now, view).is_ok())
             .collect();
         let (Some(al), [_, _, ..]) = (alone, candidates.as_slice()) else {
             return match candidates.as_slice() {
