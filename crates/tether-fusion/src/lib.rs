@@ -35,7 +35,7 @@ pub use gate::{CHI2_2DOF_95, CHI2_2DOF_99, CHI2_2DOF_999, Gate, mahalanobis_sq};
 pub use kalman::CvFilter;
 pub use mot::{ClearMot, MotSummary};
 pub use target::{
-    LossReason, Refusal, TargetConfig, TargetSelector, TargetState, TargetStats, View,
+    LossReason, Refusal, TargetConfig, TargetSelector, TargetState, TargetStats, Transition, View,
 };
 pub use tracker::{
     Anchor, BatchResult, Bearing, MotionBounds, Observation, Source, Track, Tracker, TrackerConfig,

@@ -145,6 +145,77 @@ impl Refusal {
     ];
 }
 
+/// What moved the lock at an update: every transition there is (design 5.6, the table
+/// of transitions; [`TargetSelector::transition`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Transition {
+    /// Searching -> Locked: a track chosen at the start.
+    Chosen,
+    /// Locked -> Locked on another track: while the target's track coasted, another
+    /// track took up its person.
+    CoastingHandover,
+    /// Locked -> Locked on another track: in a close encounter, another track carried
+    /// on the target's walk clearly better than its own track.
+    EncounterHandover,
+    /// Locked -> Lost (`led_off`): the target's track ran onto somebody else's.
+    LedOff,
+    /// Locked -> Lost: the target's track went silent or was dropped (`unseen`,
+    /// `left_view`, `sensor_gap`, `track_dropped`).
+    Lost,
+    /// Locked -> Searching: a track the selector never saw (a user's id) is gone, and
+    /// there is nothing to search from.
+    GaveUp,
+    /// Lost -> Locked: the lost track itself is back.
+    Back,
+    /// Lost -> Locked on another track: the one candidate.
+    Reacquired,
+    /// Lost -> Locked: lost for `restart_after_s`, the one track standing in front of
+    /// the robot for `restart_dwell_s`, taken up as at the start.
+    Restarted,
+}
+
+impl Transition {
+    /// Every transition, in the order of the design's table.
+    pub const ALL: [Transition; 9] = [
+        Transition::Chosen,
+        Transition::CoastingHandover,
+        Transition::EncounterHandover,
+        Transition::LedOff,
+        Transition::Lost,
+        Transition::GaveUp,
+        Transition::Back,
+        Transition::Reacquired,
+        Transition::Restarted,
+    ];
+
+    /// Name used in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Transition::Chosen => "chosen",
+            Transition::CoastingHandover => "coasting_handover",
+            Transition::EncounterHandover => "encounter_handover",
+            Transition::LedOff => "led_off",
+            Transition::Lost => "lost",
+            Transition::GaveUp => "gave_up",
+            Transition::Back => "back",
+            Transition::Reacquired => "reacquired",
+            Transition::Restarted => "restarted",
+        }
+    }
+
+    /// The states it goes from and to ([`TargetState::name`]).
+    pub fn from_to(self) -> (&'static str, &'static str) {
+        match self {
+            Transition::Chosen => ("searching", "locked"),
+            Transition::CoastingHandover | Transition::EncounterHandover => ("locked", "locked"),
+            Transition::LedOff | Transition::Lost => ("locked", "lost"),
+            Transition::GaveUp => ("locked", "searching"),
+            Transition::Back | Transition::Reacquired | Transition::Restarted => ("lost", "locked"),
+        }
+    }
+}
+
 /// Where the target stands.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TargetState {
@@ -320,6 +391,8 @@ pub struct TargetSelector {
     last_now: Option<Stamp>,
     /// This update's refusals.
     refusals_now: Vec<(u64, Refusal)>,
+    /// This update's transition.
+    transition_now: Option<Transition>,
     /// Every track's last good estimate at the previous update: what a track the
     /// tracker has since merged into another one was doing.
     last_anchors: BTreeMap<u64, Anchor>,
@@ -329,8 +402,9 @@ pub struct TargetSelector {
 enum LockedStep {
     /// Keeps its track.
     Stay,
-    /// Hands the target over to another track.
-    HandOver(u64),
+    /// Hands the target over to another track (`CoastingHandover` or
+    /// `EncounterHandover`).
+    HandOver(u64, Transition),
     /// Loses the target, for this reason, searching from this estimate (`None`: a
     /// track never seen, nothing to search from).
     Lose(LossReason, Option<Anchor>),
@@ -363,6 +437,7 @@ impl TargetSelector {
             notes: BTreeMap::new(),
             last_now: None,
             refusals_now: Vec::new(),
+            transition_now: None,
             last_anchors: BTreeMap::new(),
         }
     }
@@ -385,6 +460,11 @@ impl TargetSelector {
     /// The candidates refused at the last update while lost, with the reasons.
     pub fn refusals(&self) -> &[(u64, Refusal)] {
         &self.refusals_now
+    }
+
+    /// The transition the last update made, if it made one.
+    pub fn transition(&self) -> Option<Transition> {
+        self.transition_now
     }
 
     /// Where the lost target is most likely at `now`: its last good estimate moved by
@@ -451,6 +531,7 @@ impl TargetSelector {
     /// first time, then one transition of the state (design 5.6).
     pub fn update_with_view(&mut self, now: Stamp, tracks: &[Track], view: &View) -> TargetState {
         self.refusals_now.clear();
+        self.transition_now = None;
         let mut lock = std::mem::take(&mut self.lock);
         // Before the other track is forgotten below.
         let merged_somebody_else = self.merged_somebody_else(&lock, tracks);
@@ -469,29 +550,24 @@ impl TargetSelector {
             view,
             dt,
         };
-        self.lock = self.transition(lock, &tick, merged_somebody_else);
+        self.lock = self.step(lock, &tick, merged_somebody_else);
         self.lock.state()
     }
 
     /// One transition of the lock: every transition there is, and the memory each
     /// starts its state with (design 5.6, the table of transitions).
-    fn transition(
-        &mut self,
-        lock: Lock,
-        tick: &Tick,
-        merged_somebody_else: Option<Anchor>,
-    ) -> Lock {
-        match lock {
+    fn step(&mut self, lock: Lock, tick: &Tick, merged_somebody_else: Option<Anchor>) -> Lock {
+        let (next, transition) = match lock {
             Lock::Searching => match self.choose(tick.now, tick.tracks, tick.view) {
-                None => Lock::Searching,
+                None => return Lock::Searching,
                 Some(id) => {
                     self.stats.locks += 1;
-                    self.lock_onto(id, None, tick.tracks)
+                    (self.lock_onto(id, None, tick.tracks), Transition::Chosen)
                 }
             },
             Lock::Locked(mut l) => match self.step_locked(&mut l, tick, merged_somebody_else) {
-                LockedStep::Stay => Lock::Locked(l),
-                LockedStep::HandOver(to) => {
+                LockedStep::Stay => return Lock::Locked(l),
+                LockedStep::HandOver(to, how) => {
                     self.stats.handovers += 1;
                     // The same person on another track: its walk when it was last
                     // alone still carries it; the company of the old track is asked
@@ -500,34 +576,49 @@ impl TargetSelector {
                     if let Lock::Locked(n) = &mut next {
                         n.alone = l.alone;
                     }
-                    next
+                    (next, how)
                 }
                 LockedStep::Lose(reason, from) => {
                     self.stats.count_loss(reason);
                     match from {
-                        Some(from) => Lock::Lost(self.lost(l, reason, from, tick.tracks)),
+                        Some(from) => (
+                            Lock::Lost(self.lost(l, reason, from, tick.tracks)),
+                            if reason == LossReason::LedOff {
+                                Transition::LedOff
+                            } else {
+                                Transition::Lost
+                            },
+                        ),
                         // Locked without ever having seen the track (a user's id that
                         // vanished): nothing to bound the search by.
-                        None => Lock::Searching,
+                        None => (Lock::Searching, Transition::GaveUp),
                     }
                 }
             },
             Lock::Lost(mut l) => match self.step_lost(&mut l, tick) {
-                LostStep::Stay => Lock::Lost(l),
+                LostStep::Stay => return Lock::Lost(l),
                 LostStep::Reacquire(id) => {
                     self.stats.reacquisitions += 1;
-                    if id == l.track {
+                    let how = if id == l.track {
                         self.stats.reacquired_same_track += 1;
-                    }
-                    self.lock_onto(id, Some(l), tick.tracks)
+                        Transition::Back
+                    } else {
+                        Transition::Reacquired
+                    };
+                    (self.lock_onto(id, Some(l), tick.tracks), how)
                 }
                 LostStep::Restart(id) => {
                     self.stats.restarts += 1;
                     self.stats.locks += 1;
-                    self.lock_onto(id, Some(l), tick.tracks)
+                    (
+                        self.lock_onto(id, Some(l), tick.tracks),
+                        Transition::Restarted,
+                    )
                 }
             },
-        }
+        };
+        self.transition_now = Some(transition);
+        next
     }
 
     /// The lock on track `id` (`lost`: the loss it ends). The lost track itself comes

@@ -9,7 +9,7 @@
 //! | `/tether/target` | `geometry_msgs/msg/PoseWithCovarianceStamped` | every tick while locked (heading: walking direction, variance pi^2) |
 //! | `/tether/cmd_vel` | `geometry_msgs/msg/Twist` | every tick: the command (`linear.x`, `angular.z`) |
 //! | `/tether/markers` | `visualization_msgs/msg/MarkerArray` | every tick: tracks, their ellipses, the target and the observations for RViz and Foxglove ([`crate::markers`]) |
-//! | `/tether/target_state` | `std_msgs/msg/String` | every tick: the target's state as JSON, e.g. `{"state":"lost","track":3,"reason":"unseen","refused":[{"track":5,"why":"not_walking"}]}` |
+//! | `/tether/target_state` | `std_msgs/msg/String` | every tick: the target's state as JSON, e.g. `{"state":"lost","track":3,"reason":"unseen","refused":[{"track":5,"why":"not_walking"}]}`, with `"transition":"lost"` at the tick the lock moved |
 //!
 //! Positions are in the world (odometry) frame, named by the writer's `frame`.
 
@@ -34,6 +34,11 @@ pub struct TargetStateLine {
     /// Why it is lost.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<&'static str>,
+    /// The transition the lock made at this tick (`chosen`, `coasting_handover`,
+    /// `encounter_handover`, `led_off`, `lost`, `gave_up`, `back`, `reacquired`,
+    /// `restarted`; design 5.6), if it made one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub transition: Option<&'static str>,
     /// Tracks refused as the lost target at this tick, and why.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub refused: Vec<RefusedLine>,
@@ -60,6 +65,7 @@ impl TargetStateLine {
                 TargetState::Searching => None,
             },
             reason: state.loss_reason().map(|r| r.name()),
+            transition: tick.transition.map(|t| t.name()),
             refused: tick
                 .refusals
                 .iter()

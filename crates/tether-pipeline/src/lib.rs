@@ -29,7 +29,7 @@ use tether_core::{
 };
 use tether_fusion::{
     Bearing, ClutterConfig, ClutterMap, FusionRule, Gate, Observation, Refusal, TargetConfig,
-    TargetSelector, TargetState, Tracker, TrackerConfig, View, complementary_fusion,
+    TargetSelector, TargetState, Tracker, TrackerConfig, Transition, View, complementary_fusion,
 };
 use tether_laser::preprocess::BeamTable;
 use tether_laser::{
@@ -246,6 +246,8 @@ pub struct Tick {
     /// While the target is lost: the tracks refused as the target at this tick, and
     /// why.
     pub refusals: Vec<(u64, Refusal)>,
+    /// The transition the target lock made at this tick, if it made one.
+    pub transition: Option<Transition>,
 }
 
 /// Counters of refused or odd input.
@@ -813,6 +815,7 @@ impl Pipeline {
             command: self.command,
             stop: None,
             refusals: Vec::new(),
+            transition: None,
         }
     }
 
@@ -896,6 +899,7 @@ impl Pipeline {
             command,
             stop,
             refusals: self.selector.refusals().to_vec(),
+            transition: self.selector.transition(),
             ..self.idle_tick(stamp, input)
         }
     }

@@ -1,7 +1,7 @@
 //! Golden target traces (issue 31, "first, a net"): for every built-in scenario, seeds
 //! 0-2, fused and laser-only, and for three of leg_tracker's real recordings, the
 //! sequence of the target lock's transitions (time, from, to: state, track, loss
-//! reason) and the candidates it refused, checked in under `tests/golden/targets/`. The
+//! reason; and which transition of design 5.6 it was) and the candidates it refused, checked in under `tests/golden/targets/`. The
 //! test recomputes every trace and fails with a unified diff of the lines that moved.
 //! The lock itself is design 5.6 and 11.
 //!
@@ -14,7 +14,8 @@
 //!
 //! Transitions are derived tick to tick from the pipeline's [`TargetStateLine`] (the
 //! words of `tether track`'s `target_state`): a line whenever the state's name, its
-//! track or its loss reason changes. Refusals are collapsed within each stretch between
+//! track or its loss reason changes, or the lock reports a transition, ending with the
+//! transition's name (`: reacquired`). Refusals are collapsed within each stretch between
 //! two transitions: one line per (track, reason) at its first time, with the count of
 //! ticks that refused it and the last time when more than one.
 //!
@@ -72,6 +73,7 @@ fn blessing() -> bool {
 struct TickTarget {
     t_ms: i64,
     state: String,
+    transition: Option<String>,
     refused: Vec<(u64, String)>,
 }
 
@@ -121,12 +123,16 @@ fn trace_lines(ticks: &[TickTarget]) -> Vec<String> {
     let mut prev: Option<&str> = None;
     let mut stretch: Vec<((u64, String), Refused)> = Vec::new();
     for tick in ticks {
-        if prev != Some(tick.state.as_str()) {
+        if prev != Some(tick.state.as_str()) || tick.transition.is_some() {
             flush_refusals(&mut lines, &mut stretch);
-            lines.push(match prev {
+            let mut line = match prev {
                 None => format!("{}  start {}", time_text(tick.t_ms), tick.state),
                 Some(p) => format!("{}  {p} -> {}", time_text(tick.t_ms), tick.state),
-            });
+            };
+            if let Some(t) = &tick.transition {
+                let _ = write!(line, ": {t}");
+            }
+            lines.push(line);
             prev = Some(&tick.state);
         }
         for key in &tick.refused {
@@ -212,6 +218,7 @@ fn simulated_ticks(scenario: &Scenario, seed: u64, mode: Mode) -> Vec<TickTarget
             TickTarget {
                 t_ms: ms_of_ns(tick.stamp.ns()),
                 state: state_text(line.state, line.track, line.reason),
+                transition: line.transition.map(str::to_owned),
                 refused: line
                     .refused
                     .iter()
@@ -237,6 +244,7 @@ fn recorded_ticks(jsonl: &str) -> Vec<TickTarget> {
                     s["track"].as_u64(),
                     s["reason"].as_str(),
                 ),
+                transition: s["transition"].as_str().map(str::to_owned),
                 refused: s["refused"].as_array().map_or(Vec::new(), |a| {
                     a.iter()
                         .map(|r| {
@@ -502,33 +510,45 @@ fn a_moved_transition_shows_as_a_small_diff() {
 
 #[test]
 fn transitions_are_derived_tick_to_tick_and_refusals_collapse() {
-    let tick = |t_ms, state: &str, refused: &[(u64, &str)]| TickTarget {
+    let tick = |t_ms, state: &str, transition: Option<&str>, refused: &[(u64, &str)]| TickTarget {
         t_ms,
         state: state.to_owned(),
+        transition: transition.map(str::to_owned),
         refused: refused.iter().map(|&(t, w)| (t, w.to_owned())).collect(),
     };
     let ticks = [
-        tick(0, "searching", &[]),
-        tick(100, "locked(track 4)", &[]),
-        tick(200, "locked(track 4)", &[]),
-        tick(12_300, "lost(track 4, unseen)", &[(7, "somebody_else")]),
+        tick(0, "searching", None, &[]),
+        tick(100, "locked(track 4)", Some("chosen"), &[]),
+        tick(200, "locked(track 4)", None, &[]),
+        tick(
+            12_300,
+            "lost(track 4, unseen)",
+            Some("lost"),
+            &[(7, "somebody_else")],
+        ),
         tick(
             12_400,
             "lost(track 4, unseen)",
+            None,
             &[(7, "somebody_else"), (8, "not_walking")],
         ),
-        tick(12_500, "lost(track 4, unseen)", &[(7, "somebody_else")]),
-        tick(13_000, "locked(track 9)", &[]),
+        tick(
+            12_500,
+            "lost(track 4, unseen)",
+            None,
+            &[(7, "somebody_else")],
+        ),
+        tick(13_000, "locked(track 9)", Some("reacquired"), &[]),
     ];
     assert_eq!(
         trace_lines(&ticks),
         [
             "    0.000 s  start searching",
-            "    0.100 s  searching -> locked(track 4)",
-            "   12.300 s  locked(track 4) -> lost(track 4, unseen)",
+            "    0.100 s  searching -> locked(track 4): chosen",
+            "   12.300 s  locked(track 4) -> lost(track 4, unseen): lost",
             "   12.300 s  refused track 7: somebody_else  x3 until 12.500 s",
             "   12.400 s  refused track 8: not_walking",
-            "   13.000 s  lost(track 4, unseen) -> locked(track 9)",
+            "   13.000 s  lost(track 4, unseen) -> locked(track 9): reacquired",
             "   13.000 s  end locked(track 9) (7 ticks)",
         ]
     );

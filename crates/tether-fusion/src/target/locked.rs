@@ -4,7 +4,7 @@
 
 use super::eligible::Question;
 use super::memory::{Company, Locked, Lost};
-use super::{LockedStep, LossReason, TargetSelector, Tick, View};
+use super::{LockedStep, LossReason, TargetSelector, Tick, Transition, View};
 use crate::tracker::{Anchor, Track};
 use tether_core::Stamp;
 
@@ -27,13 +27,13 @@ impl TargetSelector {
                     self.count_beside(&mut l.company, t, tracks, now, tick.dt);
                 }
                 if let Some(u) = self.coasting_handover(now, l, t, tracks, view) {
-                    LockedStep::HandOver(u)
+                    LockedStep::HandOver(u, Transition::CoastingHandover)
                 } else if self.led_off(l, t, tracks, now, tick.dt, merged_somebody_else) {
                     let from = l.alone_within(now, max_s, false).or(l.last_good);
                     LockedStep::Lose(LossReason::LedOff, from)
                 } else {
                     match self.through_encounter(now, l, t, tracks, view) {
-                        Some(u) => LockedStep::HandOver(u),
+                        Some(u) => LockedStep::HandOver(u, Transition::EncounterHandover),
                         None => LockedStep::Stay,
                     }
                 }
