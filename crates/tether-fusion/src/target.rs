@@ -103,10 +103,15 @@ pub enum Refusal {
     /// pair of legs, fewer than two updates since): a coasting track's wide reach takes
     /// a stray return as readily as the person.
     NoNewEvidence,
-    /// Not seen as a pair of legs often enough (too few pairs, pairs in too small a
-    /// share of its updates, or mostly faint legs): what the laser sees of it is not
-    /// a person's steady pair of legs.
+    /// Seen as a pair of legs fewer times than the laser needs to vouch for it
+    /// (`min_leg_pairs`, or `min_leg_pairs_standing` for a person standing).
     NoLegPair,
+    /// Seen as a pair of legs in too small a share of its updates (`min_pair_share`):
+    /// a bush or a phantom shows a pair now and then, a person often.
+    FewLegPairs,
+    /// Mostly faint legs (more than `max_weak_share` of its updates were legs the
+    /// classifier barely accepted).
+    WeakLegs,
     /// Has not walked: it could be a post or a bush.
     NotWalking,
     /// Stands in learned static clutter.
@@ -125,6 +130,8 @@ impl Refusal {
             Refusal::NotSeenByLaser => "not_seen_by_laser",
             Refusal::NoNewEvidence => "no_new_evidence",
             Refusal::NoLegPair => "no_leg_pair",
+            Refusal::FewLegPairs => "few_leg_pairs",
+            Refusal::WeakLegs => "weak_legs",
             Refusal::NotWalking => "not_walking",
             Refusal::StaticClutter => "static_clutter",
             Refusal::Ambiguous => "ambiguous",
@@ -132,13 +139,15 @@ impl Refusal {
     }
 
     /// Every refusal, in output order.
-    pub const ALL: [Refusal; 9] = [
+    pub const ALL: [Refusal; 11] = [
         Refusal::OutOfReach,
         Refusal::SomebodyElse,
         Refusal::CameraDoesNotVouch,
         Refusal::NotSeenByLaser,
         Refusal::NoNewEvidence,
         Refusal::NoLegPair,
+        Refusal::FewLegPairs,
+        Refusal::WeakLegs,
         Refusal::NotWalking,
         Refusal::StaticClutter,
         Refusal::Ambiguous,
@@ -305,8 +314,12 @@ pub struct TargetStats {
     pub refused_not_seen_by_laser: u64,
     /// ... the lost target's own track, back with nothing new since the loss.
     pub refused_no_new_evidence: u64,
-    /// ... never a pair of legs.
+    /// ... too few pairs of legs.
     pub refused_no_leg_pair: u64,
+    /// ... pairs of legs in too small a share of its updates.
+    pub refused_few_leg_pairs: u64,
+    /// ... mostly faint legs.
+    pub refused_weak_legs: u64,
     /// ... has not walked.
     pub refused_not_walking: u64,
     /// ... in static clutter.
@@ -340,6 +353,8 @@ impl TargetStats {
             Refusal::NotSeenByLaser => &mut self.refused_not_seen_by_laser,
             Refusal::NoNewEvidence => &mut self.refused_no_new_evidence,
             Refusal::NoLegPair => &mut self.refused_no_leg_pair,
+            Refusal::FewLegPairs => &mut self.refused_few_leg_pairs,
+            Refusal::WeakLegs => &mut self.refused_weak_legs,
             Refusal::NotWalking => &mut self.refused_not_walking,
             Refusal::StaticClutter => &mut self.refused_static_clutter,
             Refusal::Ambiguous => &mut self.ambiguous,

@@ -7,7 +7,7 @@
 //! | where the target can be | anywhere | within `encounter_distance_m` of the target's track | near the target's last observations, reachable from its walk | reachable from its last good estimate | `out_of_reach` |
 //! | not somebody else | not asked | seen beside it | seen beside it, born elsewhere, there before its last observation | somebody else at the loss, born elsewhere | `somebody_else` |
 //! | both sensors | required (fused) | not asked | suffice | required where the camera sees (fused) | `camera_does_not_vouch` |
-//! | the laser vouches | standing | standing | standing | walking | `static_clutter`, `not_seen_by_laser`, `no_leg_pair`, `not_walking` |
+//! | the laser vouches | standing | standing | standing | walking | `static_clutter`, `not_seen_by_laser`, `no_leg_pair`, `few_leg_pairs`, `weak_legs`, `not_walking` |
 //!
 //! Why they differ:
 //! - *Start*: the user presents themselves to the robot, in front of it, where the
@@ -194,7 +194,9 @@ impl TargetSelector {
     }
 
     /// Why the laser alone does not vouch that `t` is a person (`walking`: it must also
-    /// have walked).
+    /// have walked), checked in this order: static clutter; no pair of legs because no
+    /// leg at all (a track of the camera alone); too few pairs; (walking) pairs in too
+    /// small a share of its updates, mostly weak legs, not walked.
     fn laser_refusal(&self, t: &Track, view: &View, walking: bool) -> Option<Refusal> {
         let c = &self.config;
         let min_pairs = if walking {
@@ -202,21 +204,23 @@ impl TargetSelector {
         } else {
             c.min_leg_pairs_standing
         };
-        let few_pairs = t.pair_hits < min_pairs
-            || (walking
-                && (f64::from(t.pair_hits) < c.min_pair_share * f64::from(t.hits)
-                    || f64::from(t.weak_hits)
-                        > c.max_weak_share * f64::from(t.hits + t.weak_hits)));
         if (view.in_clutter)(t.position().mean) {
             Some(Refusal::StaticClutter)
-        } else if few_pairs {
-            // No pair of legs because no leg at all: a track of the camera alone.
+        } else if t.pair_hits < min_pairs && t.last_laser.is_none() {
+            Some(Refusal::NotSeenByLaser)
+        } else if t.pair_hits < min_pairs {
+            Some(Refusal::NoLegPair)
+        } else if !walking {
+            None
+        } else if f64::from(t.pair_hits) < c.min_pair_share * f64::from(t.hits) {
             Some(if t.last_laser.is_none() {
                 Refusal::NotSeenByLaser
             } else {
-                Refusal::NoLegPair
+                Refusal::FewLegPairs
             })
-        } else if walking && t.walked_m < c.min_walked_m {
+        } else if f64::from(t.weak_hits) > c.max_weak_share * f64::from(t.hits + t.weak_hits) {
+            Some(Refusal::WeakLegs)
+        } else if t.walked_m < c.min_walked_m {
             Some(Refusal::NotWalking)
         } else {
             None
