@@ -261,6 +261,11 @@ pub struct TrackerConfig {
     pub coast_lone_leg_after_s: f64,
     /// See `coast_lone_leg_after_s`, m (0: no such rule).
     pub coast_lone_leg_offset_m: f64,
+    /// Match in a cascade: confirmed tracks choose their observations first, and
+    /// tentative tracks share what is left (`false`: one assignment of all tracks).
+    /// Chosen on the measures (design 5.5): fewer scans on somebody else in the
+    /// simulator, the same on the real recordings.
+    pub confirmed_first: bool,
 }
 
 impl Default for TrackerConfig {
@@ -286,6 +291,7 @@ impl Default for TrackerConfig {
             weak_max_offset_m: 0.5,
             coast_lone_leg_after_s: 0.3,
             coast_lone_leg_offset_m: 0.5,
+            confirmed_first: true,
         }
     }
 }

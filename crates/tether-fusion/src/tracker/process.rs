@@ -29,7 +29,7 @@ impl Tracker {
         let usable = self.usable(observations);
         let mut cost = self.gated_costs(stamp, observations, &usable);
         self.leave_out_ambiguous_camera(observations, &mut cost);
-        let assignment = assign(&cost);
+        let assignment = self.match_observations(&cost);
         let mut track_of = vec![None; observations.len()];
         for (ti, oi) in assignment.iter().enumerate() {
             let Some(oi) = *oi else { continue };
@@ -152,6 +152,34 @@ impl Tracker {
         }
     }
 
+    /// Step 4: the assignment of observations to tracks that minimises the total cost
+    /// (the Hungarian method); with `confirmed_first`, in a cascade: the confirmed
+    /// tracks first, then the tentative ones among the observations left.
+    fn match_observations(&self, cost: &Costs) -> Vec<Option<usize>> {
+        if !self.config.confirmed_first {
+            return assign(cost);
+        }
+        let only = |confirmed: bool, taken: &[bool]| -> Costs {
+            cost.iter()
+                .zip(&self.tracks)
+                .map(|(row, t)| {
+                    row.iter()
+                        .zip(taken)
+                        .map(|(&c, &used)| c.filter(|_| t.confirmed == confirmed && !used))
+                        .collect()
+                })
+                .collect()
+        };
+        let columns = cost.first().map_or(0, Vec::len);
+        let first = assign(&only(true, &vec![false; columns]));
+        let mut taken = vec![false; columns];
+        for oi in first.iter().flatten() {
+            taken[*oi] = true;
+        }
+        let second = assign(&only(false, &taken));
+        first.into_iter().zip(second).map(|(a, b)| a.or(b)).collect()
+    }
+
     /// Whether a camera observation assigned to track `ti` falls among people closer
     /// than a body width (`vision_min_separation_m`): they overlap in the image, so a
     /// box and its range may be either one's (or both merged), and only the laser
@@ -168,7 +196,7 @@ impl Tracker {
             .any(|(tj, u)| tj != ti && u.confirmed && u.position().mean.distance_m(here) < sep)
     }
 
-    /// Step 4: updates track `ti` with its assigned observation `o`; false when the
+    /// Step 5: updates track `ti` with its assigned observation `o`; false when the
     /// update is refused (a crowded camera observation, a bearing that does not fit, a
     /// non-finite result). A camera observation of a track the laser supports updates
     /// only its bearing; the rest by the sensor's [`UpdateRule`].
@@ -261,7 +289,7 @@ impl Tracker {
         }
     }
 
-    /// Step 5: new tracks from the usable observations no track took, unless a track
+    /// Step 6: new tracks from the usable observations no track took, unless a track
     /// could have made them (that track's business, not a new person's: within its
     /// gate, reachable, and not refused as far off) or a confirmed track stands within
     /// `spawn_separation_m`. Weak observations and those that may not spawn start none.
