@@ -35,7 +35,8 @@ pub use gate::{CHI2_2DOF_95, CHI2_2DOF_99, CHI2_2DOF_999, Gate, mahalanobis_sq};
 pub use kalman::CvFilter;
 pub use mot::{ClearMot, MotSummary};
 pub use target::{
-    LossReason, Refusal, TargetConfig, TargetSelector, TargetState, TargetStats, Transition, View,
+    LossReason, Refusal, SomebodyElse, TargetConfig, TargetSelector, TargetState, TargetStats,
+    Transition, View,
 };
 pub use tracker::{
     Anchor, BatchResult, Bearing, MotionBounds, Observation, Source, Track, Tracker, TrackerConfig,

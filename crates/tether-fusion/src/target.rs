@@ -154,6 +154,39 @@ impl Refusal {
     ];
 }
 
+/// Why a track is somebody else (design 11.4): what a `somebody_else` refusal rests on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SomebodyElse {
+    /// Seen as a whole person at the same instants as the target, apart from it, for
+    /// `beside_s`.
+    SeenBeside,
+    /// Already there, away from the target, when the target was last observed, and
+    /// neither born at the target nor ever the target.
+    ThereBefore,
+    /// Born apart from the target while the target was observed, and still away from it
+    /// at the loss.
+    BornApart,
+    /// Born, while the target was unseen, where the target could not have been.
+    BornElsewhere,
+    /// The target's track was led off onto this track, or this is the target's own track
+    /// that was led off onto somebody else.
+    LedOff,
+}
+
+impl SomebodyElse {
+    /// Name used in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            SomebodyElse::SeenBeside => "seen_beside",
+            SomebodyElse::ThereBefore => "there_before",
+            SomebodyElse::BornApart => "born_apart",
+            SomebodyElse::BornElsewhere => "born_elsewhere",
+            SomebodyElse::LedOff => "led_off",
+        }
+    }
+}
+
 /// What moved the lock at an update: every transition there is (design 5.6, the table
 /// of transitions; [`TargetSelector::transition`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -406,6 +439,8 @@ pub struct TargetSelector {
     last_now: Option<Stamp>,
     /// This update's refusals.
     refusals_now: Vec<(u64, Refusal)>,
+    /// Why each track refused as somebody else at this update is somebody else.
+    somebody_else_now: Vec<(u64, SomebodyElse)>,
     /// This update's transition.
     transition_now: Option<Transition>,
     /// Every track's last good estimate at the previous update: what a track the
@@ -452,6 +487,7 @@ impl TargetSelector {
             notes: BTreeMap::new(),
             last_now: None,
             refusals_now: Vec::new(),
+            somebody_else_now: Vec::new(),
             transition_now: None,
             last_anchors: BTreeMap::new(),
         }
@@ -475,6 +511,11 @@ impl TargetSelector {
     /// The candidates refused at the last update while lost, with the reasons.
     pub fn refusals(&self) -> &[(u64, Refusal)] {
         &self.refusals_now
+    }
+
+    /// Why each track refused as `somebody_else` at the last update is somebody else.
+    pub fn refused_as_somebody_else(&self) -> &[(u64, SomebodyElse)] {
+        &self.somebody_else_now
     }
 
     /// The transition the last update made, if it made one.
@@ -546,6 +587,7 @@ impl TargetSelector {
     /// first time, then one transition of the state (design 5.6).
     pub fn update_with_view(&mut self, now: Stamp, tracks: &[Track], view: &View) -> TargetState {
         self.refusals_now.clear();
+        self.somebody_else_now.clear();
         self.transition_now = None;
         let mut lock = std::mem::take(&mut self.lock);
         // Before the other track is forgotten below.

@@ -181,6 +181,7 @@ mod tests {
             command: Twist::STOP,
             stop: None,
             refusals: Vec::new(),
+            somebody_else: Vec::new(),
             transition: None,
         }
     }

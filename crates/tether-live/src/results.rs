@@ -9,7 +9,7 @@
 //! | `/tether/target` | `geometry_msgs/msg/PoseWithCovarianceStamped` | every tick while locked (heading: walking direction, variance pi^2) |
 //! | `/tether/cmd_vel` | `geometry_msgs/msg/Twist` | every tick: the command (`linear.x`, `angular.z`) |
 //! | `/tether/markers` | `visualization_msgs/msg/MarkerArray` | every tick: tracks, their ellipses, the target and the observations for RViz and Foxglove ([`crate::markers`]) |
-//! | `/tether/target_state` | `std_msgs/msg/String` | every tick: the target's state as JSON, e.g. `{"state":"lost","track":3,"reason":"unseen","refused":[{"track":5,"why":"not_walking"}]}`, with `"transition":"lost"` at the tick the lock moved |
+//! | `/tether/target_state` | `std_msgs/msg/String` | every tick: the target's state as JSON, e.g. `{"state":"lost","track":3,"reason":"unseen","refused":[{"track":5,"why":"not_walking"},{"track":7,"why":"somebody_else","because":"seen_beside"}]}`, with `"transition":"lost"` at the tick the lock moved |
 //!
 //! Positions are in the world (odometry) frame, named by the writer's `frame`.
 
@@ -51,6 +51,10 @@ pub struct RefusedLine {
     pub track: u64,
     /// Why it is not the target.
     pub why: &'static str,
+    /// For `somebody_else`, why it is somebody else (`seen_beside`, `there_before`,
+    /// `born_apart`, `born_elsewhere`, `led_off`; design 11.4).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub because: Option<&'static str>,
 }
 
 impl TargetStateLine {
@@ -72,6 +76,11 @@ impl TargetStateLine {
                 .map(|&(track, r)| RefusedLine {
                     track,
                     why: r.name(),
+                    because: tick
+                        .somebody_else
+                        .iter()
+                        .find(|(t, _)| *t == track)
+                        .map(|(_, b)| b.name()),
                 })
                 .collect(),
         }

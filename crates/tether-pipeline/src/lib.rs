@@ -28,8 +28,9 @@ use tether_core::{
     Vector2, World,
 };
 use tether_fusion::{
-    Bearing, ClutterConfig, ClutterMap, FusionRule, Gate, Observation, Refusal, TargetConfig,
-    TargetSelector, TargetState, Tracker, TrackerConfig, Transition, View, complementary_fusion,
+    Bearing, ClutterConfig, ClutterMap, FusionRule, Gate, Observation, Refusal, SomebodyElse,
+    TargetConfig, TargetSelector, TargetState, Tracker, TrackerConfig, Transition, View,
+    complementary_fusion,
 };
 use tether_laser::preprocess::BeamTable;
 use tether_laser::{
@@ -246,6 +247,8 @@ pub struct Tick {
     /// While the target is lost: the tracks refused as the target at this tick, and
     /// why.
     pub refusals: Vec<(u64, Refusal)>,
+    /// Of those refused as somebody else, why each is somebody else.
+    pub somebody_else: Vec<(u64, SomebodyElse)>,
     /// The transition the target lock made at this tick, if it made one.
     pub transition: Option<Transition>,
 }
@@ -815,6 +818,7 @@ impl Pipeline {
             command: self.command,
             stop: None,
             refusals: Vec::new(),
+            somebody_else: Vec::new(),
             transition: None,
         }
     }
@@ -899,6 +903,7 @@ impl Pipeline {
             command,
             stop,
             refusals: self.selector.refusals().to_vec(),
+            somebody_else: self.selector.refused_as_somebody_else().to_vec(),
             transition: self.selector.transition(),
             ..self.idle_tick(stamp, input)
         }

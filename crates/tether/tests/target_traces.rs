@@ -15,7 +15,8 @@
 //! Transitions are derived tick to tick from the pipeline's [`TargetStateLine`] (the
 //! words of `tether track`'s `target_state`): a line whenever the state's name, its
 //! track or its loss reason changes, or the lock reports a transition, ending with the
-//! transition's name (`: reacquired`). Refusals are collapsed within each stretch between
+//! transition's name (`: reacquired`). A `somebody_else` refusal says why in brackets
+//! (`somebody_else (seen_beside)`). Refusals are collapsed within each stretch between
 //! two transitions: one line per (track, reason) at its first time, with the count of
 //! ticks that refused it and the last time when more than one.
 //!
@@ -84,6 +85,14 @@ fn state_text(state: &str, track: Option<u64>, reason: Option<&str>) -> String {
         (Some(t), None) => format!("{state}(track {t})"),
         (None, Some(r)) => format!("{state}({r})"),
         (None, None) => state.to_owned(),
+    }
+}
+
+/// `not_walking`, or `somebody_else (seen_beside)` with why it is somebody else.
+fn refusal_text(why: &str, because: Option<&str>) -> String {
+    match because {
+        Some(b) => format!("{why} ({b})"),
+        None => why.to_owned(),
     }
 }
 
@@ -222,7 +231,7 @@ fn simulated_ticks(scenario: &Scenario, seed: u64, mode: Mode) -> Vec<TickTarget
                 refused: line
                     .refused
                     .iter()
-                    .map(|r| (r.track, r.why.to_owned()))
+                    .map(|r| (r.track, refusal_text(r.why, r.because)))
                     .collect(),
             }
         })
@@ -248,7 +257,8 @@ fn recorded_ticks(jsonl: &str) -> Vec<TickTarget> {
                 refused: s["refused"].as_array().map_or(Vec::new(), |a| {
                     a.iter()
                         .map(|r| {
-                            let why = r["why"].as_str().unwrap().to_owned();
+                            let why =
+                                refusal_text(r["why"].as_str().unwrap(), r["because"].as_str());
                             (r["track"].as_u64().unwrap(), why)
                         })
                         .collect()

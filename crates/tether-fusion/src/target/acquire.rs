@@ -33,7 +33,8 @@ impl TargetSelector {
                     Err(r) => r,
                 }
             };
-            self.refuse(l, t.id, refusal);
+            let why = self.somebody_else(&Question::Reacquire { lost: l }, t);
+            self.refuse(l, t.id, refusal, why);
         }
         match candidates.as_slice() {
             [one] => LostStep::Reacquire(*one),
@@ -63,7 +64,7 @@ impl TargetSelector {
     /// since the loss: a false box gates with a track that coasted off as readily as the
     /// person does, and the laser finds a person it can see.
     fn own_track_refusal(&self, l: &Lost, t: &Track, now: Stamp, view: &View) -> Option<Refusal> {
-        if l.others.contains(&t.id) {
+        if l.others.contains_key(&t.id) {
             return Some(Refusal::SomebodyElse);
         }
         if let Some((hits, last_pair)) = l.evidence

@@ -27,7 +27,7 @@
 //!   bush must not be taken, so the laser must have seen the track walk.
 
 use super::memory::{Locked, Lost};
-use super::{Refusal, TargetSelector, View};
+use super::{Refusal, SomebodyElse, TargetSelector, View};
 use crate::tracker::{Anchor, Track};
 use tether_core::{Point2, Stamp, World};
 
@@ -98,7 +98,7 @@ impl TargetSelector {
         if !self.where_target_can_be(q, u, now) {
             return Err(Refusal::OutOfReach);
         }
-        if self.somebody_else(q, u) {
+        if self.somebody_else(q, u).is_some() {
             return Err(Refusal::SomebodyElse);
         }
         let (both, walking) = match q {
@@ -140,20 +140,28 @@ impl TargetSelector {
         }
     }
 
-    /// The third row of the table.
-    fn somebody_else(&self, q: &Question, u: &Track) -> bool {
-        let beside_s = self.config.beside_s;
+    /// The third row of the table: why `u` is somebody else, if it is.
+    pub(super) fn somebody_else(&self, q: &Question, u: &Track) -> Option<SomebodyElse> {
+        let beside = |l: &Locked| {
+            l.company
+                .seen_beside_for(u.id, self.config.beside_s)
+                .then_some(SomebodyElse::SeenBeside)
+        };
+        let elsewhere = || {
+            self.notes_of(u.id)
+                .elsewhere
+                .then_some(SomebodyElse::BornElsewhere)
+        };
         match q {
-            Question::Start => false,
-            Question::Encounter { locked, .. } => locked.company.seen_beside_for(u.id, beside_s),
+            Question::Start => None,
+            Question::Encounter { locked, .. } => beside(locked),
             Question::Coasting { target, locked, .. } => {
-                locked.company.seen_beside_for(u.id, beside_s)
-                    || self.notes_of(u.id).elsewhere
-                    || self.there_before(u, &target.anchor)
+                beside(locked).or_else(elsewhere).or_else(|| {
+                    self.there_before(u, &target.anchor)
+                        .then_some(SomebodyElse::ThereBefore)
+                })
             }
-            Question::Reacquire { lost } => {
-                lost.others.contains(&u.id) || self.notes_of(u.id).elsewhere
-            }
+            Question::Reacquire { lost } => lost.others.get(&u.id).copied().or_else(elsewhere),
         }
     }
 
@@ -228,9 +236,18 @@ impl TargetSelector {
     }
 
     /// Records that `track` was refused for `refusal` in the loss `l` (counted once per
-    /// track, reason and loss).
-    pub(super) fn refuse(&mut self, l: &mut Lost, track: u64, refusal: Refusal) {
+    /// track, reason and loss), and, for `somebody_else`, `why`.
+    pub(super) fn refuse(
+        &mut self,
+        l: &mut Lost,
+        track: u64,
+        refusal: Refusal,
+        why: Option<SomebodyElse>,
+    ) {
         self.refusals_now.push((track, refusal));
+        if let Some(why) = why.filter(|_| refusal == Refusal::SomebodyElse) {
+            self.somebody_else_now.push((track, why));
+        }
         if l.refused.insert((track, refusal)) {
             self.stats.count_refusal(refusal);
         }

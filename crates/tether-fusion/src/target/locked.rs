@@ -4,7 +4,7 @@
 
 use super::eligible::Question;
 use super::memory::{Company, Locked, Lost};
-use super::{LockedStep, LossReason, TargetSelector, Tick, Transition, View};
+use super::{LockedStep, LossReason, SomebodyElse, TargetSelector, Tick, Transition, View};
 use crate::tracker::{Anchor, Track};
 use tether_core::Stamp;
 
@@ -91,20 +91,29 @@ impl TargetSelector {
         let away = |t: &Track| {
             t.position().mean.distance_m(from.position.mean) > self.config.encounter_distance_m
         };
-        let mut others: std::collections::BTreeSet<u64> = tracks
+        let beside_s = self.config.beside_s;
+        let mut others: std::collections::BTreeMap<u64, SomebodyElse> = tracks
             .iter()
             .filter(|t| t.confirmed && t.id != l.track)
-            .filter(|t| {
-                l.company.seen_beside_for(t.id, self.config.beside_s)
-                    || self.there_before(t, &from)
-                    || (self.notes_of(t.id).apart && away(t))
+            .filter_map(|t| {
+                let why = if l.company.seen_beside_for(t.id, beside_s) {
+                    SomebodyElse::SeenBeside
+                } else if self.notes_of(t.id).apart && away(t) {
+                    SomebodyElse::BornApart
+                } else if self.there_before(t, &from) {
+                    SomebodyElse::ThereBefore
+                } else {
+                    return None;
+                };
+                Some((t.id, why))
             })
-            .map(|t| t.id)
             .collect();
         let mut company = l.company;
         if reason == LossReason::LedOff {
-            others.insert(l.track);
-            others.extend(company.on_other.keys());
+            others.insert(l.track, SomebodyElse::LedOff);
+            for &id in company.on_other.keys() {
+                others.insert(id, SomebodyElse::LedOff);
+            }
             company.on_other.clear();
         }
         Lost {

@@ -6,7 +6,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use tether_core::Stamp;
 
-use super::{LossReason, Refusal, TargetState};
+use super::{LossReason, Refusal, SomebodyElse, TargetState};
 use crate::tracker::Anchor;
 
 /// The lock and the memory of its state.
@@ -119,8 +119,8 @@ pub(super) struct Lost {
     /// Its last good estimate, from which where the person can be is bounded.
     pub(super) from: Anchor,
     /// Tracks that are somebody else, judged at the loss (and, when led off, the
-    /// target's own track and those it ran onto).
-    pub(super) others: BTreeSet<u64>,
+    /// target's own track and those it ran onto), and why.
+    pub(super) others: BTreeMap<u64, SomebodyElse>,
     /// The lost track's (not weak) updates and its last whole-person evidence at the
     /// loss: coming back, it must show more than that.
     pub(super) evidence: Option<(u32, Option<Stamp>)>,

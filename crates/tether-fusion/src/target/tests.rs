@@ -301,6 +301,10 @@ fn a_track_born_away_from_the_observed_target_is_somebody_else_if_still_away() {
     let state = s.update(at(2500), &[moved(2.0, 3.0, 2500)], Pose2::IDENTITY);
     assert_eq!(state.locked_track(), None);
     assert_eq!(s.refusals(), &[(2, Refusal::SomebodyElse)]);
+    assert_eq!(
+        s.refused_as_somebody_else(),
+        &[(2, SomebodyElse::BornApart)]
+    );
     // It came onto the target before the loss: the target's track may have been on
     // the wrong thing, so it is not ruled out.
     let (mut s, t1, _) = born_apart();
@@ -386,6 +390,10 @@ fn an_old_bystander_near_the_target_does_not_inherit_the_lock() {
     let state = s.update(at(1800), &[other_now], Pose2::IDENTITY);
     assert!(matches!(state, TargetState::Lost { track: 1, .. }));
     assert_eq!(s.refusals(), &[(2, Refusal::SomebodyElse)]);
+    assert_eq!(
+        s.refused_as_somebody_else(),
+        &[(2, SomebodyElse::SeenBeside)]
+    );
 }
 
 #[test]
@@ -611,6 +619,12 @@ fn a_target_led_off_onto_a_bystander_is_lost_and_neither_track_takes_it_up() {
     assert_eq!(
         refused,
         vec![(1, Refusal::SomebodyElse), (2, Refusal::SomebodyElse)]
+    );
+    let mut why: Vec<_> = s.refused_as_somebody_else().to_vec();
+    why.sort();
+    assert_eq!(
+        why,
+        vec![(1, SomebodyElse::LedOff), (2, SomebodyElse::LedOff)]
     );
 }
 

@@ -177,7 +177,11 @@ impl Tracker {
             taken[*oi] = true;
         }
         let second = assign(&only(false, &taken));
-        first.into_iter().zip(second).map(|(a, b)| a.or(b)).collect()
+        first
+            .into_iter()
+            .zip(second)
+            .map(|(a, b)| a.or(b))
+            .collect()
     }
 
     /// Whether a camera observation assigned to track `ti` falls among people closer
