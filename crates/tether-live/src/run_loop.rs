@@ -317,9 +317,7 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
         );
         line.stop = tick.stop.map(|s| s.name());
         line.target_state = Some(TargetStateLine::of(tick));
-        self.summary
-            .target
-            .record(tick.stamp, &tick.target.state, &tick.refusals);
+        self.summary.target.record_tick(tick);
         let range_m = tick
             .target
             .estimate

@@ -8,7 +8,8 @@ use std::collections::BTreeSet;
 
 use serde::Serialize;
 use tether_core::Stamp;
-use tether_fusion::{LossReason, Refusal, TargetState, TargetStats};
+use tether_fusion::{LossReason, Refusal, SomebodyElse, TargetState, TargetStats, Transition};
+use tether_pipeline::Tick;
 
 /// One change of the target's state, or a first refusal of a candidate during a loss.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -42,6 +43,9 @@ pub enum EventKind {
         track: u64,
         /// How long it was lost, s.
         after_s: f64,
+        /// How (`back`, `reacquired`, `restarted`), when the log was given it.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        how: Option<Transition>,
     },
     /// The target moved from one track to another without being lost: the tracker
     /// had given its person's observations to another track (its track went astray,
@@ -51,6 +55,9 @@ pub enum EventKind {
         from: u64,
         /// The track followed now.
         track: u64,
+        /// How (`coasting_handover`, `encounter_handover`), when the log was given it.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        how: Option<Transition>,
     },
     /// The lost target's search was given up (a user's track id that vanished).
     Searching,
@@ -61,6 +68,9 @@ pub enum EventKind {
         track: u64,
         /// Why.
         refusal: Refusal,
+        /// For `somebody_else`, why it is somebody else, when the log was given it.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        because: Option<SomebodyElse>,
     },
 }
 
@@ -103,9 +113,34 @@ impl TargetLog {
         TargetLog::default()
     }
 
+    /// Records a pipeline tick: its state, refusals, transition and why each track
+    /// refused as somebody else is (see [`Self::record`]).
+    pub fn record_tick(&mut self, tick: &Tick) {
+        self.record_detail(
+            tick.stamp,
+            &tick.target.state,
+            &tick.refusals,
+            tick.transition,
+            &tick.somebody_else,
+        );
+    }
+
     /// Records one tick's state and refusals (ticks must come in stamp order; a tick
     /// whose stamp went backwards only updates the state).
     pub fn record(&mut self, stamp: Stamp, state: &TargetState, refusals: &[(u64, Refusal)]) {
+        self.record_detail(stamp, state, refusals, None, &[]);
+    }
+
+    /// [`Self::record`] with the tick's transition and why each track refused as
+    /// somebody else is.
+    fn record_detail(
+        &mut self,
+        stamp: Stamp,
+        state: &TargetState,
+        refusals: &[(u64, Refusal)],
+        how: Option<Transition>,
+        somebody_else: &[(u64, SomebodyElse)],
+    ) {
         let start = *self.start.get_or_insert(stamp);
         let t_s = stamp.secs_since(start);
         if let Some((prev_stamp, prev)) = &self.last {
@@ -134,14 +169,22 @@ impl TargetLog {
             }
             (TargetState::Lost { .. }, TargetState::Locked { track }) => {
                 let after_s = self.end_loss(stamp);
-                Some(EventKind::Reacquired { track, after_s })
+                Some(EventKind::Reacquired {
+                    track,
+                    after_s,
+                    how,
+                })
             }
             (TargetState::Lost { .. }, TargetState::Searching) => {
                 self.end_loss(stamp);
                 Some(EventKind::Searching)
             }
             (TargetState::Locked { track: a }, TargetState::Locked { track: b }) if a != b => {
-                Some(EventKind::HandedOver { from: a, track: b })
+                Some(EventKind::HandedOver {
+                    from: a,
+                    track: b,
+                    how,
+                })
             }
             _ => None,
         };
@@ -153,7 +196,14 @@ impl TargetLog {
                 if self.refused.insert((track, refusal)) {
                     self.events.push(TargetEvent {
                         t_s,
-                        kind: EventKind::Refused { track, refusal },
+                        kind: EventKind::Refused {
+                            track,
+                            refusal,
+                            because: somebody_else
+                                .iter()
+                                .find(|(t, _)| *t == track)
+                                .map(|&(_, b)| b),
+                        },
                     });
                 }
             }
@@ -301,11 +351,13 @@ mod tests {
                 },
                 &EventKind::Refused {
                     track: 5,
-                    refusal: Refusal::NotWalking
+                    refusal: Refusal::NotWalking,
+                    because: None
                 },
                 &EventKind::Reacquired {
                     track: 5,
-                    after_s: 0.5
+                    after_s: 0.5,
+                    how: None
                 },
             ]
         );
@@ -323,6 +375,56 @@ mod tests {
         );
         assert_eq!(counts.refused_not_walking, 1);
         assert!((log.span_s() - 2.6).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_tick_s_transition_and_why_somebody_else_go_into_the_events() {
+        let mut log = TargetLog::new();
+        let locked = |track| TargetState::Locked { track };
+        log.record(at(0), &locked(3), &[]);
+        let handover = Some(Transition::EncounterHandover);
+        log.record_detail(at(100), &locked(4), &[], handover, &[]);
+        log.record(at(1200), &lost(4, LossReason::Unseen), &[]);
+        let refusals = [(7, Refusal::SomebodyElse), (8, Refusal::NotWalking)];
+        let why = [(7, SomebodyElse::SeenBeside)];
+        log.record_detail(
+            at(1300),
+            &lost(4, LossReason::Unseen),
+            &refusals,
+            None,
+            &why,
+        );
+        let back = Some(Transition::Back);
+        log.record_detail(at(1400), &locked(4), &[], back, &[]);
+        let kinds: Vec<&EventKind> = log.events().iter().map(|e| &e.kind).collect();
+        assert_eq!(
+            kinds[1],
+            &EventKind::HandedOver {
+                from: 3,
+                track: 4,
+                how: handover
+            }
+        );
+        assert_eq!(
+            kinds[3..],
+            [
+                &EventKind::Refused {
+                    track: 7,
+                    refusal: Refusal::SomebodyElse,
+                    because: Some(SomebodyElse::SeenBeside)
+                },
+                &EventKind::Refused {
+                    track: 8,
+                    refusal: Refusal::NotWalking,
+                    because: None
+                },
+                &EventKind::Reacquired {
+                    track: 4,
+                    after_s: 0.2,
+                    how: back
+                },
+            ]
+        );
     }
 
     #[test]

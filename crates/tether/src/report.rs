@@ -350,7 +350,7 @@ pub fn scenario_section(run: &ScenarioRun<'_>) -> String {
     let mut target = TargetLog::new();
     for step in &run.log.steps {
         if let Some(tick) = &step.tick {
-            target.record(tick.stamp, &tick.target.state, &tick.refusals);
+            target.record_tick(tick);
         }
     }
     let _ = writeln!(
@@ -392,18 +392,39 @@ pub fn target_html(log: &TargetLog, counts: TargetStats) -> String {
         let (what, track, why) = match &e.kind {
             EventKind::Locked { track } => ("locked", Some(*track), String::new()),
             EventKind::Lost { track, reason } => ("lost", Some(*track), reason.name().to_string()),
-            EventKind::Reacquired { track, after_s } => {
-                ("re-acquired", Some(*track), format!("after {after_s:.1} s"))
-            }
-            EventKind::HandedOver { from, track } => (
+            EventKind::Reacquired {
+                track,
+                after_s,
+                how,
+            } => (
+                "re-acquired",
+                Some(*track),
+                match how {
+                    Some(how) => format!("{} after {after_s:.1} s", how.name()),
+                    None => format!("after {after_s:.1} s"),
+                },
+            ),
+            EventKind::HandedOver { from, track, how } => (
                 "handed over",
                 Some(*track),
-                format!("from track {from}, which had lost the person's legs"),
+                match how {
+                    Some(how) => format!("from track {from}: {}", how.name()),
+                    None => format!("from track {from}"),
+                },
             ),
             EventKind::Searching => ("searching", None, "gave up".to_string()),
-            EventKind::Refused { track, refusal } => {
-                ("refused", Some(*track), refusal.name().to_string())
-            }
+            EventKind::Refused {
+                track,
+                refusal,
+                because,
+            } => (
+                "refused",
+                Some(*track),
+                match because {
+                    Some(b) => format!("{} ({})", refusal.name(), b.name()),
+                    None => refusal.name().to_string(),
+                },
+            ),
         };
         let _ = write!(
             h,

@@ -180,8 +180,7 @@ impl Summary {
 
     fn record(&mut self, tick: &Tick, world_from_robot: Pose2<World, Robot>, tracks: &[Track]) {
         let start = *self.start.get_or_insert(tick.stamp);
-        self.target
-            .record(tick.stamp, &tick.target.state, &tick.refusals);
+        self.target.record_tick(tick);
         let lost = matches!(tick.target.state, TargetState::Lost { .. });
         if let (TargetState::Lost { reason, .. }, false, Some(last)) =
             (tick.target.state, self.lost, &self.last_scan)

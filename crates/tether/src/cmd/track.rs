@@ -265,7 +265,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     yaw: world_from_robot.yaw,
                 },
             };
-            target_log.record(tick.stamp, &tick.target.state, &tick.refusals);
+            target_log.record_tick(tick);
             serde_json::to_writer(&mut out, &line)?;
             out.write_all(b"\n")?;
             scans += 1;
