@@ -537,7 +537,10 @@ pub(crate) mod tests {
         };
         let (closest, end) = run(2.0, &mut rng);
         assert!(closest > 0.5, "came within {closest} m");
-        assert!(end.distance_m(Point2::new(0.0, -3.0)) < 0.05, "ended at {end:?}");
+        assert!(
+            end.distance_m(Point2::new(0.0, -3.0)) < 0.05,
+            "ended at {end:?}"
+        );
         // Without giving way the two meet at the crossing.
         assert!(run(0.0, &mut rng).0 < 0.3);
     }

@@ -513,7 +513,10 @@ pub struct PersonSpec {
     /// person listed before it, within this distance in front of it, would otherwise
     /// pass closer than 0.45 m in the next 2 s (`person::Person::must_give_way_to`), m;
     /// 0 walks on regardless.
-    #[serde(default = "default_give_way", skip_serializing_if = "is_default_give_way")]
+    #[serde(
+        default = "default_give_way",
+        skip_serializing_if = "is_default_give_way"
+    )]
     pub give_way_m: f64,
 }
 
