@@ -587,6 +587,25 @@ impl Tracker {
                 && t.position().cov.principal_axes().0 <= max_var
         });
         self.stats.tracks_dropped += (before - self.tracks.len()) as u64;
+        // A tentative track that has come within `spawn_separation_m` of a confirmed one
+        // goes, as one would not have started there: it is the person's other leg or
+        // clutter at their feet, and would take the person's returns.
+        if c.spawn_separation_m > 0.0 {
+            let confirmed: Vec<Point2<World>> = self
+                .tracks
+                .iter()
+                .filter(|t| t.confirmed)
+                .map(|t| t.position().mean)
+                .collect();
+            let before = self.tracks.len();
+            self.tracks.retain(|t| {
+                t.confirmed
+                    || confirmed
+                        .iter()
+                        .all(|p| p.distance_m(t.position().mean) >= c.spawn_separation_m)
+            });
+            self.stats.tracks_dropped += (before - self.tracks.len()) as u64;
+        }
         // One person tracked twice: the younger of two confirmed tracks that stay
         // closer than `duplicate_distance_m` goes (tracks are in creation order, so an
         // older one comes first).
@@ -682,6 +701,36 @@ mod tests {
         assert!(tr.tracks().iter().all(|t| t.confirmed));
         let a = tr.track(ids.unwrap().0).unwrap();
         assert!((a.velocity().x - 1.0).abs() < 0.1);
+    }
+
+    #[test]
+    fn a_tentative_track_that_comes_onto_a_confirmed_one_goes() {
+        let mut tr = Tracker::new(TrackerConfig::default()).unwrap();
+        // A person standing at (1, 0), confirmed; a phantom track starts 0.6 m from them
+        // and takes a return 0.35 m from them, where no track would have started.
+        for k in 0..5 {
+            tr.process(at(100 * k), &[obs(1.0, 0.0, Source::Laser)]);
+        }
+        let person = tr.tracks()[0].id;
+        let r = tr.process(
+            at(500),
+            &[obs(1.0, 0.0, Source::Laser), obs(1.0, 0.6, Source::Laser)],
+        );
+        let phantom = r.track_of[1].unwrap();
+        tr.process(at(600), &[obs(1.0, 0.0, Source::Laser)]);
+        let r = tr.process(
+            at(700),
+            &[obs(1.0, 0.0, Source::Laser), obs(1.0, 0.35, Source::Laser)],
+        );
+        assert_eq!(r.track_of, vec![Some(person), Some(phantom)]);
+        let t = tr.track(phantom).unwrap();
+        assert!(!t.confirmed && t.position().mean.distance_m(Point2::new(1.0, 0.0)) < 0.45);
+        let before = tr.stats().tracks_dropped;
+        // Tracks are pruned as the next batch comes in.
+        tr.process(at(800), &[obs(1.0, 0.0, Source::Laser)]);
+        assert!(tr.track(phantom).is_none());
+        assert_eq!(tr.stats().tracks_dropped, before + 1);
+        assert_eq!(tr.tracks().len(), 1);
     }
 
     #[test]

@@ -99,6 +99,14 @@ pub fn leg_girth_scale(height_m: f64) -> f64 {
 
 /// Walking acceleration and deceleration, m/s^2.
 const ACCEL_MPS2: f64 = 0.9;
+
+/// People keep at least this far apart, centre to centre, when one gives way to the
+/// other, m (close behind a back or beside a shoulder, not touching: two torsos are
+/// about 0.4 m across together).
+pub const PASS_M: f64 = 0.45;
+
+/// How far ahead a person looks for someone to give way to, s.
+pub const GIVE_WAY_HORIZON_S: f64 = 2.0;
 /// Largest turn rate of the body's heading, rad/s.
 const MAX_TURN_RATE_RADPS: f64 = 4.0;
 /// Below this speed and with the feet together, the person stands still.
@@ -126,6 +134,10 @@ pub struct Person {
     repeat: bool,
     cruise_mps: f64,
     start_s: f64,
+    /// See `PersonSpec::give_way_m`.
+    give_way_m: f64,
+    /// Giving way now: slowing to a stand until the way is clear.
+    giving_way: bool,
     /// (arc length within a lap, duration) of each pause, sorted.
     pauses: Vec<(f64, f64)>,
     // Motion state.
@@ -190,6 +202,8 @@ impl Person {
             repeat,
             cruise_mps: spec.speed_mps,
             start_s: spec.start_s,
+            give_way_m: spec.give_way_m,
+            giving_way: false,
             pauses,
             s_m: 0.0,
             v_mps: 0.0,
@@ -274,6 +288,38 @@ impl Person {
         self.position + self.left_unit() * (side * self.body.leg_spread_m)
     }
 
+    /// Whether this person gives way to `other` (a person listed before it): `other` is
+    /// within `give_way_m` in front of it, and were this person to walk on at its
+    /// cruising speed, the two would pass closer than [`PASS_M`] within
+    /// [`GIVE_WAY_HORIZON_S`] (the closest approach of straight-line motion:
+    /// `d + w t*`, `t* = clamp(-d.w / |w|^2, 0, T)`, `d` the offset of `other`, `w` its
+    /// velocity less this person's intended one).
+    pub fn must_give_way_to(&self, other: &Person) -> bool {
+        let d = other.position - self.position;
+        let range = d.norm();
+        let heading = Vector2::<World>::new(self.heading_rad.cos(), self.heading_rad.sin());
+        if self.give_way_m <= 0.0
+            || range >= self.give_way_m
+            || heading.dot(d) <= 0.0
+            || self.elapsed_s < self.start_s
+        {
+            return false;
+        }
+        let w = other.velocity - heading * self.cruise_mps;
+        let w2 = w.dot(w);
+        let t = if w2 > 1e-12 {
+            (-d.dot(w) / w2).clamp(0.0, GIVE_WAY_HORIZON_S)
+        } else {
+            0.0
+        };
+        (d + w * t).norm() < PASS_M
+    }
+
+    /// Sets whether the person gives way from now on (slows to a stand while it does).
+    pub fn set_giving_way(&mut self, giving_way: bool) {
+        self.giving_way = giving_way;
+    }
+
     /// Advances the person by `dt_s`.
     pub fn step(&mut self, dt_s: f64) {
         let before = self.position;
@@ -311,7 +357,11 @@ impl Person {
             return;
         }
         let brake = (2.0 * ACCEL_MPS2 * to_stop).sqrt();
-        let wanted = self.cruise_mps.min(brake);
+        let wanted = if self.giving_way {
+            0.0
+        } else {
+            self.cruise_mps.min(brake)
+        };
         let dv = (wanted - self.v_mps).clamp(-ACCEL_MPS2 * dt_s * 2.0, ACCEL_MPS2 * dt_s);
         self.v_mps = (self.v_mps + dv).max(0.0);
         // Creep the last centimetres so that the stop is reached in finite time.
@@ -452,6 +502,7 @@ pub(crate) mod tests {
             height_m: Some(1.75),
             leg_radius_m: Some(0.06),
             leg_spread_m: Some(0.2),
+            give_way_m: 2.0,
         }
     }
 
@@ -460,6 +511,38 @@ pub(crate) mod tests {
         for _ in 0..(seconds / dt).round() as usize {
             p.step(dt);
         }
+    }
+
+    #[test]
+    fn a_person_gives_way_to_one_listed_before_rather_than_walk_through_them() {
+        let mut rng = SimRng::stream(0, "p");
+        let run = |give_way_m: f64, rng: &mut SimRng| {
+            let first = spec(vec![[-3.0, 0.0], [3.0, 0.0]], 1.0);
+            let second = PersonSpec {
+                give_way_m,
+                ..spec(vec![[0.0, 3.0], [0.0, -3.0]], 1.0)
+            };
+            let (mut a, mut b) = (
+                Person::from_spec(0, &first, rng),
+                Person::from_spec(1, &second, rng),
+            );
+            let mut closest = f64::INFINITY;
+            for _ in 0..1500 {
+                b.set_giving_way(b.must_give_way_to(&a));
+                a.step(0.01);
+                b.step(0.01);
+                closest = closest.min(a.position().distance_m(b.position()));
+            }
+            (closest, b.position())
+        };
+        let (closest, end) = run(2.0, &mut rng);
+        assert!(closest > 0.5, "came within {closest} m");
+        assert!(
+            end.distance_m(Point2::new(0.0, -3.0)) < 0.05,
+            "ended at {end:?}"
+        );
+        // Without giving way the two meet at the crossing.
+        assert!(run(0.0, &mut rng).0 < 0.3);
     }
 
     #[test]

@@ -509,10 +509,27 @@ pub struct PersonSpec {
     /// Sideways distance between the leg centres, m; drawn from 0.18-0.26 when absent.
     #[serde(default)]
     pub leg_spread_m: Option<f64>,
+    /// Gives way, as people do rather than walk through each other: stops while a
+    /// person listed before it, within this distance in front of it, would otherwise
+    /// pass closer than 0.45 m in the next 2 s (`person::Person::must_give_way_to`), m;
+    /// 0 walks on regardless.
+    #[serde(
+        default = "default_give_way",
+        skip_serializing_if = "is_default_give_way"
+    )]
+    pub give_way_m: f64,
 }
 
 fn default_speed() -> f64 {
     1.0
+}
+
+fn default_give_way() -> f64 {
+    2.0
+}
+
+fn is_default_give_way(x: &f64) -> bool {
+    *x == default_give_way()
 }
 
 /// One step of a path into the TOML document: a key or an array index.

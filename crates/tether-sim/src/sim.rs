@@ -362,6 +362,14 @@ impl Simulation {
         while self.now < t {
             let dt_ns = t.ns_since(self.now).min(MAX_STEP_NS);
             let dt_s = dt_ns as f64 * 1e-9;
+            // People give way to those listed before them (design 9).
+            for i in 0..self.people.len() {
+                let (before, rest) = self.people.split_at_mut(i);
+                if let Some(p) = rest.first_mut() {
+                    let yields = before.iter().any(|q| p.must_give_way_to(q));
+                    p.set_giving_way(yields);
+                }
+            }
             for p in &mut self.people {
                 p.step(dt_s);
             }

@@ -424,6 +424,12 @@ fn check_person(
             format!("must be >= 0, got {}", p.start_s),
         );
     }
+    if !(p.give_way_m.is_finite() && (0.0..=5.0).contains(&p.give_way_m)) {
+        problems.bad(
+            path!["people", pi, "give_way_m"],
+            format!("must lie in [0, 5] m, got {}", p.give_way_m),
+        );
+    }
     for (field, value, lo, hi) in [
         ("height_m", p.height_m, 0.9, 2.3),
         ("leg_radius_m", p.leg_radius_m, 0.02, 0.15),
