@@ -571,7 +571,41 @@ impl Tracker {
         true
     }
 
+    /// A tentative track that has come within `spawn_separation_m` of a confirmed one
+    /// goes, as one would not have started there: it is the person's other leg or
+    /// clutter at their feet, and would take the person's returns (design 5.5).
+    fn drop_tentative_on_confirmed(&mut self) {
+        let sep = self.config.spawn_separation_m;
+        if sep <= 0.0 {
+            return;
+        }
+        let confirmed: Vec<Point2<World>> = self
+            .tracks
+            .iter()
+            .filter(|t| t.confirmed)
+            .map(|t| t.position().mean)
+            .collect();
+        let before = self.tracks.len();
+        self.tracks.retain(|t| {
+            t.confirmed
+                || confirmed
+                    .iter()
+                    .all(|p| p.distance_m(t.position().mean) >= sep)
+        });
+        self.stats.tracks_dropped += (before - self.tracks.len()) as u64;
+    }
+
+    /// Drops the tracks silent too long (tentative ones sooner), non-finite or too
+    /// uncertain, then tentative tracks sitting on confirmed ones, then the younger of a
+    /// person tracked twice.
     fn prune(&mut self, now: Stamp) {
+        self.drop_silent(now);
+        self.drop_tentative_on_confirmed();
+        self.merge_duplicates(now);
+    }
+
+    /// Drops the tracks silent too long, non-finite or too uncertain.
+    fn drop_silent(&mut self, now: Stamp) {
         let c = &self.config;
         let max_var = c.max_position_sigma_m * c.max_position_sigma_m;
         let before = self.tracks.len();
@@ -587,28 +621,14 @@ impl Tracker {
                 && t.position().cov.principal_axes().0 <= max_var
         });
         self.stats.tracks_dropped += (before - self.tracks.len()) as u64;
-        // A tentative track that has come within `spawn_separation_m` of a confirmed one
-        // goes, as one would not have started there: it is the person's other leg or
-        // clutter at their feet, and would take the person's returns.
-        if c.spawn_separation_m > 0.0 {
-            let confirmed: Vec<Point2<World>> = self
-                .tracks
-                .iter()
-                .filter(|t| t.confirmed)
-                .map(|t| t.position().mean)
-                .collect();
-            let before = self.tracks.len();
-            self.tracks.retain(|t| {
-                t.confirmed
-                    || confirmed
-                        .iter()
-                        .all(|p| p.distance_m(t.position().mean) >= c.spawn_separation_m)
-            });
-            self.stats.tracks_dropped += (before - self.tracks.len()) as u64;
-        }
-        // One person tracked twice: the younger of two confirmed tracks that stay
-        // closer than `duplicate_distance_m` goes (tracks are in creation order, so an
-        // older one comes first).
+    }
+
+    /// One person tracked twice: the younger of two confirmed tracks that stay closer
+    /// than `duplicate_distance_m` for `duplicate_after_s` goes, and the older remembers
+    /// the merge.
+    fn merge_duplicates(&mut self, now: Stamp) {
+        let c = &self.config;
+        // Tracks are in creation order, so an older one comes first.
         if c.duplicate_distance_m > 0.0 {
             let positions: Vec<(bool, Point2<World>)> = self
                 .tracks
