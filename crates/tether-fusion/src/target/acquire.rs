@@ -33,8 +33,7 @@ impl TargetSelector {
                     Err(r) => r,
                 }
             };
-            let why = self.somebody_else(&Question::Reacquire { lost: l }, t);
-            self.refuse(l, t.id, refusal, why);
+            self.refuse(l, t, refusal);
         }
         match candidates.as_slice() {
             [one] => LostStep::Reacquire(*one),

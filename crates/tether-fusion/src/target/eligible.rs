@@ -235,17 +235,14 @@ impl TargetSelector {
         }
     }
 
-    /// Records that `track` was refused for `refusal` in the loss `l` (counted once per
-    /// track, reason and loss), and, for `somebody_else`, `why`.
-    pub(super) fn refuse(
-        &mut self,
-        l: &mut Lost,
-        track: u64,
-        refusal: Refusal,
-        why: Option<SomebodyElse>,
-    ) {
+    /// Records that track `t` was refused for `refusal` in the loss `l` (counted once per
+    /// track, reason and loss), and, for `somebody_else`, why.
+    pub(super) fn refuse(&mut self, l: &mut Lost, t: &Track, refusal: Refusal) {
+        let track = t.id;
         self.refusals_now.push((track, refusal));
-        if let Some(why) = why.filter(|_| refusal == Refusal::SomebodyElse) {
+        if refusal == Refusal::SomebodyElse
+            && let Some(why) = self.somebody_else(&Question::Reacquire { lost: l }, t)
+        {
             self.somebody_else_now.push((track, why));
         }
         if l.refused.insert((track, refusal)) {
