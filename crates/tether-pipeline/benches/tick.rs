@@ -1,4 +1,4 @@
-//! One full pipeline tick (issue 6 goal: under 100 us): a 682-beam URG-04LX scan of the
+//! One full pipeline tick (issues 6 and 30: under 100 us): a 682-beam URG-04LX scan of the
 //! office with the target and a colleague in view, then a camera frame's upper-body
 //! boxes — leg detection, vision model, fusion, tracking, target, spring, safety.
 //!
