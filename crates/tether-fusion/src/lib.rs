@@ -8,6 +8,7 @@
 //! - [`kalman`]: the constant-velocity Kalman filter of one person.
 //! - [`tracker`]: person tracks over time, confirmation and deletion.
 //! - [`clutter`]: static clutter learned over time (bushes, posts, furniture legs).
+//! - [`shadow`]: what the laser could not have seen (people hidden behind things).
 //! - [`target`]: the target of interest, locked through crossings and occlusions.
 //! - [`mot`]: CLEAR MOT metrics for evaluating tracking against ground truth.
 //!
@@ -20,6 +21,7 @@ pub mod complementary;
 pub mod gate;
 pub mod kalman;
 pub mod mot;
+pub mod shadow;
 pub mod target;
 pub mod tracker;
 
@@ -34,6 +36,7 @@ pub use complementary::{FusedPerson, FusionRule, complementary_fusion};
 pub use gate::{CHI2_2DOF_95, CHI2_2DOF_99, CHI2_2DOF_999, Gate, mahalanobis_sq};
 pub use kalman::CvFilter;
 pub use mot::{ClearMot, MotSummary};
+pub use shadow::Shadow;
 pub use target::{
     LossReason, Refusal, SomebodyElse, TargetConfig, TargetSelector, TargetState, TargetStats,
     Transition, View,

@@ -72,6 +72,10 @@ pub struct Observation {
     /// A weak observation (a cluster the leg classifier nearly accepted): it may keep a
     /// confirmed track alive, but never starts or confirms one.
     pub weak: bool,
+    /// For laser observations: where the scan before could not see ([`crate::Shadow`]):
+    /// somebody coming out from behind something, who may be a hidden track's person
+    /// however far their track coasted ([`TrackerConfig::coast_lone_leg_after_s`]).
+    pub from_shadow: bool,
 }
 
 impl Observation {
@@ -85,6 +89,7 @@ impl Observation {
             bearing: None,
             leg_pair,
             weak: false,
+            from_shadow: false,
         }
     }
 
@@ -105,6 +110,7 @@ impl Observation {
             bearing,
             leg_pair: false,
             weak: false,
+            from_shadow: false,
         }
     }
 }
@@ -208,6 +214,8 @@ pub struct TrackerConfig {
     pub tentative_timeout_s: f64,
     /// A confirmed track not updated for this long is dropped, s.
     pub max_coast_s: f64,
+    /// A return hides what lies more than this behind it ([`crate::Shadow`]), m.
+    pub shadow_margin_m: f64,
     /// A track whose position standard deviation exceeds this is dropped, m.
     pub max_position_sigma_m: f64,
     /// Observations with a position standard deviation above this are ignored, m.
@@ -277,6 +285,7 @@ impl Default for TrackerConfig {
             confirm_hits: 3,
             tentative_timeout_s: 0.35,
             max_coast_s: 2.0,
+            shadow_margin_m: 0.3,
             max_position_sigma_m: 1.5,
             max_observation_sigma_m: 3.0,
             laser_update: UpdateRule::Kalman,
@@ -317,6 +326,7 @@ impl TrackerConfig {
             ("initial_speed_sigma_mps", self.initial_speed_sigma_mps),
             ("tentative_timeout_s", self.tentative_timeout_s),
             ("max_coast_s", self.max_coast_s),
+            ("shadow_margin_m", self.shadow_margin_m),
             ("max_position_sigma_m", self.max_position_sigma_m),
             ("max_observation_sigma_m", self.max_observation_sigma_m),
         ];
@@ -375,6 +385,9 @@ pub struct Track {
     pub born: Stamp,
     /// Last update by any observation.
     pub last_update: Stamp,
+    /// Last scan in which the track, not updated, was hidden from the laser
+    /// ([`Tracker::note_shadow`]).
+    pub last_hidden: Option<Stamp>,
     /// Last update by a laser (or fused) observation.
     pub last_laser: Option<Stamp>,
     /// Last update by a vision (or fused) observation.
@@ -443,6 +456,12 @@ impl Track {
     /// Velocity estimate, m/s.
     pub fn velocity(&self) -> Vector2<World> {
         self.filter.velocity()
+    }
+
+    /// Whether the track went behind something since its last update: a scan since
+    /// then could not have seen where it is ([`Tracker::note_shadow`]).
+    pub fn hidden_since_update(&self) -> bool {
+        self.last_hidden.is_some_and(|h| h > self.last_update)
     }
 
     /// True when both sensors updated the track within `window_s` before `now`.
@@ -571,6 +590,21 @@ impl Tracker {
         true
     }
 
+    /// Marks each track not updated at `stamp` that `hidden` says the laser could not
+    /// see (a [`crate::Shadow`] of the scan taken at `stamp`): its person went behind
+    /// something, and may come out of its shadow away from where the track coasted to
+    /// ([`Track::hidden_since_update`], [`Observation::from_shadow`]).
+    pub fn note_shadow(&mut self, stamp: Stamp, hidden: impl Fn(Point2<World>) -> bool) {
+        if self.now != Some(stamp) {
+            return;
+        }
+        for t in &mut self.tracks {
+            if t.last_update != stamp && hidden(t.position().mean) {
+                t.last_hidden = Some(stamp);
+            }
+        }
+    }
+
     /// A tentative track that has come within `spawn_separation_m` of a confirmed one
     /// goes, as one would not have started there: it is the person's other leg or
     /// clutter at their feet, and would take the person's returns (design 5.5).
@@ -693,6 +727,7 @@ mod tests {
             bearing: None,
             leg_pair: source != Source::Vision,
             weak: false,
+            from_shadow: false,
         }
     }
 

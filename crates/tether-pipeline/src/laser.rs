@@ -1,10 +1,11 @@
 //! The laser's side of a tick (design 5.5): the people found in a scan become
 //! observations in the world frame, those standing in learned static clutter are left
-//! out, the tracker takes the rest, and the clutter maps learn what no walking person
-//! explains.
+//! out, those the last scan could not see are marked as coming out of a shadow, the
+//! tracker takes them, tracks this scan could not see are marked as hidden
+//! ([`Shadow`]), and the clutter maps learn what no walking person explains.
 
-use tether_core::{Gaussian2, Point2, Pose2, Robot, Stamp, World};
-use tether_fusion::{Observation, TargetState};
+use tether_core::{Gaussian2, Laser, Point2, Pose2, Robot, Stamp, World};
+use tether_fusion::{Observation, Shadow, TargetState};
 
 use crate::{FusionMode, LaserPerson, Pipeline, Tick, TickInput, follow};
 
@@ -24,6 +25,15 @@ impl Pipeline {
         self.scan_gap_s = self.last_scan.map_or(0.0, |t| stamp.secs_since(t));
         self.last_scan = Some(stamp);
         let world_from_laser = world_from_robot * self.config.laser.robot_from_laser();
+        let world: Vec<Gaussian2<World>> = people
+            .iter()
+            .map(|p| p.estimate.transformed(world_from_laser))
+            .collect();
+        let from_shadow: Vec<bool> = world
+            .iter()
+            .map(|g| self.hidden_at_last_scan(g.mean))
+            .collect();
+        self.last_scan_pose = Some(world_from_robot);
         self.obstacle_points.clear();
         self.obstacle_points.extend_from_slice(obstacles_in_robot);
         let near_m = self.obstacle_reach_m();
@@ -35,10 +45,6 @@ impl Pipeline {
         );
         // People standing in learned static clutter are clutter: they neither start nor
         // feed tracks (a coasting track walking past a bush must not take it).
-        let world: Vec<Gaussian2<World>> = people
-            .iter()
-            .map(|p| p.estimate.transformed(world_from_laser))
-            .collect();
         let mut used = Vec::with_capacity(people.len());
         for (p, g) in people.iter().zip(&world) {
             let clutter = self.clutter_world.is_static(g.mean, stamp)
@@ -53,14 +59,24 @@ impl Pipeline {
             .iter()
             .zip(&world)
             .zip(&used)
-            .filter(|(_, used)| **used)
-            .map(|((p, g), _)| match p.weak {
-                true => Observation::weak_laser(*g),
-                false => Observation::laser(*g, p.two_legs, lone_spawns),
+            .zip(&from_shadow)
+            .filter(|((_, used), _)| **used)
+            .map(|(((p, g), _), &from_shadow)| Observation {
+                from_shadow,
+                ..match p.weak {
+                    true => Observation::weak_laser(*g),
+                    false => Observation::laser(*g, p.two_legs, lone_spawns),
+                }
             })
             .collect();
         let track_of = if tracking {
-            self.tracker.process(stamp, &observations).track_of
+            let track_of = self.tracker.process(stamp, &observations).track_of;
+            // Tracks behind the scan's returns went unseen because they could not be seen.
+            let robot_from_world = world_from_robot.inverse();
+            let shadow = self.shadow_of(obstacles_in_robot);
+            self.tracker
+                .note_shadow(stamp, |p| shadow.hides(robot_from_world * p));
+            track_of
         } else {
             self.tracker.advance(stamp);
             vec![None; observations.len()]
@@ -89,6 +105,22 @@ impl Pipeline {
         let mut tick = self.finish(stamp, TickInput::Scan, world_from_robot);
         tick.laser_people = laser_people;
         tick
+    }
+
+    /// The shadows cast by a scan's returns (robot frame) as seen from the scanner.
+    fn shadow_of<'a>(&self, returns_in_robot: &'a [Point2<Robot>]) -> Shadow<'a, Robot> {
+        let scanner = self.config.laser.robot_from_laser() * Point2::<Laser>::ORIGIN;
+        let margin_m = self.tracker.config().shadow_margin_m;
+        Shadow::new(scanner, returns_in_robot, margin_m)
+    }
+
+    /// Whether the last scan could not see `p` (a person found there now comes out
+    /// from behind something).
+    fn hidden_at_last_scan(&self, p: Point2<World>) -> bool {
+        self.last_scan_pose.is_some_and(|world_from_robot| {
+            self.shadow_of(&self.obstacle_points)
+                .hides(world_from_robot.inverse() * p)
+        })
     }
 
     /// Teaches the clutter maps this scan's people, except those a walking person (or

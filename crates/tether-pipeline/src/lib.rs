@@ -285,6 +285,9 @@ pub struct Pipeline {
     command: Twist,
     last_tick: Option<Stamp>,
     last_scan: Option<Stamp>,
+    /// The robot's pose at the last scan (with `obstacle_points`, that scan's returns:
+    /// what it could not see).
+    last_scan_pose: Option<Pose2<World, Robot>>,
     /// The last scan's people (world) and the velocity of the track each updated, to
     /// carry them to a camera frame's time.
     last_laser_people: Option<(Stamp, Vec<LaserMemory>)>,
@@ -382,6 +385,7 @@ impl Pipeline {
             command: Twist::STOP,
             last_tick: None,
             last_scan: None,
+            last_scan_pose: None,
             last_laser_people: None,
             obstacle_points: Vec::new(),
             near_obstacles: Vec::new(),

@@ -64,7 +64,11 @@ impl Tracker {
     /// Whether `o` is something that may not take up `t`, a confirmed track that has
     /// coasted longer than `coast_lone_leg_after_s`, from farther than
     /// `coast_lone_leg_offset_m`: a lone leg (not weak), or a camera observation of a
-    /// track the laser has seen.
+    /// track the laser has seen. Except a lone leg coming out of the last scan's shadow
+    /// ([`Observation::from_shadow`]) for a track that went behind something since its
+    /// last update ([`Track::hidden_since_update`]): its person comes out from where
+    /// they could not be seen, wherever their track coasted to (design 5.5, "hidden
+    /// tracks"); the gate and the reach still apply.
     fn far_off_coasting(&self, t: &Track, o: &Observation, stamp: Stamp) -> bool {
         let c = &self.config;
         c.coast_lone_leg_offset_m > 0.0
@@ -72,6 +76,7 @@ impl Tracker {
                 || (o.source == Source::Vision && t.last_laser.is_some()))
             && t.confirmed
             && stamp.secs_since(t.last_update) > c.coast_lone_leg_after_s
+            && !(o.from_shadow && t.hidden_since_update())
             && t.position().mean.distance_m(o.estimate.mean) > c.coast_lone_leg_offset_m
     }
 
@@ -351,6 +356,7 @@ impl Tracker {
             last_update: stamp,
             last_laser,
             last_vision,
+            last_hidden: None,
             anchor: Anchor::of(&filter, stamp),
             birth_position: o.estimate.mean,
             walked_m: 0.0,
