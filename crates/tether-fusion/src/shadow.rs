@@ -61,26 +61,6 @@ impl<'a, F: Frame> Shadow<'a, F> {
     }
 }
 
-impl<F: Frame> Shadow<'_, F> {
-    /// Whether a person at `p` would be hidden, or would be if they stood a body width
-    /// to either side at the same range: somebody at the edge of a shadow, whose legs
-    /// the scanner may already half see while they are not yet found.
-    pub fn hides_or_borders(&self, p: Point2<F>) -> bool {
-        if self.hides(p) {
-            return true;
-        }
-        let to_p = p - self.scanner;
-        let r = to_p.norm();
-        if !r.is_finite() || r <= 0.0 {
-            return false;
-        }
-        let w = 2.0 * (PERSON_RADIUS_M / r).atan();
-        [w, -w]
-            .into_iter()
-            .any(|a| self.hides(self.scanner + to_p.rotated(a)))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -119,13 +99,8 @@ mod tests {
         assert!(!shadow.hides(p(3.5, 1.5)), "well off to the side");
         assert!(!shadow.hides(p(1.2, 0.0)), "in front of the post");
         assert!(!shadow.hides(p(2.0, 0.0)), "at the post itself");
-        // Coming out from behind the post: at its edge, seen, but beside its shadow.
+        // Coming out from behind the post: at its edge, seen.
         assert!(!shadow.hides(p(3.5, 0.75)));
-        assert!(shadow.hides_or_borders(p(3.5, 0.75)));
-        assert!(
-            !shadow.hides_or_borders(p(1.5, 0.5)),
-            "beside the post, nearer than it"
-        );
     }
 
     #[test]

@@ -29,13 +29,6 @@ impl Pipeline {
             .iter()
             .map(|p| p.estimate.transformed(world_from_laser))
             .collect();
-        let from_shadow: Vec<bool> = world
-            .iter()
-            .map(|g| self.hidden_at_last_scan(g.mean))
-            .collect();
-        self.last_scan_pose = Some(world_from_robot);
-        self.obstacle_points.clear();
-        self.obstacle_points.extend_from_slice(obstacles_in_robot);
         let near_m = self.obstacle_reach_m();
         follow::keep_mapped(
             obstacles_in_robot,
@@ -59,16 +52,19 @@ impl Pipeline {
             .iter()
             .zip(&world)
             .zip(&used)
-            .zip(&from_shadow)
-            .filter(|((_, used), _)| **used)
-            .map(|(((p, g), _), &from_shadow)| Observation {
-                from_shadow,
+            .filter(|(_, used)| **used)
+            .map(|((p, g), _)| Observation {
+                from_shadow: self.hidden_at_last_scan(g.mean),
                 ..match p.weak {
                     true => Observation::weak_laser(*g),
                     false => Observation::laser(*g, p.two_legs, lone_spawns),
                 }
             })
             .collect();
+        // This scan is the last one from now on.
+        self.last_scan_pose = Some(world_from_robot);
+        self.obstacle_points.clear();
+        self.obstacle_points.extend_from_slice(obstacles_in_robot);
         let track_of = if tracking {
             let track_of = self.tracker.process(stamp, &observations).track_of;
             // Tracks behind the scan's returns went unseen because they could not be seen.
