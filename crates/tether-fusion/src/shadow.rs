@@ -61,6 +61,25 @@ impl<'a, F: Frame> Shadow<'a, F> {
     }
 }
 
+impl<F: Frame> Shadow<'_, F> {
+    /// Whether a person at `p` would be hidden, or would be a leg's width (`reach_m`)
+    /// to either side at the same range.
+    pub fn hides_near(&self, p: Point2<F>, reach_m: f64) -> bool {
+        if self.hides(p) {
+            return true;
+        }
+        let to_p = p - self.scanner;
+        let r = to_p.norm();
+        if !r.is_finite() || r <= 0.0 {
+            return false;
+        }
+        let w = (reach_m / r).atan();
+        [w, -w]
+            .into_iter()
+            .any(|a| self.hides(self.scanner + to_p.rotated(a)))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -99,8 +118,16 @@ mod tests {
         assert!(!shadow.hides(p(3.5, 1.5)), "well off to the side");
         assert!(!shadow.hides(p(1.2, 0.0)), "in front of the post");
         assert!(!shadow.hides(p(2.0, 0.0)), "at the post itself");
-        // Coming out from behind the post: at its edge, seen.
-        assert!(!shadow.hides(p(3.5, 0.75)));
+        // Coming out from behind the post: at its edge, seen, but a step from its
+        // shadow; further out, more than a step.
+        let edge = p(3.5, 0.6);
+        assert!(!shadow.hides(edge));
+        assert!(shadow.hides_near(edge, 0.1));
+        assert!(!shadow.hides_near(p(3.5, 1.1), 0.1));
+        assert!(
+            !shadow.hides_near(p(1.5, 0.5), 0.1),
+            "beside the post, nearer than it"
+        );
     }
 
     #[test]

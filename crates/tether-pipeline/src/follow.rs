@@ -17,6 +17,13 @@ use tether_core::{Point2, Pose2, Robot, Stamp, World};
 
 /// Spacing of trail points, m.
 const TRAIL_STEP_M: f64 = 0.1;
+/// A step in the target's trail longer than this is a stretch nobody saw (its track
+/// coasted, or the lock was lost and taken up again), m: the trail starts again after
+/// it. A walker moves at most a few tenths of a metre between two ticks; the way
+/// between two points further apart is not known to be free (the person may have
+/// gone round the far side of a pillar), and following it leads the robot round
+/// the wrong side while the person walks out of view.
+const TRAIL_GAP_M: f64 = 0.5;
 /// Longest target trail kept, points.
 const TRAIL_MAX_POINTS: usize = 300;
 /// How far ahead along the trail the follower aims, m.
@@ -65,12 +72,20 @@ impl Trails {
     }
 
     /// Records where the target `id` is. A new id after a re-acquisition is the same
-    /// person: the trail carries on.
+    /// person: the trail carries on, unless it jumps (`TRAIL_GAP_M`).
     pub fn record_target(&mut self, id: u64, p: Point2<World>) {
         if !p.is_finite() {
             return;
         }
         self.target_id = Some(id);
+        if self
+            .target
+            .back()
+            .is_some_and(|last| last.distance_m(p) > TRAIL_GAP_M)
+        {
+            // Nobody saw the way between: the trail starts again here.
+            self.target.clear();
+        }
         if self
             .target
             .back()
@@ -251,6 +266,44 @@ mod tests {
                 .abs()
                 < 0.11
         );
+    }
+
+    #[test]
+    fn a_trail_that_jumps_starts_again_after_the_jump() {
+        // The target walked up the right side of a pillar at (1, 1), went out of sight
+        // behind it and was seen again on its left, 1.4 m from where it was last seen.
+        let mut trails = Trails::default();
+        for k in 0..=10 {
+            trails.record_target(1, p(1.7, 0.1 * k as f64));
+        }
+        trails.record_target(1, p(0.3, 1.3));
+        let pillar: Vec<Point2<World>> = (0..36)
+            .map(|k| {
+                let a = f64::from(k) * 10_f64.to_radians();
+                p(1.0 + 0.3 * a.cos(), 1.0 + 0.3 * a.sin())
+            })
+            .collect();
+        // The robot stands where the pillar is in the way of the straight line.
+        let robot = Pose2::<World, Robot>::new(1.2, -0.5, 0.0);
+        let attach = robot * Point2::new(0.3, 0.0);
+        let target = p(0.3, 1.3);
+        // Nothing is known of the way round the far side: no trail to follow there, and
+        // the robot steers at the person (the obstacle stop keeps it off the pillar).
+        let aim = trails.aim(robot, attach, target, &pillar, 0.25, false);
+        assert!(!aim.via_trail, "{aim:?}");
+        assert_eq!(aim.point, target);
+        // Seen walking all the way round the far side, the target left a trail the
+        // robot follows.
+        let mut seen = Trails::default();
+        for k in 0..=10 {
+            seen.record_target(1, p(1.7, 0.1 * k as f64));
+        }
+        for k in 1..=14 {
+            let a = f64::from(k) * 11.2_f64.to_radians();
+            seen.record_target(1, p(1.0 + 0.7 * a.cos(), 1.0 + 0.7 * a.sin()));
+        }
+        let around = seen.aim(robot, attach, target, &pillar, 0.25, false);
+        assert!(around.via_trail && around.point.x > 1.3, "{around:?}");
     }
 
     #[test]

@@ -114,8 +114,10 @@ impl Pipeline {
     /// from behind something).
     fn hidden_at_last_scan(&self, p: Point2<World>) -> bool {
         self.last_scan_pose.is_some_and(|world_from_robot| {
-            self.shadow_of(&self.obstacle_points)
-                .hides(world_from_robot.inverse() * p)
+            self.shadow_of(&self.obstacle_points).hides_near(
+                world_from_robot.inverse() * p,
+                self.tracker.config().shadow_edge_m,
+            )
         })
     }
 

@@ -96,10 +96,13 @@ fn occlusion_the_target_comes_back_after_the_pillar_and_never_on_the_bystander()
     for laser_only in [false, true] {
         let m = pooled("occlusion", laser_only, 0..6);
         assert!(m.visible_scans > 500, "{m:?}");
-        assert!(m.on_target_frac.unwrap() >= 0.93, "{m:?}");
+        // 99.7 % fused and 99.0 % laser only on 2026-12-06 (the person taken up by
+        // their hidden track on the first leg out of the pillar's shadow, design 5.5);
+        // 93 % was the bar before.
+        assert!(m.on_target_frac.unwrap() >= 0.98, "{m:?}");
         assert_eq!(m.wrong_scans, 0, "{m:?}");
         assert!(m.reappearances >= 5, "{m:?}");
-        // Taken up within 1 s after coming out, but for at most one of the six.
-        assert!(m.reacquired_within_1s + 1 >= m.reappearances, "{m:?}");
+        // Every one taken up within 1 s after coming out.
+        assert_eq!(m.reacquired_within_1s, m.reappearances, "{m:?}");
     }
 }

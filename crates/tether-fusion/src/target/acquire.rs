@@ -56,9 +56,11 @@ impl TargetSelector {
     /// led off onto somebody else (that track is theirs now). The tracker kept its
     /// identity: back, if it is still where the target could be (a track that ran off
     /// after something else is not), and shows the person again: a whole person (a pair
-    /// of legs, the camera) or two updates since the loss. A coasting track's reach is
-    /// wide; one false positive in it (a phantom return, a bystander's leg) must not
-    /// bring the lock back onto a track that has lost its person. Nor does the camera
+    /// of legs, the camera) or two updates since the loss, or one that came out of the
+    /// shadow it went into ([`Track::came_out`]; kept only if the next scans confirm
+    /// it, see `step_locked`). A coasting track's reach is wide; one false positive in
+    /// it (a phantom return, a bystander's leg) must not bring the lock back onto a
+    /// track that has lost its person. Nor does the camera
     /// alone bring it back while the laser, in use and seeing the place, has not seen it
     /// since the loss: a false box gates with a track that coasted off as readily as the
     /// person does, and the laser finds a person it can see.
@@ -67,6 +69,7 @@ impl TargetSelector {
             return Some(Refusal::SomebodyElse);
         }
         if let Some((hits, last_pair)) = l.evidence
+            && t.came_out != Some(t.last_update)
             && t.hits < hits + 2
             && t.last_pair <= last_pair
         {

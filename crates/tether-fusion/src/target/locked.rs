@@ -21,7 +21,7 @@ impl TargetSelector {
         let max_s = self.config.encounter_max_s;
         let found = tracks.iter().find(|t| t.id == l.track);
         match found {
-            Some(t) if now.secs_since(t.last_update) <= self.config.lost_after_s => {
+            Some(t) if now.secs_since(t.last_update) <= self.silent_limit_s(t) => {
                 l.last_good = Some(self.good_anchor(t));
                 if t.last_pair == Some(now) {
                     self.count_beside(&mut l.company, t, tracks, now, tick.dt);
@@ -53,6 +53,19 @@ impl TargetSelector {
                 };
                 LockedStep::Lose(self.loss_reason(found, from, view), from)
             }
+        }
+    }
+
+    /// How long the target's track `t` may go without an update before the target is
+    /// lost: `lost_after_s`; but a track last updated by a person coming out of the
+    /// shadow it went into ([`Track::came_out`]), which took the target back on that
+    /// one update, must be confirmed within `handover_coast_s`: one leg at a shadow's
+    /// edge may be a phantom, and the person, seen by the next scans, is there.
+    fn silent_limit_s(&self, t: &Track) -> f64 {
+        if t.came_out == Some(t.last_update) {
+            self.config.handover_coast_s
+        } else {
+            self.config.lost_after_s
         }
     }
 

@@ -24,6 +24,7 @@ fn track(id: u64, x: f64, y: f64, last_ms: i64, both: bool) -> Track {
         last_laser: Some(t),
         last_vision: both.then_some(t),
         last_hidden: None,
+        came_out: None,
         anchor,
         birth_position: Point2::new(x - 1.0, y),
         walked_m: 1.0,

@@ -270,6 +270,9 @@ impl Tracker {
     fn record_update(&mut self, ti: usize, o: &Observation, stamp: Stamp) {
         let confirm_hits = self.config.confirm_hits;
         let t = &mut self.tracks[ti];
+        if o.from_shadow && t.hidden_since_update() {
+            t.came_out = Some(stamp);
+        }
         t.last_update = stamp;
         t.anchor = Anchor::of(&t.filter, stamp);
         if matches!(o.source, Source::Laser | Source::Fused) {
@@ -357,6 +360,7 @@ impl Tracker {
             last_laser,
             last_vision,
             last_hidden: None,
+            came_out: None,
             anchor: Anchor::of(&filter, stamp),
             birth_position: o.estimate.mean,
             walked_m: 0.0,
