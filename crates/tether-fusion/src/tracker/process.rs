@@ -17,6 +17,11 @@ type Costs = Vec<Vec<Option<f64>>>;
 /// likelihood ratio under e^2).
 const AMBIGUOUS_COST_GAP: f64 = 4.0;
 
+/// Durations between stamps compared with a setting are taken as reached within this,
+/// s: a silence of three 0.1 s scan periods is 0.3 s whether the stamps' rounding makes
+/// it 0.29999999999999993 s or 0.30000000000000004 s.
+const STAMP_TOLERANCE_S: f64 = 1e-6;
+
 impl Tracker {
     /// Processes the observations of one sensor message taken at `stamp`.
     pub fn process(&mut self, stamp: Stamp, observations: &[Observation]) -> BatchResult {
@@ -62,7 +67,8 @@ impl Tracker {
     }
 
     /// Whether `o` is something that may not take up `t`, a confirmed track that has
-    /// coasted longer than `coast_lone_leg_after_s`, from farther than
+    /// coasted for `coast_lone_leg_after_s` or longer (three missed scans at 10 Hz for
+    /// 0.3 s, whatever the rounding of the stamps), from farther than
     /// `coast_lone_leg_offset_m`: a lone leg (not weak), or a camera observation of a
     /// track the laser has seen. Except a lone leg coming out of the last scan's shadow
     /// ([`Observation::from_shadow`]) for a track that went behind something since its
@@ -75,7 +81,7 @@ impl Tracker {
             && ((o.source == Source::Laser && !o.leg_pair && !o.weak)
                 || (o.source == Source::Vision && t.last_laser.is_some()))
             && t.confirmed
-            && stamp.secs_since(t.last_update) > c.coast_lone_leg_after_s
+            && stamp.secs_since(t.last_update) >= c.coast_lone_leg_after_s - STAMP_TOLERANCE_S
             && !(o.from_shadow && t.hidden_since_update())
             && t.position().mean.distance_m(o.estimate.mean) > c.coast_lone_leg_offset_m
     }

@@ -214,6 +214,39 @@ fn a_weak_leg_keeps_a_track_but_does_not_pull_a_coasting_one_across() {
 }
 
 #[test]
+fn the_lone_leg_rule_holds_from_the_third_missed_scan() {
+    // Silent exactly `coast_lone_leg_after_s` (three missed scans at 10 Hz), a lone
+    // leg 0.55 m off does not take the track (it used to: the rule held only after
+    // more than 0.3 s, and a phantom there carried a hidden target's track off in a
+    // closed-loop run); with the rule off, the same leg does.
+    let g = |x: f64| Gaussian2::new(Point2::new(x, 0.0), Cov2::isotropic(0.04).unwrap()).unwrap();
+    let walked = |config: TrackerConfig| {
+        let mut tr = Tracker::new(config).unwrap();
+        for ms in [0, 100, 200, 300] {
+            tr.process(at(ms), &[Observation::laser(g(2.0), true, false)]);
+        }
+        for ms in [400, 500] {
+            tr.process(at(ms), &[]);
+        }
+        tr
+    };
+    // A lone leg is uncertain about where the body is (design 4.5).
+    let far = Gaussian2::new(Point2::new(2.55, 0.0), Cov2::isotropic(0.25).unwrap()).unwrap();
+    let lone = Observation::laser(far, false, true);
+    let mut tr = walked(TrackerConfig::default());
+    let id = tr.tracks()[0].id;
+    assert_ne!(
+        tr.process(at(600), std::slice::from_ref(&lone)).track_of[0],
+        Some(id)
+    );
+    let mut off = walked(TrackerConfig {
+        coast_lone_leg_offset_m: 0.0,
+        ..TrackerConfig::default()
+    });
+    assert_eq!(off.process(at(600), &[lone]).track_of[0], Some(id));
+}
+
+#[test]
 fn a_coasting_track_is_taken_far_off_only_by_a_whole_person() {
     let g = |x: f64| Gaussian2::new(Point2::new(x, 0.0), Cov2::isotropic(0.04).unwrap()).unwrap();
     let mut tr = Tracker::new(TrackerConfig::default()).unwrap();
