@@ -45,3 +45,12 @@ pub use tracker::{
     Anchor, BatchResult, Bearing, MotionBounds, Observation, Source, Track, Tracker, TrackerConfig,
     TrackerStats, UpdateRule,
 };
+
+/// Whether a duration `elapsed_s` has reached a setting `setting_s`, within 1 us: a
+/// duration summed from, or measured between, stamps a scan period apart comes out a
+/// hair under or over its round value (five 0.1 s intervals make 0.49999999999999994 s,
+/// three periods between stamps 0.29999999999999993 s or 0.30000000000000004 s), and
+/// it counts as reached either way.
+pub(crate) fn reached_s(elapsed_s: f64, setting_s: f64) -> bool {
+    elapsed_s >= setting_s - 1e-6
+}

@@ -275,7 +275,7 @@ impl TargetSelector {
         for id in on {
             let s = l.company.on_other.entry(id).or_insert(0.0);
             *s += dt_s;
-            led |= *s >= c.led_off_after_s - 1e-6;
+            led |= crate::reached_s(*s, c.led_off_after_s);
         }
         led
     }

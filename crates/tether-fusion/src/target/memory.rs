@@ -66,7 +66,9 @@ impl Company {
     /// sum of scan intervals: five 0.1 s intervals make 0.49999999999999994 s, which
     /// counts as 0.5 s).
     pub(super) fn seen_beside_for(&self, id: u64, beside_s: f64) -> bool {
-        self.beside.get(&id).is_some_and(|&s| s >= beside_s - 1e-6)
+        self.beside
+            .get(&id)
+            .is_some_and(|&s| crate::reached_s(s, beside_s))
     }
 }
 

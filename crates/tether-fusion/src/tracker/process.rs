@@ -17,11 +17,6 @@ type Costs = Vec<Vec<Option<f64>>>;
 /// likelihood ratio under e^2).
 const AMBIGUOUS_COST_GAP: f64 = 4.0;
 
-/// Durations between stamps compared with a setting are taken as reached within this,
-/// s: a silence of three 0.1 s scan periods is 0.3 s whether the stamps' rounding makes
-/// it 0.29999999999999993 s or 0.30000000000000004 s.
-const STAMP_TOLERANCE_S: f64 = 1e-6;
-
 impl Tracker {
     /// Processes the observations of one sensor message taken at `stamp`.
     pub fn process(&mut self, stamp: Stamp, observations: &[Observation]) -> BatchResult {
@@ -81,7 +76,7 @@ impl Tracker {
             && ((o.source == Source::Laser && !o.leg_pair && !o.weak)
                 || (o.source == Source::Vision && t.last_laser.is_some()))
             && t.confirmed
-            && stamp.secs_since(t.last_update) >= c.coast_lone_leg_after_s - STAMP_TOLERANCE_S
+            && crate::reached_s(stamp.secs_since(t.last_update), c.coast_lone_leg_after_s)
             && !(o.from_shadow && t.hidden_since_update())
             && t.position().mean.distance_m(o.estimate.mean) > c.coast_lone_leg_offset_m
     }
