@@ -274,6 +274,15 @@ pub struct TrackerConfig {
     pub coast_lone_leg_after_s: f64,
     /// See `coast_lone_leg_after_s`, m (0: no such rule).
     pub coast_lone_leg_offset_m: f64,
+    /// A track given a lone leg also takes a second lone leg within this distance of
+    /// the first that no track was given and no other track explains better, and is
+    /// updated with their midpoint (design 5.5, "legs paired by the tracks"), m (0: no
+    /// such rule). The detector's own pairing distance (0.6 m): a stride.
+    pub pair_lone_legs_within_m: f64,
+    /// A lone leg that a confirmed track explains with a cost (`d^2 + ln det S`)
+    /// lower by more than this is not given to any other track (design 5.5, "legs
+    /// paired by the tracks"; 0: no such rule).
+    pub leg_owner_cost_gap: f64,
     /// Match in a cascade: confirmed tracks choose their observations first, and
     /// tentative tracks share what is left (`false`: one assignment of all tracks).
     /// Chosen on the measures (design 5.5): fewer scans on somebody else in the
@@ -306,6 +315,8 @@ impl Default for TrackerConfig {
             weak_max_offset_m: 0.5,
             coast_lone_leg_after_s: 0.3,
             coast_lone_leg_offset_m: 0.5,
+            pair_lone_legs_within_m: 0.6,
+            leg_owner_cost_gap: 6.0,
             confirmed_first: true,
         }
     }
@@ -347,6 +358,8 @@ impl TrackerConfig {
             ("weak_max_offset_m", self.weak_max_offset_m),
             ("coast_lone_leg_after_s", self.coast_lone_leg_after_s),
             ("coast_lone_leg_offset_m", self.coast_lone_leg_offset_m),
+            ("pair_lone_legs_within_m", self.pair_lone_legs_within_m),
+            ("leg_owner_cost_gap", self.leg_owner_cost_gap),
         ] {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(TrackerConfigError {
@@ -524,6 +537,9 @@ pub struct TrackerStats {
     pub speed_clamps: u64,
     /// Weak observations that kept a confirmed track alive.
     pub weak_updates: u64,
+    /// Second lone legs a track took with its first (design 5.5, "legs paired by the
+    /// tracks").
+    pub legs_paired_by_tracks: u64,
 }
 
 /// The multi-person tracker.

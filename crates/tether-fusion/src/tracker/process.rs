@@ -1,7 +1,8 @@
 //! [`Tracker::process`] in its named steps (design 5.5): which observations are usable,
 //! the gated costs of each (track, observation) pairing, camera observations that two
-//! tracks explain alike left out, the Hungarian assignment, the updates, and new tracks
-//! from what no track explains.
+//! tracks explain alike left out, lone legs left to the track that explains them far
+//! better, the Hungarian assignment, second legs paired by the tracks, the updates, and
+//! new tracks from what no track explains.
 
 use tether_core::Stamp;
 
@@ -29,12 +30,19 @@ impl Tracker {
         let usable = self.usable(observations);
         let mut cost = self.gated_costs(stamp, observations, &usable);
         self.leave_out_ambiguous_camera(observations, &mut cost);
+        self.leave_legs_to_owners(observations, &mut cost);
         let assignment = self.match_observations(&cost);
+        let second = self.second_legs(observations, &cost, &assignment);
         let mut track_of = vec![None; observations.len()];
         for (ti, oi) in assignment.iter().enumerate() {
             let Some(oi) = *oi else { continue };
-            if self.update(ti, &observations[oi], stamp) {
+            let both = second[ti].and_then(|oj| both_legs(&observations[oi], &observations[oj]));
+            if self.update(ti, both.as_ref().unwrap_or(&observations[oi]), stamp) {
                 track_of[oi] = Some(self.tracks[ti].id);
+                if let Some(oj) = second[ti].filter(|_| both.is_some()) {
+                    track_of[oj] = Some(self.tracks[ti].id);
+                    self.stats.legs_paired_by_tracks += 1;
+                }
             }
         }
         self.start_tracks(stamp, observations, &usable, &mut track_of);
@@ -158,6 +166,36 @@ impl Tracker {
         }
     }
 
+    /// Step 3b: a lone leg that a confirmed track explains far better than another
+    /// track does (a cost lower by more than `leg_owner_cost_gap`, a likelihood ratio
+    /// over e^3 at the default) is not given to that other track. The assignment
+    /// gives as many tracks an observation as it can, so without this a target whose
+    /// legs went unseen for a scan takes the leg of the person beside it, whose own
+    /// track has another leg to take (design 5.5, "legs paired by the tracks").
+    fn leave_legs_to_owners(&self, observations: &[Observation], cost: &mut Costs) {
+        let gap = self.config.leg_owner_cost_gap;
+        if gap <= 0.0 {
+            return;
+        }
+        for (oi, o) in observations.iter().enumerate() {
+            if o.source != Source::Laser || o.leg_pair {
+                continue;
+            }
+            let best = cost
+                .iter()
+                .zip(&self.tracks)
+                .filter(|(_, t)| t.confirmed)
+                .filter_map(|(row, _)| row[oi])
+                .min_by(f64::total_cmp);
+            let Some(best) = best else { continue };
+            for row in cost.iter_mut() {
+                if row[oi].is_some_and(|c| c > best + gap) {
+                    row[oi] = None;
+                }
+            }
+        }
+    }
+
     /// Step 4: the assignment of observations to tracks that minimises the total cost
     /// (the Hungarian method); with `confirmed_first`, in a cascade: the confirmed
     /// tracks first, then the tentative ones among the observations left.
@@ -188,6 +226,57 @@ impl Tracker {
             .zip(second)
             .map(|(a, b)| a.or(b))
             .collect()
+    }
+
+    /// Step 4b (design 5.5, "legs paired by the tracks"): for each track given a lone
+    /// leg, a second lone leg that no track was given, within `pair_lone_legs_within_m`
+    /// of the first, inside this track's gate and explained by no other track better
+    /// than by this one. The detector pairs legs by distance alone and leaves the two
+    /// legs of a striding person apart when they are weak or more than a pair apart;
+    /// the track, which knows where its person is, pairs them.
+    fn second_legs(
+        &self,
+        observations: &[Observation],
+        cost: &Costs,
+        assignment: &[Option<usize>],
+    ) -> Vec<Option<usize>> {
+        let within = self.config.pair_lone_legs_within_m;
+        let lone = |o: &Observation| o.source == Source::Laser && !o.leg_pair;
+        let mut given = vec![false; observations.len()];
+        for oi in assignment.iter().flatten() {
+            given[*oi] = true;
+        }
+        let mut second = vec![None; assignment.len()];
+        if within <= 0.0 {
+            return second;
+        }
+        for (ti, oi) in assignment.iter().enumerate() {
+            let Some(oi) = *oi else { continue };
+            let first = &observations[oi];
+            if !lone(first) {
+                continue;
+            }
+            let best = observations
+                .iter()
+                .enumerate()
+                .filter(|&(oj, o)| {
+                    !given[oj]
+                        && lone(o)
+                        && o.estimate.mean.distance_m(first.estimate.mean) <= within
+                })
+                .filter_map(|(oj, _)| cost[ti][oj].map(|c| (oj, c)))
+                .filter(|&(oj, c)| {
+                    cost.iter()
+                        .enumerate()
+                        .all(|(tj, row)| tj == ti || row[oj].is_none_or(|d| d > c))
+                })
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((oj, _)) = best {
+                given[oj] = true;
+                second[ti] = Some(oj);
+            }
+        }
+        second
     }
 
     /// Whether a camera observation assigned to track `ti` falls among people closer
@@ -373,4 +462,26 @@ impl Tracker {
             merged: None,
         }
     }
+}
+
+/// One observation of a person from two lone legs `a` and `b` (design 5.5, "legs paired
+/// by the tracks"): at their midpoint, with covariance `(P_a + P_b) / 4` (each lone
+/// leg's covariance already holds the body centre's spread about the leg); weak only
+/// when both legs are weak. `None` when that covariance is not usable.
+fn both_legs(a: &Observation, b: &Observation) -> Option<Observation> {
+    let (ca, cb) = (a.estimate.cov, b.estimate.cov);
+    let cov = tether_core::Cov2::new(
+        0.25 * (ca.xx() + cb.xx()),
+        0.25 * (ca.xy() + cb.xy()),
+        0.25 * (ca.yy() + cb.yy()),
+    )
+    .ok()?;
+    let estimate =
+        tether_core::Gaussian2::new(a.estimate.mean.lerp(b.estimate.mean, 0.5), cov).ok()?;
+    Some(Observation {
+        estimate,
+        weak: a.weak && b.weak,
+        from_shadow: a.from_shadow || b.from_shadow,
+        ..*a
+    })
 }

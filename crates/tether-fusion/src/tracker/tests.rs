@@ -306,3 +306,88 @@ fn a_coasting_track_is_taken_far_off_only_by_a_whole_person() {
     let r = cam.process(at(800), &[Observation::vision(g(2.65), true, None)]);
     assert_eq!(r.track_of[0], Some(cam.tracks()[0].id));
 }
+
+/// A lone leg at (`x`, `y`) with the detector's lone-leg spread (0.15 m).
+fn lone_leg(x: f64, y: f64) -> Observation {
+    let estimate = Gaussian2::new(Point2::new(x, y), Cov2::isotropic(0.15).unwrap()).unwrap();
+    Observation::laser(estimate, false, false)
+}
+
+/// A tracker with one confirmed track per point, each seen standing there as a leg
+/// pair for half a second; the tracks' ids in the order of `people`.
+fn standing(config: TrackerConfig, people: &[(f64, f64)]) -> (Tracker, Vec<u64>) {
+    let mut tr = Tracker::new(config).unwrap();
+    let mut ids = Vec::new();
+    for k in 0..5 {
+        let scan: Vec<Observation> = people
+            .iter()
+            .map(|&(x, y)| obs(x, y, Source::Laser))
+            .collect();
+        ids = tr.process(at(100 * k), &scan).track_of;
+    }
+    (tr, ids.into_iter().map(Option::unwrap).collect())
+}
+
+#[test]
+fn a_track_pairs_the_two_lone_legs_of_its_person() {
+    // A person standing at (2, 0); this scan finds their legs 0.4 m apart in a
+    // stride, each alone (weak, or too far apart for the detector to pair).
+    let legs = [lone_leg(1.8, 0.02), lone_leg(2.2, -0.02)];
+    let (mut tr, ids) = standing(TrackerConfig::default(), &[(2.0, 0.0)]);
+    let r = tr.process(at(500), &legs);
+    assert_eq!(r.track_of, vec![Some(ids[0]), Some(ids[0])]);
+    assert_eq!(tr.stats().legs_paired_by_tracks, 1);
+    let p = tr.track(ids[0]).unwrap().position().mean;
+    assert!(p.distance_m(Point2::new(2.0, 0.0)) < 0.005, "{p:?}");
+    // Without the rule the track takes one leg and is pulled towards it.
+    let off = TrackerConfig {
+        pair_lone_legs_within_m: 0.0,
+        ..TrackerConfig::default()
+    };
+    let (mut tr, ids) = standing(off, &[(2.0, 0.0)]);
+    let r = tr.process(at(500), &legs);
+    assert_eq!(r.track_of.iter().flatten().count(), 1);
+    let p = tr.track(ids[0]).unwrap().position().mean;
+    assert!(p.distance_m(Point2::new(2.0, 0.0)) > 0.02, "{p:?}");
+}
+
+#[test]
+fn a_second_leg_another_track_explains_better_is_left_to_it() {
+    // A at (0, 0), B at (0.5, 0): A gets its own leg; the lone leg at 0.3 m, which
+    // no track is given (B takes its leg pair), is nearer B than A.
+    let (mut tr, ids) = standing(TrackerConfig::default(), &[(0.0, 0.0), (0.5, 0.0)]);
+    let scan = [
+        lone_leg(-0.05, 0.0),
+        obs(0.5, 0.0, Source::Laser),
+        lone_leg(0.3, 0.0),
+    ];
+    let r = tr.process(at(500), &scan);
+    assert_eq!(r.track_of[..2], [Some(ids[0]), Some(ids[1])]);
+    assert_ne!(r.track_of[2], Some(ids[0]));
+    assert_eq!(tr.stats().legs_paired_by_tracks, 0);
+}
+
+#[test]
+fn a_lone_leg_a_confirmed_track_explains_far_better_is_not_given_to_another() {
+    // A at (0, 0) is not seen this scan; B at (0.55, 0) shows two lone legs, one
+    // towards A. Giving as many tracks an observation as possible would hand A that
+    // leg; its cost for B is lower by more than the gap, so it stays with B.
+    let config = TrackerConfig {
+        leg_owner_cost_gap: 3.0,
+        ..TrackerConfig::default()
+    };
+    let scan = [lone_leg(0.45, 0.0), lone_leg(0.75, 0.0)];
+    let (mut tr, ids) = standing(config.clone(), &[(0.0, 0.0), (0.55, 0.0)]);
+    let r = tr.process(at(500), &scan);
+    assert_eq!(r.track_of, vec![Some(ids[1]), Some(ids[1])]);
+    let a = tr.track(ids[0]).unwrap();
+    assert!(a.position().mean.distance_m(Point2::new(0.0, 0.0)) < 0.01);
+    // Without the rule A takes the leg and is dragged towards B.
+    let off = TrackerConfig {
+        leg_owner_cost_gap: 0.0,
+        ..config
+    };
+    let (mut tr, ids) = standing(off, &[(0.0, 0.0), (0.55, 0.0)]);
+    let r = tr.process(at(500), &scan);
+    assert_eq!(r.track_of[0], Some(ids[0]));
+}
