@@ -20,6 +20,10 @@
 //!
 //! tether's own final stop comes first on an orderly exit; the guard's is then a
 //! second, harmless stop.
+//!
+//! The watch of the command lines ([`watch_heartbeats`]) and the process's start
+//! ([`Guard::start`]) are shared with `tether ros2`'s `cmd_vel` guard (`ros2::guard`,
+//! design 12), which publishes zero commands where this one writes to a device.
 
 use std::io::{self, BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
@@ -170,6 +174,39 @@ pub fn watch<R: BufRead + Send + 'static>(
     })?;
     writeln!(ready, "ready")?;
     ready.flush()?;
+    watch_heartbeats(heartbeats, spec.silence, &mut |why, stamp_ns, _| {
+        device.write_all(&stop_bytes(spec.base, stamp_ns, why == StopCause::Gone))?;
+        device.flush()?;
+        if why == StopCause::Silence {
+            eprintln!(
+                "base guard: no command from tether for {} ms: stop sent to {}",
+                spec.silence.as_millis(),
+                spec.device.display()
+            );
+        }
+        Ok(())
+    })
+}
+
+/// Why a guard stops the robot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StopCause {
+    /// No command line came for the guard's silence: tether hangs (or is frozen).
+    Silence,
+    /// The pipe closed: tether exited or was killed.
+    Gone,
+}
+
+/// The watch of every guard: reads tether's command lines (the JSON of
+/// [`CommandLine`]) from `heartbeats` on a thread of its own, and calls `stop` once
+/// after each `silence` that follows a line (not again until a line comes), and once
+/// when the pipe closes, which ends the watch. `stop` gets tether's clock now (its last
+/// stamp and the time since) and the report so far.
+pub fn watch_heartbeats<R: BufRead + Send + 'static>(
+    heartbeats: R,
+    silence: Duration,
+    stop: &mut dyn FnMut(StopCause, i64, &GuardReport) -> io::Result<()>,
+) -> io::Result<GuardReport> {
     let (tx, rx) = mpsc::channel::<(Option<i64>, bool)>();
     std::thread::Builder::new()
         .name("guard-reader".into())
@@ -192,7 +229,7 @@ pub fn watch<R: BufRead + Send + 'static>(
     let mut last_stamp = (0_i64, Instant::now());
     let mut stopped = false;
     loop {
-        match rx.recv_timeout(spec.silence) {
+        match rx.recv_timeout(silence) {
             Ok((stamp, last)) => {
                 report.heartbeats += 1;
                 report.orderly = last;
@@ -203,21 +240,13 @@ pub fn watch<R: BufRead + Send + 'static>(
             }
             Err(mpsc::RecvTimeoutError::Timeout) => {
                 if !stopped && report.heartbeats > 0 {
-                    let stamp = stamp_now(last_stamp);
-                    device.write_all(&stop_bytes(spec.base, stamp, false))?;
-                    device.flush()?;
+                    stop(StopCause::Silence, stamp_now(last_stamp), &report)?;
                     report.silences += 1;
                     stopped = true;
-                    eprintln!(
-                        "base guard: no command from tether for {} ms: stop sent to {}",
-                        spec.silence.as_millis(),
-                        spec.device.display()
-                    );
                 }
             }
             Err(mpsc::RecvTimeoutError::Disconnected) => {
-                device.write_all(&stop_bytes(spec.base, stamp_now(last_stamp), true))?;
-                device.flush()?;
+                stop(StopCause::Gone, stamp_now(last_stamp), &report)?;
                 return Ok(report);
             }
         }
@@ -243,19 +272,32 @@ impl Guard {
         spec: &GuardSpec,
         within: Duration,
     ) -> io::Result<(Guard, ChildStdin)> {
+        let what = format!("the base guard on {}", spec.device.display());
+        Self::start(exe, &spec.args(), &what, within)
+    }
+
+    /// Starts `exe ARGS` as a guard (`what` names it in errors) and waits (up to
+    /// `within`) until it says `ready` on its stdout; returns it with the pipe its
+    /// command lines go to.
+    pub fn start(
+        exe: &Path,
+        args: &[String],
+        what: &str,
+        within: Duration,
+    ) -> io::Result<(Guard, ChildStdin)> {
         use std::os::unix::process::CommandExt;
         let mut child = Command::new(exe)
-            .args(spec.args())
+            .args(args)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
-            // A terminal's Ctrl-C goes to tether's process group, not to the guard: it
-            // must outlive tether to send its stop.
+            // A terminal's Ctrl-C (or Ctrl-Z) goes to tether's process group, not to the
+            // guard: it must outlive tether to send its stop.
             .process_group(0)
             .spawn()?;
         let (Some(stdin), Some(stdout)) = (child.stdin.take(), child.stdout.take()) else {
             let _ = child.kill();
-            return Err(io::Error::other("the base guard has no pipes"));
+            return Err(io::Error::other(format!("{what} has no pipes")));
         };
         let (tx, rx) = mpsc::channel();
         std::thread::spawn(move || {
@@ -270,14 +312,9 @@ impl Guard {
                 let _ = guard.child.kill();
                 let status = guard.child.wait().ok();
                 Err(io::Error::other(match outcome {
-                    Err(_) => format!(
-                        "the base guard did not open {} within {:.1} s",
-                        spec.device.display(),
-                        within.as_secs_f64()
-                    ),
+                    Err(_) => format!("{what} was not ready within {:.1} s", within.as_secs_f64()),
                     _ => format!(
-                        "the base guard could not start on {} ({})",
-                        spec.device.display(),
+                        "{what} could not start ({})",
                         status.map_or_else(|| "no status".into(), |s| s.to_string())
                     ),
                 }))

@@ -5,7 +5,8 @@
 //!   ([`ImageMsg`], mono8, rgb8, bgr8, to a [`tether_core::GrayImage`]),
 //!   `sensor_msgs/CompressedImage` ([`CompressedImageMsg`], JPEG or PNG kept as is),
 //!   `geometry_msgs/Twist` ([`TwistMsg`], [`TwistStampedMsg`]), `geometry_msgs/PoseArray`
-//!   ([`PoseArrayMsg`]), `geometry_msgs/PoseWithCovarianceStamped`
+//!   ([`PoseArrayMsg`]), `geometry_msgs/PoseStamped` ([`PoseStampedMsg`]),
+//!   `geometry_msgs/PoseWithCovarianceStamped`
 //!   ([`PoseWithCovarianceStampedMsg`], to a [`tether_core::Gaussian2`]),
 //!   `nav_msgs/Odometry` ([`OdometryMsg`], to a [`tether_core::Pose2`]), `tf2_msgs`,
 //!   markers, detections, `rosgraph_msgs/Clock`, and leg_tracker's `PersonArray`
@@ -31,7 +32,8 @@ pub use msgs::{
     ClockMsg, ColorRgba, CompressedFormat, CompressedImageMsg, Detection2DArrayMsg, Detection2DMsg,
     Header, ImageMsg, ImageMsgError, LaserScanMsg, MarkerArrayMsg, MarkerMsg, MeshFile,
     ObjectHypothesisMsg, OdometryMsg, PersonArrayMsg, PersonMsg, PixelEncoding, Pose3,
-    PoseArrayMsg, PoseWithCovarianceStampedMsg, RawLaserScan, Ros2Message, StringMsg, TfMessage,
-    TransformStampedMsg, TwistMsg, TwistStampedMsg, from_cdr, to_cdr, type_matches,
+    PoseArrayMsg, PoseStampedMsg, PoseWithCovarianceStampedMsg, RawLaserScan, Ros2Message,
+    StringMsg, TfMessage, TransformStampedMsg, TwistMsg, TwistStampedMsg, from_cdr, to_cdr,
+    type_matches,
 };
 pub use ros1::{DefinitionError, RosMessage, RosMessageOut, definition_md5, md5_hex};

@@ -132,8 +132,10 @@ macro_rules! pose_with_covariance_def {
 
 mod detections;
 mod markers;
+mod pose_stamped;
 pub use detections::{Detection2DArrayMsg, Detection2DMsg, ObjectHypothesisMsg};
 pub use markers::{ClockMsg, ColorRgba, MarkerArrayMsg, MarkerMsg, MeshFile};
+pub use pose_stamped::PoseStampedMsg;
 
 /// `std_msgs/Header`: the ROS 1 form has a sequence number, the ROS 2 form
 /// (`std_msgs/msg/Header`) does not; a CDR payload neither writes nor reads it (0).

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """rosbags' CDR (ROS 2 Jazzy types) of the messages cdr_oracle.rs builds, as hex, one
-per line: the independent oracle for tether's codec of `geometry_msgs/msg/TwistStamped`
-`tf2_msgs/msg/TFMessage`, `visualization_msgs/msg/MarkerArray` and
+per line: the independent oracle for tether's codec of `geometry_msgs/msg/TwistStamped`,
+`geometry_msgs/msg/PoseStamped`, `tf2_msgs/msg/TFMessage`, `visualization_msgs/msg/MarkerArray` and
 `rosgraph_msgs/msg/Clock`, and `vision_msgs/msg/Detection2DArray` (vision_msgs 4.x,
 registered here from its .msg files, since rosbags' stores do not carry it)."""
 
@@ -152,6 +152,13 @@ detections = T["vision_msgs/msg/Detection2DArray"](
         detection([], 0.5, ""),
     ],
 )
+target_pose = T["geometry_msgs/msg/PoseStamped"](
+    header=header(1_700_000_001, 250_000_000, "odom"),
+    pose=Pose(
+        position=Point(x=4.5, y=-1.25, z=0.0),
+        orientation=Quaternion(x=0.0, y=0.0, z=-0.25, w=0.9682458365518543),
+    ),
+)
 for msg, name in [
     (twist, "geometry_msgs/msg/TwistStamped"),
     (tf, "tf2_msgs/msg/TFMessage"),
@@ -159,5 +166,6 @@ for msg, name in [
     (markers, "visualization_msgs/msg/MarkerArray"),
     (clock, "rosgraph_msgs/msg/Clock"),
     (detections, "vision_msgs/msg/Detection2DArray"),
+    (target_pose, "geometry_msgs/msg/PoseStamped"),
 ]:
     print(bytes(ts.serialize_cdr(msg, name)).hex())

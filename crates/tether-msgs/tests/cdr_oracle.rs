@@ -1,7 +1,8 @@
 //! tether's CDR of `geometry_msgs/msg/TwistStamped`, `tf2_msgs/msg/TFMessage`,
-//! `visualization_msgs/msg/MarkerArray`, `rosgraph_msgs/msg/Clock` and
-//! `vision_msgs/msg/Detection2DArray` (what `tether ros2` publishes on `cmd_vel` and
-//! `tether/markers`, reads from `/tf_static`, `/clock` and `detections`) against Python
+//! `visualization_msgs/msg/MarkerArray`, `rosgraph_msgs/msg/Clock`,
+//! `vision_msgs/msg/Detection2DArray` and `geometry_msgs/msg/PoseStamped` (what `tether
+//! ros2` publishes on `cmd_vel`, `tether/markers`, `tether/target_pose` and `/tf`, reads
+//! from `/tf_static`, `/clock` and `detections`) against Python
 //! `rosbags`' serializer, byte for byte (`tests/cdr_oracle.py` builds the same
 //! messages). Skips, printing why, without `rosbags`, unless `TETHER_REQUIRE_SHARED=1`.
 
@@ -12,8 +13,8 @@ use std::process::Command;
 use tether_core::Stamp;
 use tether_msgs::{
     ClockMsg, Detection2DArrayMsg, Detection2DMsg, Header, MarkerArrayMsg, MarkerMsg, MeshFile,
-    ObjectHypothesisMsg, Pose3, TfMessage, TransformStampedMsg, TwistMsg, TwistStampedMsg,
-    from_cdr, to_cdr,
+    ObjectHypothesisMsg, Pose3, PoseStampedMsg, TfMessage, TransformStampedMsg, TwistMsg,
+    TwistStampedMsg, from_cdr, to_cdr,
 };
 
 fn rosbags_payloads() -> Option<Vec<Vec<u8>>> {
@@ -164,6 +165,13 @@ fn published_and_subscribed_messages_are_rosbags_cdr_byte_for_byte() {
         header: camera,
         detections: vec![first, second],
     };
+    let target_pose = PoseStampedMsg {
+        header: Header::new(Stamp::from_ns(1_700_000_001_250_000_000), "odom"),
+        pose: Pose3 {
+            position_m: [4.5, -1.25, 0.0],
+            orientation: [0.0, 0.0, -0.25, 0.968_245_836_551_854_3],
+        },
+    };
     let ours = [
         to_cdr(&twist).unwrap(),
         to_cdr(&tf).unwrap(),
@@ -171,6 +179,7 @@ fn published_and_subscribed_messages_are_rosbags_cdr_byte_for_byte() {
         to_cdr(&markers).unwrap(),
         to_cdr(&clock).unwrap(),
         to_cdr(&detections).unwrap(),
+        to_cdr(&target_pose).unwrap(),
     ];
     assert_eq!(expected.len(), ours.len());
     for (i, (theirs, ours)) in expected.iter().zip(&ours).enumerate() {
@@ -184,6 +193,10 @@ fn published_and_subscribed_messages_are_rosbags_cdr_byte_for_byte() {
     assert_eq!(
         from_cdr::<Detection2DArrayMsg>(&expected[5]).unwrap(),
         detections
+    );
+    assert_eq!(
+        from_cdr::<PoseStampedMsg>(&expected[6]).unwrap(),
+        target_pose
     );
     assert!(
         from_cdr::<TfMessage>(&expected[2])

@@ -70,6 +70,10 @@ enum Command {
     /// The process `tether run` starts beside itself to stop the base if tether dies.
     #[command(hide = true)]
     BaseGuard(cmd::base_guard::Args),
+    /// The process `tether ros2` starts beside itself to stop the robot if the node dies.
+    #[cfg(feature = "ros2")]
+    #[command(hide = true)]
+    CmdVelGuard(cmd::cmd_vel_guard::Args),
 }
 
 #[derive(Debug, Subcommand)]
@@ -131,6 +135,8 @@ fn main() -> std::process::ExitCode {
         Command::Run(args) => cmd::run::run(args),
         Command::UrgEmulator(args) => cmd::urg_emulator::run(args),
         Command::BaseGuard(args) => cmd::base_guard::run(args),
+        #[cfg(feature = "ros2")]
+        Command::CmdVelGuard(args) => cmd::cmd_vel_guard::run(args),
         Command::Config(command) => cmd::config::run(command),
         Command::Calibrate(Calibrate::Camera(args)) => cmd::calibrate_camera::run(args),
         Command::Calibrate(Calibrate::Laser(args)) => cmd::calibrate_laser::run(args),

@@ -15,43 +15,9 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use common::dds::{in_private_network, peer_available, runs};
 use common::{scratch, text};
 use tether_testkit::{opencv_cascade, or_skip, python_modules, skip_unless};
-
-fn runs(program: &str, args: &[&str]) -> bool {
-    Command::new(program)
-        .args(args)
-        .output()
-        .is_ok_and(|o| o.status.success())
-}
-
-/// Whether this machine can run the peer: a private network namespace and the Python
-/// packages.
-fn peer_available() -> bool {
-    skip_unless(
-        runs("unshare", &["-n", "true"]),
-        "cannot make a private network namespace (`unshare -n` needs root)",
-    ) && or_skip(python_modules(
-        &["cyclonedds", "rosbags"],
-        "cyclonedds rosbags",
-    ))
-    .is_some()
-}
-
-/// Runs `sh -c SCRIPT` in a fresh network namespace once its loopback is up (with
-/// multicast): the interface must be up before any participant starts, or DDS finds no
-/// address to announce and the participant is invisible for the whole run.
-fn in_private_network(script: &str) -> std::process::Output {
-    Command::new("unshare")
-        .args([
-            "-n",
-            "sh",
-            "-c",
-            &format!("ip link set lo up && ip link set lo multicast on || exit 97\n{script}"),
-        ])
-        .output()
-        .expect("unshare runs")
-}
 
 fn corridor_bag(dir: &Path) -> PathBuf {
     common::corridor_bag(dir, 25)

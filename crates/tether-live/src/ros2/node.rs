@@ -30,14 +30,16 @@ use tether_scanmatch::ScanMatcherConfig;
 use tether_scip::Clock;
 
 use super::camera_mount::{camera_mount_from_tf, camera_pose, is_optical_frame};
+use super::guard::CmdVelGuardSpec;
 use super::inputs::{
     CameraCounters, FrameError, LatestFrame, ScanCounters, start_camera_reader, start_clock_reader,
     start_detections_reader, start_odometry_reader, start_scan_reader, start_tf_reader,
 };
 use super::outputs::{OutputTopics, RosOutputs};
-use crate::base::CommandSink;
+use crate::base::{CommandSink, QueuedLines};
 use crate::clock::{LiveClock, MonotonicClock, SimClock};
 use crate::config::CameraSection;
+use crate::guard::Guard;
 use crate::recorder::Recorder;
 use crate::results::TickMessages;
 use crate::run_loop::{self, LoopConfig, RunSummary};
@@ -84,6 +86,14 @@ pub struct NodeSettings {
     /// Commands as `geometry_msgs/msg/TwistStamped` in `base_frame`, stamped with the
     /// time of the data that made them, rather than `Twist`.
     pub cmd_vel_stamped: bool,
+    /// Publish commands on `cmd_vel`; `false`: no `cmd_vel` publisher at all, the
+    /// target's pose and frame are for Nav2, which drives (design 12).
+    pub publish_cmd_vel: bool,
+    /// Start the `cmd_vel` guard beside the node when it publishes commands
+    /// ([`super::guard`]).
+    pub cmd_vel_guard: bool,
+    /// The target's frame on `/tf`, a child of `fixed_frame`, while it is locked.
+    pub target_frame: String,
     /// Time is the newest `/clock` (`rosgraph_msgs/msg/Clock`), which the node waits for
     /// at the start, rather than the host's.
     pub use_sim_time: bool,
@@ -152,6 +162,12 @@ pub enum NodeError {
         /// How long the node waited, s.
         waited_s: u64,
     },
+    /// The `cmd_vel` guard did not start.
+    #[error(
+        "starting the cmd_vel guard (`-p cmd_vel_guard:=false` runs without it, and without \
+         a stop if tether is killed)"
+    )]
+    Guard(#[source] io::Error),
     /// The laser's mount could not be published on `/tf_static`.
     #[error("publishing the laser mount on {topic}: {message}")]
     PublishMount {
@@ -172,6 +188,9 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         fixed_frame,
         base_frame,
         cmd_vel_stamped,
+        publish_cmd_vel,
+        cmd_vel_guard,
+        target_frame,
         use_sim_time,
         camera,
         mount_given,
@@ -183,9 +202,13 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
     crate::leg_model::pipeline(pipeline.clone())?;
     let topic = |name: &str| ros.topic(name, &identity.name, &identity.namespace);
     let scan_topic = topic("scan");
+    let tf_topic = topic("tf");
     let outputs = OutputTopics {
-        cmd_vel: topic("cmd_vel"),
+        cmd_vel: publish_cmd_vel.then(|| topic("cmd_vel")),
         cmd_vel_stamped: cmd_vel_stamped.then(|| base_frame.clone()),
+        target_pose: topic("tether/target_pose"),
+        tf: tf_topic.clone(),
+        target_frame,
         results: [
             TickMessages::PEOPLE,
             TickMessages::LASER_PEOPLE,
@@ -199,71 +222,428 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
     let intrinsics = pipeline.camera.intrinsics;
 
     let mut node = RosNode::start(identity.clone())?;
-    let mut sinks: Vec<Box<dyn CommandSink>> = vec![Box::new(RosOutputs::new(
+    let guard = match &outputs.cmd_vel {
+        Some(cmd_vel) if cmd_vel_guard => Some(CmdVelGuardSpec::beside(
+            &identity,
+            cmd_vel,
+            outputs.cmd_vel_stamped.clone(),
+        )),
+        _ => None,
+    };
+    let (mut sinks, guard) = open_sinks(&mut node, &outputs, &fixed_frame, guard.as_ref())?;
+    let (tx, rx) = mpsc::sync_channel(CHANNEL_DEPTH);
+    let Inputs {
+        clock,
+        threads,
+        counters,
+        camera_counters,
+        latest,
+        transforms,
+    } = start_inputs(
         &mut node,
+        &topic,
+        tx,
+        use_sim_time,
+        (&fixed_frame, &base_frame),
+        camera.as_ref(),
+        intrinsics,
+    )?;
+    let tf_static_topic = topic("tf_static");
+    let (stop_graph, graph_stops) = mpsc::channel::<()>();
+    let graph_thread = watch_graph(node.graph_watcher(), graph_stops)?;
+    announce(
+        &identity,
+        &scan_topic,
         &outputs,
         &fixed_frame,
-    )?)];
-    let (tx, rx) = mpsc::sync_channel(CHANNEL_DEPTH);
-    let (stop_clock, clock_stops) = mpsc::channel();
-    let (clock, clock_reader) = if use_sim_time {
+        guard.is_some(),
+    );
+
+    let mounts = StartMounts {
+        rx: &rx,
+        transforms: &transforms,
+        camera_counters: &camera_counters,
+        base_frame: &base_frame,
+        scan_topic: &scan_topic,
+        tf_static_topic: &tf_static_topic,
+        mount_given,
+        camera: camera.is_some(),
+    };
+    let mount_publisher = mounts.take(&mut node, &mut pipeline, clock.now_ns())?;
+    let mut pipeline = crate::leg_model::pipeline(pipeline)?;
+    let loop_config = LoopConfig {
+        control_period: Duration::from_millis(50),
+        duration,
+        track_width_m: pipeline.config().limits.track_width_m,
+        scan_odometry,
+        odometry_input,
+    };
+    let scan_period_s = pipeline.config().laser.scan_period_s;
+    let summary = run_loop::run(
+        &mut pipeline,
+        &clock,
+        &rx,
+        &mut sinks,
+        None::<&mut Recorder<io::Cursor<Vec<u8>>>>,
+        stop,
+        &loop_config,
+        scan_period_s,
+    );
+    // A reliable writer resends what its readers have not acknowledged: give the final
+    // stop time to arrive before the participant goes.
+    std::thread::sleep(Duration::from_millis(300));
+    let _ = stop_graph.send(());
+    drop(rx);
+    latest.close();
+    stop_threads(threads);
+    let graph_problems = graph_thread.join().unwrap_or_else(|_| {
+        tracing::error!("the graph thread panicked");
+        0
+    });
+    drop(sinks);
+    // The guard's pipe closed with the sinks: it publishes its (second) stop and exits.
+    if let Some(guard) = guard {
+        end_guard(guard);
+    }
+    drop(mount_publisher);
+    drop(node);
+    Ok(NodeReport {
+        summary,
+        pipeline,
+        scans: counters,
+        camera: camera_counters,
+        graph_problems,
+        clock,
+        tf_topic,
+    })
+}
+
+/// The node's inputs, started: their threads send to the loop's channel.
+struct Inputs {
+    /// The node's clock (with sim time, `/clock`'s, already started).
+    clock: LiveClock,
+    /// The readers' and the camera detector's threads.
+    threads: Vec<(&'static str, StoppableThread)>,
+    /// What the scan, odometry and `/tf` readers count.
+    counters: Arc<ScanCounters>,
+    /// What the camera's readers count.
+    camera_counters: Arc<CameraCounters>,
+    /// The newest camera frame, for the detector (closed at the end).
+    latest: Arc<LatestFrame>,
+    /// The mounts heard on `/tf_static`.
+    transforms: Arc<Mutex<StaticTransforms>>,
+}
+
+/// Starts the inputs: `/clock` with sim time (and waits for it), `odom`, `/tf` (the
+/// base's pose, `frames` = (fixed, base)), the camera, `/tf_static` and the scans,
+/// resolving their names with `topic`.
+fn start_inputs(
+    node: &mut RosNode,
+    topic: &dyn Fn(&str) -> String,
+    tx: mpsc::SyncSender<Input>,
+    use_sim_time: bool,
+    (fixed_frame, base_frame): (&str, &str),
+    camera: Option<&NodeCamera>,
+    intrinsics: tether_core::CameraIntrinsics,
+) -> Result<Inputs, NodeError> {
+    let mut threads: Vec<(&'static str, StoppableThread)> = Vec::new();
+    let clock = if use_sim_time {
         let sim = SimClock::new();
         let clock_topic = topic("clock");
-        let reader = start_clock_reader(
-            &mut node,
-            &clock_topic,
-            sim.clone(),
-            tx.clone(),
-            clock_stops,
-        )?;
+        let (stop_clock, clock_stops) = mpsc::channel();
+        let reader = start_clock_reader(node, &clock_topic, sim.clone(), tx.clone(), clock_stops)?;
+        threads.push(("clock", (stop_clock, reader)));
         wait_for_clock(&sim, &clock_topic)?;
-        (LiveClock::Sim(sim), Some(reader))
+        LiveClock::Sim(sim)
     } else {
-        (LiveClock::Host(MonotonicClock::new()), None)
+        LiveClock::Host(MonotonicClock::new())
     };
-    let (stop_reader, reader_stops) = mpsc::channel();
     let counters = Arc::new(ScanCounters::default());
-    let odom_topic = topic("odom");
     let (stop_odometry, odometry_stops) = mpsc::channel();
     let odometry_reader = start_odometry_reader(
-        &mut node,
-        &odom_topic,
+        node,
+        &topic("odom"),
         clock.clone(),
         tx.clone(),
         odometry_stops,
         Arc::clone(&counters),
     )?;
+    threads.push(("odometry", (stop_odometry, odometry_reader)));
     // The base's pose from /tf while odom is silent (fixed_frame -> base_frame).
-    let tf_topic = topic("tf");
     let (stop_tf_poses, tf_pose_stops) = mpsc::channel();
     let tf_pose_reader = start_tf_reader(
-        &mut node,
-        &tf_topic,
-        &fixed_frame,
-        &base_frame,
+        node,
+        &topic("tf"),
+        fixed_frame,
+        base_frame,
         clock.clone(),
         tx.clone(),
         tf_pose_stops,
         Arc::clone(&counters),
     )?;
+    threads.push(("tf", (stop_tf_poses, tf_pose_reader)));
     let camera_counters = Arc::new(CameraCounters::default());
     let latest = Arc::new(LatestFrame::default());
+    let camera_threads = start_camera(
+        node,
+        camera,
+        topic,
+        intrinsics,
+        &clock,
+        &tx,
+        &latest,
+        &camera_counters,
+    )?;
+    threads.extend(camera_threads.into_iter().map(|t| ("camera", t)));
+    let transforms = Arc::new(Mutex::new(StaticTransforms::default()));
+    threads.push((
+        "tf_static",
+        start_tf_static_reader(node, &topic("tf_static"), &transforms)?,
+    ));
+    let (stop_reader, reader_stops) = mpsc::channel();
+    let reader = start_scan_reader(
+        node,
+        &topic("scan"),
+        clock.clone(),
+        tx,
+        reader_stops,
+        Arc::clone(&counters),
+    )?;
+    threads.push(("scan", (stop_reader, reader)));
+    Ok(Inputs {
+        clock,
+        threads,
+        counters,
+        camera_counters,
+        latest,
+        transforms,
+    })
+}
+
+/// Tells each thread to stop, then waits for it (the loop's channel is gone, so none
+/// is held up sending to it).
+fn stop_threads(threads: Vec<(&'static str, StoppableThread)>) {
+    for (_, (stop, _)) in &threads {
+        let _ = stop.send(());
+    }
+    for (name, (_, thread)) in threads {
+        if thread.join().is_err() {
+            tracing::error!("the {name} thread panicked");
+        }
+    }
+}
+
+/// Waits for the `cmd_vel` guard to end after its pipe closed.
+fn end_guard(guard: Guard) {
+    match guard.wait(GUARD_END_WAIT) {
+        Some(status) if status.success() => {}
+        other => tracing::warn!(
+            "the cmd_vel guard ended badly ({}); tether's own final stop went out",
+            other.map_or_else(|| "no status".into(), |s| s.to_string())
+        ),
+    }
+}
+
+/// Says who the node is and where its inputs and outputs are.
+fn announce(
+    identity: &NodeIdentity,
+    scan_topic: &str,
+    outputs: &OutputTopics,
+    fixed_frame: &str,
+    guarded: bool,
+) {
+    tracing::info!(
+        "node {}{}{} on ROS 2 domain {} ({} graph ids): scans from {scan_topic}, commands to \
+         {}, results in {fixed_frame}{}",
+        identity.namespace,
+        if identity.namespace.ends_with('/') {
+            ""
+        } else {
+            "/"
+        },
+        identity.name,
+        identity.domain_id,
+        tether_ros2::DISTRIBUTION,
+        outputs
+            .cmd_vel
+            .as_deref()
+            .unwrap_or("nothing (publish_cmd_vel is false: Nav2 drives)"),
+        if guarded {
+            ", guarded by a cmd_vel guard"
+        } else {
+            ""
+        }
+    );
+}
+
+/// The `/tf_static` reader: every mount it hears goes into `transforms`.
+fn start_tf_static_reader(
+    node: &mut RosNode,
+    topic: &str,
+    transforms: &Arc<Mutex<StaticTransforms>>,
+) -> Result<StoppableThread, NodeError> {
+    let (stop_tf, tf_stops) = mpsc::channel();
+    let transforms = Arc::clone(transforms);
+    let subscription = node.subscribe::<TfMessage>(topic, qos::latched(100))?;
+    let thread = spawn_reader("ros2-tf-static", subscription, tf_stops, move |received| {
+        if let Received::Message { message, .. } = received {
+            let mut tree = transforms.lock().unwrap_or_else(|e| e.into_inner());
+            let skipped = tree.insert(&message);
+            if skipped > 0 {
+                tracing::warn!("/tf_static: {skipped} transforms skipped (not a rotation)");
+            }
+        }
+        true
+    })
+    .map_err(|source| NodeError::Thread {
+        what: "/tf_static reader",
+        source,
+    })?;
+    Ok((stop_tf, thread))
+}
+
+/// What the start needs to take the sensors' mounts from `/tf_static`.
+struct StartMounts<'a> {
+    rx: &'a mpsc::Receiver<Input>,
+    transforms: &'a Mutex<StaticTransforms>,
+    camera_counters: &'a CameraCounters,
+    base_frame: &'a str,
+    scan_topic: &'a str,
+    tf_static_topic: &'a str,
+    mount_given: bool,
+    camera: bool,
+}
+
+impl StartMounts<'_> {
+    /// Takes the laser's (and the camera's) mount from `/tf_static` into `pipeline`,
+    /// waiting up to [`TF_WAIT`]; publishes the config's mounts of the frames nobody
+    /// described, as the robot's description would give them. The publisher must live
+    /// as long as the node.
+    fn take(
+        &self,
+        node: &mut RosNode,
+        pipeline: &mut PipelineConfig,
+        stamp_ns: i64,
+    ) -> Result<Option<Publisher<Wire<TfMessage>>>, NodeError> {
+        let mounts_by = std::time::Instant::now() + TF_WAIT;
+        let unmounted_frame = mount_from_tf(
+            self.rx,
+            self.transforms,
+            self.base_frame,
+            self.scan_topic,
+            self.mount_given,
+            pipeline,
+        );
+        let unmounted_camera = if self.camera {
+            camera_mount_from_tf(
+                self.rx,
+                self.camera_counters,
+                self.transforms,
+                self.base_frame,
+                mounts_by,
+                pipeline,
+            )
+        } else {
+            None
+        };
+        let mut unmounted = Vec::new();
+        if self.mount_given {
+            if let Some(frame) = unmounted_frame {
+                let m = pipeline.laser.mount;
+                let mut pose = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
+                pose.position_m[2] = m.height_m;
+                unmounted.push(("laser", frame, pose));
+            }
+            if let Some(frame) = unmounted_camera {
+                let pose = camera_pose(&pipeline.camera.mount, is_optical_frame(&frame));
+                unmounted.push(("camera", frame, pose));
+            }
+        }
+        if unmounted.is_empty() {
+            return Ok(None);
+        }
+        publish_mounts(
+            node,
+            self.tf_static_topic,
+            self.base_frame,
+            &unmounted,
+            stamp_ns,
+        )
+        .map(Some)
+    }
+}
+
+/// The loop's outputs.
+type Sinks = Vec<Box<dyn CommandSink>>;
+
+/// A reader's or worker's thread, with the sender that tells it to stop.
+type StoppableThread = (mpsc::Sender<()>, JoinHandle<()>);
+
+/// How long the node waits for the `cmd_vel` guard to join the graph.
+const GUARD_READY_WAIT: Duration = Duration::from_secs(10);
+
+/// How long the node waits for the `cmd_vel` guard to end after its pipe closed (its
+/// stops, its linger, its participant's goodbye).
+const GUARD_END_WAIT: Duration = Duration::from_secs(3);
+
+/// The node's sinks: its topics ([`RosOutputs`]) and, with `guard`, the `cmd_vel`
+/// guard's pipe, after the guard has joined the graph.
+fn open_sinks(
+    node: &mut RosNode,
+    outputs: &OutputTopics,
+    fixed_frame: &str,
+    guard: Option<&CmdVelGuardSpec>,
+) -> Result<(Sinks, Option<Guard>), NodeError> {
+    let mut sinks: Sinks = vec![Box::new(RosOutputs::new(node, outputs, fixed_frame)?)];
+    let Some(spec) = guard else {
+        return Ok((sinks, None));
+    };
+    let exe = std::env::current_exe().map_err(NodeError::Guard)?;
+    let (guard, pipe) = Guard::start(&exe, &spec.args(), "the cmd_vel guard", GUARD_READY_WAIT)
+        .map_err(NodeError::Guard)?;
+    // After the topics: the guard gets each command once it is published.
+    sinks.push(Box::new(
+        QueuedLines::new("cmd_vel guard", pipe).map_err(NodeError::Guard)?,
+    ));
+    tracing::info!(
+        "cmd_vel guard: node {} publishes zero commands on {} if tether ros2 is killed or \
+         silent for {} ms",
+        spec.identity.name,
+        spec.topic,
+        spec.silence.as_millis()
+    );
+    Ok((sinks, Some(guard)))
+}
+
+/// Where the camera's people come from, started: the images' reader and the detector's
+/// thread, or the detections' reader; each thread with the sender that stops it.
+#[allow(clippy::too_many_arguments, reason = "the node's shared pieces, named")]
+fn start_camera(
+    node: &mut RosNode,
+    camera: Option<&NodeCamera>,
+    topic: &dyn Fn(&str) -> String,
+    intrinsics: tether_core::CameraIntrinsics,
+    clock: &LiveClock,
+    tx: &mpsc::SyncSender<Input>,
+    latest: &Arc<LatestFrame>,
+    camera_counters: &Arc<CameraCounters>,
+) -> Result<Vec<StoppableThread>, NodeError> {
     let mut camera_threads = Vec::new();
-    match &camera {
+    match camera {
         Some(NodeCamera::Detections { class }) => {
             let detections_topic = topic("detections");
             let (stop_camera, camera_stops) = mpsc::channel();
             camera_threads.push((
                 stop_camera,
                 start_detections_reader(
-                    &mut node,
+                    node,
                     &detections_topic,
                     class.clone(),
                     (intrinsics.width_px, intrinsics.height_px),
                     clock.clone(),
                     tx.clone(),
                     camera_stops,
-                    Arc::clone(&camera_counters),
+                    Arc::clone(camera_counters),
                 )?,
             ));
             tracing::info!(
@@ -289,18 +669,18 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
             camera_threads.push((
                 stop_camera,
                 start_camera_reader(
-                    &mut node,
+                    node,
                     &image_topic,
                     *compressed,
                     (intrinsics.width_px, intrinsics.height_px),
                     clock.clone(),
-                    Arc::clone(&latest),
+                    Arc::clone(latest),
                     camera_stops,
-                    Arc::clone(&camera_counters),
+                    Arc::clone(camera_counters),
                 )?,
             ));
-            let frames = Arc::clone(&latest);
-            let counters = Arc::clone(&camera_counters);
+            let frames = Arc::clone(latest);
+            let counters = Arc::clone(camera_counters);
             let tx = tx.clone();
             let detector_thread = std::thread::Builder::new()
                 .name("camera-detector".into())
@@ -340,161 +720,7 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         }
         None => {}
     }
-    let transforms = Arc::new(Mutex::new(StaticTransforms::default()));
-    let (stop_tf, tf_stops) = mpsc::channel();
-    let tf_reader = {
-        let transforms = Arc::clone(&transforms);
-        let subscription = node.subscribe::<TfMessage>(&topic("tf_static"), qos::latched(100))?;
-        spawn_reader("ros2-tf-static", subscription, tf_stops, move |received| {
-            if let Received::Message { message, .. } = received {
-                let mut tree = transforms.lock().unwrap_or_else(|e| e.into_inner());
-                let skipped = tree.insert(&message);
-                if skipped > 0 {
-                    tracing::warn!("/tf_static: {skipped} transforms skipped (not a rotation)");
-                }
-            }
-            true
-        })
-        .map_err(|source| NodeError::Thread {
-            what: "/tf_static reader",
-            source,
-        })?
-    };
-    let reader = start_scan_reader(
-        &mut node,
-        &scan_topic,
-        clock.clone(),
-        tx,
-        reader_stops,
-        Arc::clone(&counters),
-    )?;
-    let (stop_graph, graph_stops) = mpsc::channel::<()>();
-    let graph_thread = watch_graph(node.graph_watcher(), graph_stops)?;
-    tracing::info!(
-        "node {}{}{} on ROS 2 domain {} ({} graph ids): scans from {scan_topic}, commands to \
-         {}, results in {fixed_frame}",
-        identity.namespace,
-        if identity.namespace.ends_with('/') {
-            ""
-        } else {
-            "/"
-        },
-        identity.name,
-        identity.domain_id,
-        tether_ros2::DISTRIBUTION,
-        outputs.cmd_vel
-    );
-
-    let mounts_by = std::time::Instant::now() + TF_WAIT;
-    let unmounted_frame = mount_from_tf(
-        &rx,
-        &transforms,
-        &base_frame,
-        &scan_topic,
-        mount_given,
-        &mut pipeline,
-    );
-    let unmounted_camera = if camera.is_some() {
-        camera_mount_from_tf(
-            &rx,
-            &camera_counters,
-            &transforms,
-            &base_frame,
-            mounts_by,
-            &mut pipeline,
-        )
-    } else {
-        None
-    };
-    // The config's mounts for the frames nobody described, as the robot's description
-    // would give them.
-    let mut unmounted = Vec::new();
-    if mount_given {
-        if let Some(frame) = unmounted_frame {
-            let m = pipeline.laser.mount;
-            let mut pose = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
-            pose.position_m[2] = m.height_m;
-            unmounted.push(("laser", frame, pose));
-        }
-        if let Some(frame) = unmounted_camera {
-            let pose = camera_pose(&pipeline.camera.mount, is_optical_frame(&frame));
-            unmounted.push(("camera", frame, pose));
-        }
-    }
-    let mount_publisher = if unmounted.is_empty() {
-        None
-    } else {
-        Some(publish_mounts(
-            &mut node,
-            &topic("tf_static"),
-            &base_frame,
-            &unmounted,
-            clock.now_ns(),
-        )?)
-    };
-    let mut pipeline = crate::leg_model::pipeline(pipeline)?;
-    let loop_config = LoopConfig {
-        control_period: Duration::from_millis(50),
-        duration,
-        track_width_m: pipeline.config().limits.track_width_m,
-        scan_odometry,
-        odometry_input,
-    };
-    let scan_period_s = pipeline.config().laser.scan_period_s;
-    let summary = run_loop::run(
-        &mut pipeline,
-        &clock,
-        &rx,
-        &mut sinks,
-        None::<&mut Recorder<io::Cursor<Vec<u8>>>>,
-        stop,
-        &loop_config,
-        scan_period_s,
-    );
-    // A reliable writer resends what its readers have not acknowledged: give the final
-    // stop time to arrive before the participant goes.
-    std::thread::sleep(Duration::from_millis(300));
-    let _ = stop_reader.send(());
-    let _ = stop_odometry.send(());
-    let _ = stop_tf_poses.send(());
-    let _ = stop_tf.send(());
-    let _ = stop_clock.send(());
-    let _ = stop_graph.send(());
-    drop(rx);
-    latest.close();
-    for (stop, _) in &camera_threads {
-        let _ = stop.send(());
-    }
-    let threads = [
-        ("scan", reader),
-        ("odometry", odometry_reader),
-        ("tf", tf_pose_reader),
-        ("tf_static", tf_reader),
-    ]
-    .into_iter()
-    .chain(clock_reader.map(|t| ("clock", t)))
-    .chain(camera_threads.into_iter().map(|(_, t)| ("camera", t)));
-    for (name, thread) in threads {
-        if thread.join().is_err() {
-            tracing::error!("the {name} thread panicked");
-        }
-    }
-    let graph_problems = graph_thread.join().unwrap_or_else(|_| {
-        tracing::error!("the graph thread panicked");
-        0
-    });
-    drop(sinks);
-    drop(mount_publisher);
-    drop(node);
-    Ok(NodeReport {
-        summary,
-        pipeline,
-        scans: counters,
-        camera: camera_counters,
-        graph_problems,
-        clock,
-        tf_topic,
-    })
+    Ok(camera_threads)
 }
 
 /// How long the node waits at the start for a scan and its mount on `/tf_static` (and,

@@ -4,6 +4,8 @@ pub mod adapt_legs;
 pub mod base_guard;
 pub mod calibrate_camera;
 pub mod calibrate_laser;
+#[cfg(feature = "ros2")]
+pub mod cmd_vel_guard;
 pub mod config;
 pub mod demo;
 pub mod detect;

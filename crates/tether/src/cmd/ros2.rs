@@ -23,7 +23,12 @@
 //! through the cascade; `detections`: boxes from a detector node, whose boxes must be
 //! upper-body boxes like the cascade's, since the monocular model reads the range from
 //! their top and size), `detection_class` (default `person`: the class of the boxes
-//! taken; a box with no hypothesis is taken too; empty: every box).
+//! taken; a box with no hypothesis is taken too; empty: every box), `target_frame`
+//! (default `target`: the target's frame on `/tf`, a child of `fixed_frame`, while it is
+//! locked), `publish_cmd_vel` (default `true`; `false`: no `cmd_vel` publisher at all,
+//! for Nav2's Following Server to drive from `tether/target_pose` or the target's frame),
+//! `cmd_vel_guard` (default `true`: a guard process publishes zero commands when the
+//! node is killed or frozen; design 12, 13). A `--params-file` sets them as well.
 //!
 //! With `--scenario NAME` the node is the robot of `tether sim --scenario NAME --ros2`:
 //! its laser mount, follow distance and base limits, and its camera's boxes on
@@ -81,10 +86,13 @@ pub struct Args {
 }
 
 /// The parameters `tether ros2` reads.
-const PARAMETERS: [&str; 11] = [
+const PARAMETERS: [&str; 14] = [
     "fixed_frame",
     "base_frame",
     "cmd_vel_stamped",
+    "publish_cmd_vel",
+    "cmd_vel_guard",
+    "target_frame",
     "image_transport",
     "camera_input",
     "detection_class",
@@ -135,6 +143,12 @@ struct NodeParameters {
     base_frame: String,
     /// The commands go out as `TwistStamped` in `base_frame`.
     cmd_vel_stamped: bool,
+    /// `publish_cmd_vel`: commands on `cmd_vel` (false: none, Nav2 drives).
+    publish_cmd_vel: bool,
+    /// `cmd_vel_guard`: the guard process beside the node.
+    cmd_vel_guard: bool,
+    /// `target_frame`: the target's frame on `/tf`.
+    target_frame: String,
     /// `image_transport:=compressed`: the camera as `image_raw/compressed`.
     compressed_images: bool,
     /// `use_sim_time:=true`: time from `/clock`.
@@ -170,6 +184,15 @@ fn frame_parameter(ros: &RosArgs, name: &str, default: &str) -> anyhow::Result<S
     }
 }
 
+fn bool_parameter(ros: &RosArgs, name: &str, default: bool) -> anyhow::Result<bool> {
+    match ros.params.get(name) {
+        None => Ok(default),
+        Some(v) => v
+            .as_bool()
+            .ok_or_else(|| anyhow::anyhow!("parameter {name} must be true or false, got {v:?}")),
+    }
+}
+
 fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<NodeParameters> {
     for name in ros.params.keys() {
         if !PARAMETERS.contains(&name.as_str()) {
@@ -181,12 +204,16 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
     }
     let fixed_frame = frame_parameter(ros, "fixed_frame", "odom")?;
     let base_frame = frame_parameter(ros, "base_frame", "base_link")?;
-    let stamped = match ros.params.get("cmd_vel_stamped") {
-        None => false,
-        Some(v) => v.as_bool().ok_or_else(|| {
-            anyhow::anyhow!("parameter cmd_vel_stamped must be true or false, got {v:?}")
-        })?,
-    };
+    let stamped = bool_parameter(ros, "cmd_vel_stamped", false)?;
+    let publish_cmd_vel = bool_parameter(ros, "publish_cmd_vel", true)?;
+    let cmd_vel_guard = bool_parameter(ros, "cmd_vel_guard", true)?;
+    let target_frame = frame_parameter(ros, "target_frame", "target")?;
+    // A frame that is already in the tree would give it a second parent, or a loop.
+    anyhow::ensure!(
+        target_frame != fixed_frame && target_frame != base_frame,
+        "parameter target_frame ({target_frame}) must be a frame of its own, not the fixed \
+         frame ({fixed_frame}) or the base's ({base_frame})"
+    );
     // The spring: its free length, where it is attached, and its gains as the natural
     // frequencies of the distance and bearing loops (design 6).
     for (name, field, unit) in FOLLOWER_PARAMETERS {
@@ -233,6 +260,9 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
         fixed_frame,
         base_frame,
         cmd_vel_stamped: stamped,
+        publish_cmd_vel,
+        cmd_vel_guard,
+        target_frame,
         compressed_images,
         use_sim_time,
         camera_input,
@@ -280,6 +310,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         fixed_frame,
         base_frame,
         cmd_vel_stamped,
+        publish_cmd_vel,
+        cmd_vel_guard,
+        target_frame,
         compressed_images,
         use_sim_time,
         camera_input,
@@ -340,6 +373,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         fixed_frame,
         base_frame,
         cmd_vel_stamped,
+        publish_cmd_vel,
+        cmd_vel_guard,
+        target_frame,
         use_sim_time,
         camera: node_camera,
         mount_given,
@@ -348,6 +384,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         odometry_input,
     };
     let report = run_node(settings, &stop)?;
+    summarize(&report, camera)
+}
+
+/// Says how the node's run went; an error when it did not end in order (an output or a
+/// final stop failed).
+fn summarize(
+    report: &tether_live::ros2::NodeReport,
+    camera: Option<CameraInput>,
+) -> anyhow::Result<()> {
     let (summary, counters, camera_counters) = (&report.summary, &report.scans, &report.camera);
     let tf_topic = &report.tf_topic;
     let load = |c: &std::sync::atomic::AtomicU64| c.load(Ordering::Relaxed);
