@@ -4,7 +4,7 @@
 //! better, the Hungarian assignment, second legs paired by the tracks, the updates, and
 //! new tracks from what no track explains.
 
-use tether_core::Stamp;
+use tether_core::{Cov2, Gaussian2, Stamp};
 
 use super::{Anchor, BatchResult, LN_DET_FLOOR, Observation, Source, Track, Tracker, UpdateRule};
 use crate::assign::assign;
@@ -470,14 +470,13 @@ impl Tracker {
 /// when both legs are weak. `None` when that covariance is not usable.
 fn both_legs(a: &Observation, b: &Observation) -> Option<Observation> {
     let (ca, cb) = (a.estimate.cov, b.estimate.cov);
-    let cov = tether_core::Cov2::new(
+    let cov = Cov2::new(
         0.25 * (ca.xx() + cb.xx()),
         0.25 * (ca.xy() + cb.xy()),
         0.25 * (ca.yy() + cb.yy()),
     )
     .ok()?;
-    let estimate =
-        tether_core::Gaussian2::new(a.estimate.mean.lerp(b.estimate.mean, 0.5), cov).ok()?;
+    let estimate = Gaussian2::new(a.estimate.mean.lerp(b.estimate.mean, 0.5), cov).ok()?;
     Some(Observation {
         estimate,
         weak: a.weak && b.weak,

@@ -45,8 +45,9 @@ from peer import (
     Twist,
     TwistStamped,
     bag_messages,
-    odometry,
     qos,
+    recorded_odometry,
+    recorded_scan,
     stamp_now,
     transform,
     valid,
@@ -197,31 +198,9 @@ def main():
             break
         _, stamp = stamp_now()
         if topic == "/odom":
-            p, q = m.pose.pose.position, m.pose.pose.orientation
-            odom_writer.write(
-                odometry(
-                    stamp,
-                    (p.x, p.y, p.z),
-                    (q.x, q.y, q.z, q.w),
-                    m.twist.twist.linear.x,
-                    m.twist.twist.angular.z,
-                )
-            )
+            odom_writer.write(recorded_odometry(m, stamp))
             continue
-        scan_writer.write(
-            LaserScan(
-                header=Header(stamp=stamp, frame_id=m.header.frame_id),
-                angle_min=m.angle_min,
-                angle_max=m.angle_max,
-                angle_increment=m.angle_increment,
-                time_increment=m.time_increment,
-                scan_time=m.scan_time,
-                range_min=m.range_min,
-                range_max=m.range_max,
-                ranges=[float(r) for r in m.ranges],
-                intensities=[],
-            )
-        )
+        scan_writer.write(recorded_scan(m, stamp))
         scans_sent += 1
         drain()
 

@@ -361,6 +361,34 @@ def stamp_now():
     return now, Time(sec=now // 1_000_000_000, nanosec=now % 1_000_000_000)
 
 
+def recorded_odometry(m, stamp):
+    """A recorded nav_msgs/Odometry `m` (rosbags) as published now, stamped `stamp`."""
+    p, q = m.pose.pose.position, m.pose.pose.orientation
+    return odometry(
+        stamp,
+        (p.x, p.y, p.z),
+        (q.x, q.y, q.z, q.w),
+        m.twist.twist.linear.x,
+        m.twist.twist.angular.z,
+    )
+
+
+def recorded_scan(m, stamp):
+    """A recorded sensor_msgs/LaserScan `m` (rosbags) as published now, stamped `stamp`."""
+    return LaserScan(
+        header=Header(stamp=stamp, frame_id=m.header.frame_id),
+        angle_min=m.angle_min,
+        angle_max=m.angle_max,
+        angle_increment=m.angle_increment,
+        time_increment=m.time_increment,
+        scan_time=m.scan_time,
+        range_min=m.range_min,
+        range_max=m.range_max,
+        ranges=[float(r) for r in m.ranges],
+        intensities=[],
+    )
+
+
 def odometry(stamp, position, orientation, v_x, w_z):
     """nav_msgs/Odometry of base_link in odom: the pose at `position` (x, y, z) turned by
     `orientation` (x, y, z, w), moving at `v_x` along x and turning at `w_z` about z,
@@ -691,32 +719,11 @@ def main():
                 )
                 odom_sent += 1
                 continue
-            odom_writer.write(
-                odometry(
-                    stamp,
-                    (p.x, p.y, p.z),
-                    (q.x, q.y, q.z, q.w),
-                    m.twist.twist.linear.x,
-                    m.twist.twist.angular.z,
-                )
-            )
+            odom_writer.write(recorded_odometry(m, stamp))
             odom_sent += 1
             continue
         written[now] = time.monotonic()
-        scan_writer.write(
-            LaserScan(
-                header=Header(stamp=stamp, frame_id=m.header.frame_id),
-                angle_min=m.angle_min,
-                angle_max=m.angle_max,
-                angle_increment=m.angle_increment,
-                time_increment=m.time_increment,
-                scan_time=m.scan_time,
-                range_min=m.range_min,
-                range_max=m.range_max,
-                ranges=[float(r) for r in m.ranges],
-                intensities=[],
-            )
-        )
+        scan_writer.write(recorded_scan(m, stamp))
         scans_sent += 1
         drain()
 
