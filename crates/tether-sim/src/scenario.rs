@@ -300,7 +300,7 @@ impl Default for RobotSpec {
 /// Laser behaviour the model does not cover: lost returns, and (with `realistic`) the
 /// ways a real URG-04LX makes a leg detector fail (issue 14), tuned so that tether's
 /// detector on simulated scans shows the statistics it shows on the real training
-/// recordings (`tests/realism_vs_real.rs`, README):
+/// recordings (`tests/realism_vs_real.rs`, docs/measured.md):
 ///
 /// - a leg's returns are *weak* (dark or loose clothing, a grazing angle) with
 ///   probability `weak_leg_prob_near` at `weak_range_near_m` growing linearly to

@@ -3,7 +3,7 @@
 //! misses of the person, merged legs, false positives and how long they stay in place;
 //! `tether_laser::statistics`) computed on simulated runs of the built-in scenarios and
 //! on the real training split, each within a stated tolerance, with a side-by-side table
-//! (real training / simulated / real test) for the README.
+//! (real training / simulated / real test) for docs/measured.md.
 //!
 //! The simulated labels are made as leg_tracker's labeller made the real ones: every
 //! cluster of the default clustering whose centroid lies near a true leg of the person

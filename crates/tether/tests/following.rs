@@ -11,7 +11,7 @@ use tether_sim::Scenario;
 /// The controller's bars (issue 6) are set for the ideal laser: the realistic one's
 /// phantoms, weak legs and dark spells (issue 14) are judged by the target-lock
 /// measures in `target_lock_realistic.rs`, where today's following error does not yet
-/// hold (see the README).
+/// hold (see docs/measured.md).
 fn closed_loop(name: &str, seed: u64) -> (RunLog, RunMetrics) {
     let mut scenario = Scenario::builtin(name).unwrap();
     scenario.laser_sim.realistic = false;

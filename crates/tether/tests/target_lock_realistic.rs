@@ -3,8 +3,8 @@
 //! mode, over seeds 0-2: the share of the time the target is visible to the laser that
 //! the locked track is on them, and the scans locked on somebody else. The bars are
 //! what holds today (`tether eval-target --seeds 20` gives the full figures); the
-//! issue's own bar (99 %, never a wrong person) is not met everywhere yet, see the
-//! README.
+//! issue's own bar (99 %, never a wrong person) is not met everywhere yet, see
+//! docs/measured.md.
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
 

@@ -95,7 +95,7 @@ pub enum LabelKind {
 /// Default match radius for people, m: a person's position is the midpoint of their
 /// legs (or one leg's centre when the other is hidden), up to about half a stride,
 /// 0.3-0.4 m, from where a labeller puts them; 0.5 m is also the distance beyond which
-/// the simulator's detector statistics call a detection false (README, *Measured*).
+/// the simulator's detector statistics call a detection false (docs/measured.md).
 pub const PEOPLE_MATCH_M: f64 = 0.5;
 
 fn parse_region(text: &str) -> Result<LabelledRegion, String> {
