@@ -774,7 +774,7 @@ fn a_run_killed_while_driving_leaves_the_base_stopped_by_its_guard() {
 
 #[test]
 fn the_readme_walk_through_follows_through_a_fifo_and_stops_when_its_terminal_dies() {
-    // The README's walk-through: configs/emulator.toml with the emulator's pty, the
+    // The walk-through of docs/live-robot.md: configs/emulator.toml with the emulator's pty, the
     // commands through a FIFO the emulator reads, stdout through a `tee` that dies
     // (Ctrl-C in the terminal kills the pipe's reader and interrupts tether).
     let dir = scratch("live-readme");
@@ -985,7 +985,7 @@ fn rss_kb(pid: u32) -> Option<u64> {
 
 /// The soak: `tether run` against the emulator with its commands driving the
 /// emulator's robot and its recording on, for `TETHER_SOAK_S` seconds (120 in CI; the
-/// one-hour soak of the README is `TETHER_SOAK_S=3600 TETHER_SOAK_SAMPLE_S=30 cargo
+/// one-hour soak of docs/measured.md is `TETHER_SOAK_S=3600 TETHER_SOAK_SAMPLE_S=30 cargo
 /// nextest run --release -p tether --test live_run soak --no-capture`), its RSS
 /// sampled every `TETHER_SOAK_SAMPLE_S` (default 10): after the first minute it grows
 /// by under 5 %.
