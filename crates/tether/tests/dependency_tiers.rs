@@ -1,9 +1,9 @@
-//! The dependency rule per tier (issue 18; the README's *Layout*): every workspace crate
-//! has a tier, and a crate's dependencies on other workspace crates point down, to a
-//! lower tier, never sideways or up. Tests and benchmarks may reach sideways or up
-//! (dev-dependencies: a simulated world or a recording as input) but never onto a crate
-//! that depends on the crate itself. A test-support crate ([`TEST_SUPPORT`]) sits in the
-//! bottom tier, so that every crate's tests may use it, and is a dev-dependency only.
+//! The dependency rule per tier (issue 18; docs/design.md, *Crates and tiers*): every
+//! workspace crate has a tier, and a crate's dependencies on other workspace crates point
+//! down, to a lower tier, never sideways or up. Tests and benchmarks may reach sideways
+//! or up (dev-dependencies: a simulated world or a recording as input) but never onto a
+//! crate that depends on the crate itself. A test-support crate ([`TEST_SUPPORT`]) sits in
+//! the bottom tier, so that every crate's tests may use it, and is a dev-dependency only.
 //!
 //! The arrows are read from `cargo metadata --no-deps` (the `Cargo.toml` files), so a
 //! new arrow that points up fails here, in CI, before it takes root. A crate that is not
@@ -112,7 +112,7 @@ fn violations(members: &BTreeSet<String>, arrows: &[Arrow]) -> Vec<String> {
         if !tiers.contains_key(name.as_str()) {
             out.push(format!(
                 "{name} is in no tier: add it to TIERS (crates/tether/tests/dependency_tiers.rs) \
-                 and to the README's layout"
+                 and to the table of docs/design.md (*Crates and tiers*)"
             ));
         }
     }
@@ -212,7 +212,7 @@ fn every_dependency_points_down_a_tier() {
     let problems = violations(&members, &arrows);
     assert!(
         problems.is_empty(),
-        "dependencies against the tiers (the README's layout):\n{}",
+        "dependencies against the tiers (docs/design.md, *Crates and tiers*):\n{}",
         problems.join("\n")
     );
 }
