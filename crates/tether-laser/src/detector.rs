@@ -105,9 +105,9 @@ pub struct DetectionStats {
     pub segments: usize,
     /// Segments that were tested as legs.
     pub candidates: usize,
-    /// Candidates not judged because they reach within [`FIELD_OF_VIEW_EDGE_BEAMS`]
-    /// of the first or last beam of a scan that does not close the circle (cut by the
-    /// field of view).
+    /// Leg-sized segments that are no candidates because they reach within
+    /// [`FIELD_OF_VIEW_EDGE_BEAMS`] of the first or last beam of a scan that does not
+    /// close the circle (cut by the field of view).
     pub cut_by_field_of_view: usize,
 }
 
@@ -255,22 +255,8 @@ impl LegDetector {
         let weak_floor = compiled.decision_margin() - self.config.weak_margin;
         let (seam, n) = (out.stats.preprocess.seam_beam, scan.len());
         let scan_beam = |beam: usize| (beam + seam) % n;
-        // On a scan that does not close the circle, a cluster reaching within
-        // [`FIELD_OF_VIEW_EDGE_BEAMS`] of its first or last beam may run on past the
-        // field of view: how wide it is and what lies beyond are unknown, so it is not
-        // judged (a robot's own body at the edge of a scanner's view is the common
-        // case). It stays a candidate for the others' context features.
-        let inside = if closes_the_circle(scan) {
-            0..=usize::MAX
-        } else {
-            FIELD_OF_VIEW_EDGE_BEAMS + 1..=n.saturating_sub(2 + FIELD_OF_VIEW_EDGE_BEAMS)
-        };
         for c in &self.candidates {
             let pts = &self.clustered[c.segment.start..c.segment.end];
-            if !(inside.contains(&pts[0].beam) && inside.contains(&pts[pts.len() - 1].beam)) {
-                out.stats.cut_by_field_of_view += 1;
-                continue;
-            }
             let leg = |centre_in_laser, radius_m, score| Leg {
                 centre_in_laser,
                 radius_m,
@@ -344,9 +330,23 @@ impl LegDetector {
             cluster_of: self.cluster_scratch.cluster_of(),
             angle_increment_rad: scan.angle_increment_rad,
         };
+        // On a scan that does not close the circle, a cluster reaching within
+        // [`FIELD_OF_VIEW_EDGE_BEAMS`] of its first or last beam may run on past the
+        // field of view: how wide it is and what lies beyond are unknown, so it is no
+        // candidate: neither judged nor trained on, nor context for the others (a
+        // robot's own body at the edge of a scanner's view is the common case).
+        let inside = if closes_the_circle(scan) {
+            0..=usize::MAX
+        } else {
+            FIELD_OF_VIEW_EDGE_BEAMS + 1..=scan.len().saturating_sub(2 + FIELD_OF_VIEW_EDGE_BEAMS)
+        };
         for (k, &seg) in self.segments.iter().enumerate() {
             let pts = &self.clustered[seg.start..seg.end];
             if !is_candidate(pts, &self.config) {
+                continue;
+            }
+            if !(inside.contains(&pts[0].beam) && inside.contains(&pts[pts.len() - 1].beam)) {
+                stats.cut_by_field_of_view += 1;
                 continue;
             }
             let features = if with_features {

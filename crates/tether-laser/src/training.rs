@@ -148,6 +148,12 @@ pub struct ScanSample {
     pub region: Option<LabelledRegion>,
     /// Labelled legs that no candidate matched.
     pub unmatched_labels: usize,
+    /// A view from nearer ([`nearer_view`]), or a view of one: trained on, but never
+    /// judged in cross-validation. Only its moved legs are labelled and no window says
+    /// where its other clusters are known not to be legs, so it could add found legs
+    /// and missed ones but never a false detection, and would pull the decision margin
+    /// toward accepting more than the recordings bear.
+    pub view_from_nearer: bool,
 }
 
 impl ScanSample {
@@ -225,6 +231,9 @@ impl ScanSample {
     /// Counts the candidates whose `margins` reach `decision_margin` as detections,
     /// against the labels, as [`evaluate`] counts a detector's legs.
     pub fn count(&self, margins: &[f64], decision_margin: f64) -> MatchCounts {
+        if self.view_from_nearer {
+            return MatchCounts::default();
+        }
         let mut centres = Vec::new();
         let mut centroids = Vec::new();
         for (k, &m) in margins.iter().enumerate() {
@@ -277,7 +286,10 @@ impl TrainingSet {
 
 /// The training parameters of the default model.
 pub fn default_adaboost_config() -> AdaBoostConfig {
-    AdaBoostConfig::default()
+    AdaBoostConfig {
+        views: TrainingViews::FINE,
+        ..AdaBoostConfig::default()
+    }
 }
 
 /// The decision margins [`cross_validate`] tries: -0.300 to 0.300 in steps of 0.0025
@@ -362,6 +374,7 @@ pub fn folds_from_scans(
                             let mut sample =
                                 ScanSample::labelled(detector, &view, &moved, LabelledRegion::NONE);
                             sample.drop_unmatched_labels();
+                            sample.view_from_nearer = true;
                             samples.push(sample);
                         }
                         bases.push((view, moved, LabelledRegion::NONE));
@@ -372,6 +385,7 @@ pub fn folds_from_scans(
                 for view in coarser(scan) {
                     let mut sample = ScanSample::labelled(detector, &view, legs, *region);
                     sample.drop_unmatched_labels();
+                    sample.view_from_nearer = *region == LabelledRegion::NONE;
                     samples.push(sample);
                 }
             }
@@ -446,7 +460,8 @@ pub fn folds_from_scans(
 }
 
 /// How many extra views of each training scan [`folds_from_scans`] makes (design 4.6).
-/// The default is the built-in model's: none.
+/// The default is none; the built-in models are trained with [`TrainingViews::FINE`]
+/// and [`TrainingViews::COARSE`].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct TrainingViews {
     /// Views from nearer ([`crate::augment::nearer_view`]).
@@ -460,6 +475,14 @@ pub struct TrainingViews {
 }
 
 impl TrainingViews {
+    /// The built-in model for fine scans ([`crate::classifier::DEFAULT_MODEL_JSON`]): the
+    /// recorded scans and one view from nearer of each.
+    pub const FINE: TrainingViews = TrainingViews {
+        nearer: 1,
+        coarser: 0,
+        coarse_only: false,
+    };
+
     /// The built-in model for coarse scans ([`crate::classifier::DEFAULT_COARSE_MODEL_JSON`]): two
     /// views from nearer, one coarser view of the scan and of each of those, trained
     /// on the coarser views only.

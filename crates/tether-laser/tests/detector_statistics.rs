@@ -32,9 +32,11 @@ fn real_detector_statistics_by_split() {
             ("real training, model trained on it", &seen),
         ])
     );
-    // The built-in model has learned its training legs: it finds them all, which is
-    // why the training split is measured on held-out folds.
-    assert!(seen.leg_detection_prob > 0.99, "{seen:?}");
+    // The built-in model has learned its training legs: it finds nearly all of them
+    // (0.982 since it is also trained on views from nearer, which it finds less
+    // perfectly; 1.000 before), which is why the training split is measured on
+    // held-out folds.
+    assert!(seen.leg_detection_prob > 0.97, "{seen:?}");
     assert!(train.leg_detection_prob < 0.95, "{train:?}");
     // Every positive bag but 6 and 7 labels 750 scans; the test split 1,102 legs less
     // than the total of 1,852 labels (issue 3's counts).

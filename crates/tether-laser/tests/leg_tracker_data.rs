@@ -152,9 +152,11 @@ fn training_reproduces_the_committed_model() {
     let (model, set, cv) = train_on_the_split(&dir, default_adaboost_config().views);
     let c = cv.best_counts();
     assert_eq!(set.unmatched_labels, 0);
-    assert_eq!(set.positives(), 1164);
-    // Measured: precision 0.838, recall 0.807 on the held-out folds.
-    assert!(c.precision() > 0.82 && c.recall() > 0.79, "{c:?}");
+    // The labelled legs of the recorded scans and of one view from nearer of each.
+    assert_eq!(set.positives(), 2107);
+    // Measured on the recorded scans of the held-out folds (views are trained on, not
+    // judged): precision 0.712, recall 0.766.
+    assert!(c.precision() > 0.70 && c.recall() > 0.75, "{c:?}");
     assert!(
         model.to_json() == DEFAULT_MODEL_JSON,
         "the committed model differs from what training gives; rerun `{DEFAULT_TRAIN_COMMAND}`"
@@ -168,10 +170,12 @@ fn training_reproduces_the_committed_coarse_scan_model() {
     let c = cv.best_counts();
     // The legs of the coarser views of the scans and of their views from nearer: a
     // label whose leg no longer makes a cluster of its own is dropped.
-    assert_eq!(set.positives(), 2415);
-    // Measured: precision 0.679, recall 0.684 on the held-out folds: a leg seen by a
-    // 1-degree scanner that lost a quarter of its beams is harder to tell.
-    assert!(c.precision() > 0.66 && c.recall() > 0.66, "{c:?}");
+    assert_eq!(set.positives(), 2414);
+    // Measured on the coarser views of the recorded scans of the held-out folds (the
+    // views from nearer are trained on, not judged): precision 0.268, recall 0.643 at
+    // the highest F1. A leg seen by a 1-degree scanner that lost a quarter of its beams
+    // is much harder to tell from the furniture of negative_2's cluttered room.
+    assert!(c.precision() > 0.25 && c.recall() > 0.62, "{c:?}");
     assert!(
         model.to_json() == DEFAULT_COARSE_MODEL_JSON,
         "the committed coarse-scan model differs from what training gives; rerun \
@@ -220,17 +224,18 @@ fn precision_and_recall_on_the_test_split() {
         // cluster's: none can be false there.
         assert_eq!(e.labelled.false_positives, 0, "{name}");
     }
-    // Measured: arc 0.199 / 0.315, learned 0.725 / 0.769 (issue 3 asks 0.90 / 0.90 of
+    // Measured: arc 0.199 / 0.315, learned 0.726 / 0.874 (0.725 / 0.769 before the
+    // model was trained on views from nearer, design 4.6; issue 3 asks 0.90 / 0.90 of
     // the learned one; see the README for what these recordings allow). Neither judges
     // the clusters at the edges of the field of view (the robot's own body there).
     let (a, l) = (arc.total(), learned.total());
     assert!(
-        l.precision() >= 0.72 && l.recall() >= 0.76,
+        l.precision() >= 0.72 && l.recall() >= 0.86,
         "learned: {l:?}"
     );
     assert!(a.recall() >= 0.30 && a.precision() >= 0.19, "arc: {a:?}");
     // design 4.6: furniture fools the arc test; the classifier is the cure (measured:
-    // 871 false legs against 201 on the rear scanner's 435 scans).
-    assert!(learned.negative_false_positives * 4 < arc.negative_false_positives);
+    // 871 false legs against 227 on the rear scanner's 435 scans; 201 before the views).
+    assert!(learned.negative_false_positives * 3 < arc.negative_false_positives);
     assert!(l.precision() > 3.5 * a.precision());
 }

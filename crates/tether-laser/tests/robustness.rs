@@ -408,15 +408,15 @@ fn an_object_cut_by_the_edge_of_the_field_of_view_is_not_judged() {
     let mut arc = LegDetector::arc(DetectorConfig::default(), RangeNoiseModel::default()).unwrap();
     let first = scan(vec![1.0; 682]).angle_min_rad;
     // Inside the field of view the disc is a leg; with its centre on the first beam,
-    // half of it lies beyond the edge, and it is not judged (and counted).
+    // half of it lies beyond the edge, and it is no candidate (counted).
     let inside = arc.detect(&disc_scan(1.0, first + 0.3));
     assert_eq!(inside.legs.len(), 1, "{inside:?}");
     assert_eq!(inside.stats.cut_by_field_of_view, 0);
     let cut = arc.detect(&disc_scan(1.0, first));
     assert!(cut.legs.is_empty(), "{cut:?}");
     assert_eq!(cut.stats.cut_by_field_of_view, 1);
-    // It stays a candidate (the others' context features see it).
-    assert_eq!(cut.stats.candidates, 1);
+    // It is no candidate: not judged, and not among the others' context features.
+    assert_eq!(cut.stats.candidates, 0);
     // The same at the last beam.
     let last = scan(vec![1.0; 682]).angle_rad(681);
     let cut = arc.detect(&disc_scan(1.0, last));

@@ -136,6 +136,8 @@ pub fn run(path: &Path, args: &Args) -> anyhow::Result<()> {
     let config = AdaBoostConfig {
         rounds: args.rounds,
         max_depth: args.depth,
+        // Labels from motion: the recording as it is, no views.
+        views: tether_laser::training::TrainingViews::default(),
         ..tether_laser::training::default_adaboost_config()
     };
     let mut sources = vec![format!(

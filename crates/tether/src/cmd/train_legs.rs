@@ -31,7 +31,7 @@ pub struct Args {
     #[arg(long, default_value_t = default_adaboost_config().max_depth)]
     pub depth: usize,
     /// Also train on each scan seen that many times from nearer (a leg or an object
-    /// brought to 0.3-1.5 m, where a follower keeps its person: design 4.6). Default 0,
+    /// brought to 0.3-1.5 m, where a follower keeps its person: design 4.6). Default 1,
     /// or 2 with `--coarse`.
     #[arg(long, value_name = "N")]
     pub nearer_views: Option<usize>,
@@ -152,7 +152,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let base = if args.coarse {
                 TrainingViews::COARSE
             } else {
-                TrainingViews::default()
+                TrainingViews::FINE
             };
             TrainingViews {
                 nearer: args.nearer_views.unwrap_or(base.nearer),
