@@ -48,7 +48,7 @@ pub enum Hit {
         /// 0 left, 1 right.
         leg: u8,
     },
-    /// A one-scan phantom return (realistic mode), by index in
+    /// A phantom return (realistic mode), by index in
     /// [`SimLaser::last_ghosts`].
     Ghost(u32),
 }
@@ -63,6 +63,14 @@ pub struct LegCircle {
     /// 0 left, 1 right.
     pub leg: u8,
 }
+
+/// A phantom this near a person's leg (beyond its own radius) goes, m: the clutter it
+/// stands for is not where people walk, and a person's legs are judged with the space
+/// around them (the detector's context features look as far as a stride, 0.6 m).
+const GHOST_CLEARANCE_M: f64 = 0.5;
+
+/// Clutter stands at least this far from the people's paths and the robot's start, m.
+pub const CLUTTER_PATH_CLEARANCE_M: f64 = 1.0;
 
 /// The laser of the simulator.
 #[derive(Debug, Clone)]
@@ -79,8 +87,14 @@ pub struct SimLaser {
     in_spell: Vec<bool>,
     /// Which legs of the last scan were weak, by person id.
     weak: Vec<[bool; 2]>,
-    /// Phantom returns of the last scan.
+    /// Transient phantoms alive at the last scan, world frame.
     ghosts: Vec<Circle>,
+    /// Clutter that stays all run, world frame, and the probability that each piece
+    /// shows in a scan ([`SimLaser::with_clutter`]).
+    clutter: Vec<(Circle, f64)>,
+    /// The phantoms drawn into the last scan (transient ones, then clutter not hidden
+    /// by a person), world frame.
+    shown: Vec<Circle>,
 }
 
 impl SimLaser {
@@ -106,7 +120,16 @@ impl SimLaser {
             in_spell: Vec::new(),
             weak: Vec::new(),
             ghosts: Vec::new(),
+            clutter: Vec::new(),
+            shown: Vec::new(),
         }
+    }
+
+    /// Adds leg-like clutter that stays in place all run (realistic mode; world frame,
+    /// from [`clutter_spots`]), each piece with the probability that it shows in a scan.
+    pub fn with_clutter(mut self, clutter: Vec<(Circle, f64)>) -> Self {
+        self.clutter = clutter;
+        self
     }
 
     /// Draws the realistic failures from `rng` (by default a fixed stream; the
@@ -127,27 +150,26 @@ impl SimLaser {
         &self.in_spell
     }
 
-    /// The phantom returns of the last scan, world frame.
+    /// The phantoms drawn into the last scan (transient ones and clutter), world frame.
     pub fn last_ghosts(&self) -> &[Circle] {
-        &self.ghosts
+        &self.shown
     }
 
-    /// Draws the phantom returns of one scan (realistic mode) and writes them into the
-    /// cast ranges: a Poisson number of leg-sized circles (radius 0.04-0.07 m) on a
-    /// uniformly drawn beam, at a range uniform between 0.5 m and 0.1 m short of that
-    /// beam's true return (at most 4.5 m), so that every phantom is in sight; each beam
-    /// it covers reads the circle's near side where that is nearer than the world.
-    fn add_ghosts(&mut self, world_from_laser: Pose2<World, tether_core::Laser>) {
-        if !self.spec.realistic {
-            return;
-        }
+    /// Draws the phantoms born in this scan (realistic mode): a Poisson number (mean
+    /// `ghosts_per_scan`) of leg-sized circles (radius `ghost_radius_m`) on a uniformly
+    /// drawn beam, at a range uniform between 0.5 m and 0.1 m short of that beam's true
+    /// return (at most 4.5 m), so that every phantom is in sight when it appears; with
+    /// probability `ghost_pair_prob` a second one stands 0.2-0.45 m from the first (real
+    /// clutter comes in groups: a chair's legs, a bag beside a bin). Each is fixed in
+    /// the world until it goes.
+    fn birth_ghosts(&mut self, world_from_laser: Pose2<World, tether_core::Laser>) {
         let n = self.directions.len();
-        let inc = self.model.geometry.angle_increment_rad();
         let count = self.realism_rng.poisson(self.spec.ghosts_per_scan);
+        let [r_lo, r_hi] = self.spec.ghost_radius_m;
         for _ in 0..count {
             let rng = &mut self.realism_rng;
             let beam = ((rng.unit() * n as f64) as usize).min(n.saturating_sub(1));
-            let radius_m = rng.uniform(0.04, 0.07);
+            let radius_m = rng.uniform(r_lo, r_hi);
             let far_m = self
                 .true_ranges_m
                 .get(beam)
@@ -162,31 +184,97 @@ impl SimLaser {
             // Distance to the circle's centre: the near side at `range`.
             let centre_m = 0.5 + u * (far_m - 0.5) + radius_m;
             let (dx, dy) = self.directions[beam];
-            let local = Point2::<World>::new(centre_m * dx, centre_m * dy);
-            let circle = Circle {
-                center: local,
-                radius_m,
+            let centre =
+                world_from_laser * Point2::<tether_core::Laser>::new(centre_m * dx, centre_m * dy);
+            let center = Point2::<World>::new(centre.x, centre.y);
+            self.ghosts.push(Circle { center, radius_m });
+            if rng.chance(self.spec.ghost_pair_prob) {
+                let gap_m = rng.uniform(0.2, 0.45);
+                let (s, c) = rng.uniform(0.0, TAU).sin_cos();
+                self.ghosts.push(Circle {
+                    center: Point2::new(center.x + gap_m * c, center.y + gap_m * s),
+                    radius_m: rng.uniform(r_lo, r_hi),
+                });
+            }
+        }
+    }
+
+    /// Writes the live phantoms into the cast ranges: each beam a phantom covers reads
+    /// the circle's near side where that is nearer than the world and within range. A
+    /// beam on a person's leg keeps it: the phantoms stand for clutter, which people
+    /// walk around, not through.
+    fn add_ghosts(
+        &mut self,
+        world_from_laser: Pose2<World, tether_core::Laser>,
+        legs: &[LegCircle],
+    ) {
+        if !self.spec.realistic {
+            return;
+        }
+        self.birth_ghosts(world_from_laser);
+        // Clutter is not where people walk: a transient phantom a leg comes near goes,
+        // and clutter a leg is near is not drawn while it is.
+        let clear = |g: &Circle| {
+            legs.iter()
+                .all(|l| l.circle.center.distance_m(g.center) > GHOST_CLEARANCE_M + g.radius_m)
+        };
+        self.ghosts.retain(clear);
+        self.shown.clear();
+        self.shown.extend(self.ghosts.iter().copied());
+        for &(spot, shown_prob) in &self.clutter {
+            if clear(&spot) && self.realism_rng.chance(shown_prob) {
+                self.shown.push(spot);
+            }
+        }
+        let n = self.directions.len();
+        let a0 = self.model.geometry.angle_min_rad();
+        let inc = self.model.geometry.angle_increment_rad();
+        let closes_circle = n as f64 * inc >= TAU - 1.5 * inc;
+        let range_max_m = self.model.range_max_m;
+        let laser_from_world = world_from_laser.inverse();
+        for (k, ghost) in self.shown.iter().enumerate() {
+            let p = laser_from_world * Point2::<World>::new(ghost.center.x, ghost.center.y);
+            let local = Circle {
+                center: Point2::<World>::new(p.x, p.y),
+                radius_m: ghost.radius_m,
             };
-            let half = (radius_m / centre_m).asin();
-            let span = (half / inc).ceil() as usize + 1;
-            let k = self.ghosts.len() as u32;
-            for i in beam.saturating_sub(span)..(beam + span + 1).min(n) {
+            let centre_m = p.x.hypot(p.y);
+            if centre_m <= ghost.radius_m || centre_m - ghost.radius_m > range_max_m {
+                continue;
+            }
+            let mut bearing = p.y.atan2(p.x) - a0;
+            if closes_circle {
+                bearing = bearing.rem_euclid(TAU);
+            }
+            let mid = (bearing / inc).round() as i64;
+            let span = ((ghost.radius_m / centre_m).asin() / inc).ceil() as i64 + 1;
+            for j in mid - span..=mid + span {
+                let i = if closes_circle {
+                    j.rem_euclid(n as i64) as usize
+                } else if (0..n as i64).contains(&j) {
+                    j as usize
+                } else {
+                    continue;
+                };
                 let (cx, cy) = self.directions[i];
-                if let Some(t) = ray_circle_m(Point2::ORIGIN, Vector2::new(cx, cy), &circle)
+                if !matches!(self.hits[i], Hit::Leg { .. })
+                    && let Some(t) = ray_circle_m(Point2::ORIGIN, Vector2::new(cx, cy), &local)
                     && t < self.true_ranges_m[i]
+                    && t <= range_max_m
                 {
                     self.true_ranges_m[i] = t;
-                    self.hits[i] = Hit::Ghost(k);
+                    self.hits[i] = Hit::Ghost(k as u32);
                 }
             }
-            self.ghosts.push(Circle {
-                center: {
-                    let p = world_from_laser * Point2::<tether_core::Laser>::new(local.x, local.y);
-                    Point2::new(p.x, p.y)
-                },
-                radius_m,
-            });
         }
+    }
+
+    /// Phantoms of the last scan that go before this one: each lasts a geometric number
+    /// of scans of mean `ghost_mean_scans`.
+    fn age_ghosts(&mut self) {
+        let leave = 1.0 / self.spec.ghost_mean_scans.max(1.0);
+        let rng = &mut self.realism_rng;
+        self.ghosts.retain(|_| !rng.chance(leave));
     }
 
     /// Steps the dark-spell chains and draws the weak legs and the phantoms of one
@@ -197,10 +285,12 @@ impl SimLaser {
         legs: &[LegCircle],
     ) {
         self.weak.clear();
-        self.ghosts.clear();
         if !self.spec.realistic {
+            self.ghosts.clear();
+            self.shown.clear();
             return;
         }
+        self.age_ghosts();
         let spec = &self.spec;
         let rng = &mut self.realism_rng;
         let n_people = legs
@@ -259,7 +349,7 @@ impl SimLaser {
     ) -> Result<LaserScan, tether_core::ScanError> {
         self.draw_failures(world_from_laser, legs);
         self.cast(world_from_laser, world, legs);
-        self.add_ghosts(world_from_laser);
+        self.add_ghosts(world_from_laser, legs);
         let n = self.directions.len();
         let mut ranges = Vec::with_capacity(n);
         let range_max = self.model.range_max_m;
@@ -434,6 +524,65 @@ impl SimLaser {
     }
 }
 
+/// Leg-like clutter spread over the floor of `world`'s rooms (realistic mode): a
+/// Poisson number of spots (mean `clutter_per_m2` times each room's area), each uniform
+/// in its room at least 0.3 m clear of walls and obstacles and [`CLUTTER_PATH_CLEARANCE_M`]
+/// clear of the `walkways` (the people's paths and the robot's start: people walk around
+/// clutter, and the robot follows them), a circle of radius
+/// `ghost_radius_m` with a second one 0.2-0.45 m beside it with probability
+/// `ghost_pair_prob`: the bags, boxes, bins and chair columns of a real room. Each piece
+/// shows as a leg-like blob in a scan with its own probability, uniform in
+/// `clutter_shown_prob` (both of a pair alike): real clutter looks like a leg now and
+/// then, as the noise, the light and the point of view change.
+pub fn clutter_spots(
+    rooms: &[(Point2<World>, Point2<World>)],
+    walkways: &[Segment],
+    world: &StaticWorld,
+    spec: &LaserSimSpec,
+    rng: &mut SimRng,
+) -> Vec<(Circle, f64)> {
+    let mut spots = Vec::new();
+    if !spec.realistic || spec.clutter_per_m2 <= 0.0 {
+        return spots;
+    }
+    let [r_lo, r_hi] = spec.ghost_radius_m;
+    let clear = |c: &Circle| {
+        world.clearance_m(c.center) >= c.radius_m + 0.3
+            && walkways
+                .iter()
+                .all(|w| w.closest_point(c.center).distance_m(c.center) >= CLUTTER_PATH_CLEARANCE_M)
+    };
+    for &(min, max) in rooms {
+        let area_m2 = (max.x - min.x).max(0.0) * (max.y - min.y).max(0.0);
+        let count = rng.poisson(spec.clutter_per_m2 * area_m2);
+        for _ in 0..count {
+            let center = Point2::<World>::new(rng.uniform(min.x, max.x), rng.uniform(min.y, max.y));
+            let spot = Circle {
+                center,
+                radius_m: rng.uniform(r_lo, r_hi),
+            };
+            let [q_lo, q_hi] = spec.clutter_shown_prob;
+            let shown_prob = rng.uniform(q_lo, q_hi);
+            if !clear(&spot) {
+                continue;
+            }
+            spots.push((spot, shown_prob));
+            if rng.chance(spec.ghost_pair_prob) {
+                let gap_m = rng.uniform(0.2, 0.45);
+                let (s, c) = rng.uniform(0.0, TAU).sin_cos();
+                let second = Circle {
+                    center: Point2::new(center.x + gap_m * c, center.y + gap_m * s),
+                    radius_m: rng.uniform(r_lo, r_hi),
+                };
+                if clear(&second) {
+                    spots.push((second, shown_prob));
+                }
+            }
+        }
+    }
+    spots
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -569,7 +718,7 @@ mod tests {
             SimRng::stream(1, "laser"),
         )
         .with_realism_rng(SimRng::stream(1, "laser/realism"));
-        let n = 20_000;
+        let n = 80_000;
         let (mut ghosts, mut weak, mut spell_scans, mut spells) = (0usize, 0usize, 0usize, 0usize);
         let mut was_in_spell = false;
         for k in 0..n {
@@ -586,10 +735,13 @@ mod tests {
             was_in_spell = in_spell;
         }
         let n = n as f64;
+        // In the steady state a scan holds the phantoms of the last ghost_mean_scans
+        // scans' births, each birth one or two (a few go beside the person's legs).
         let ghost_rate = ghosts as f64 / n;
+        let expected = spec.ghosts_per_scan * (1.0 + spec.ghost_pair_prob) * spec.ghost_mean_scans;
         assert!(
-            (ghost_rate - spec.ghosts_per_scan).abs() < 0.05,
-            "{ghost_rate}"
+            (ghost_rate - expected).abs() < 0.1 * expected,
+            "{ghost_rate} against {expected}"
         );
         let mean_spell = spell_scans as f64 / spells as f64;
         assert!(
@@ -681,5 +833,101 @@ mod tests {
         }
         let frac = f64::from(lost) / f64::from(total);
         assert!((0.25..0.55).contains(&frac), "{frac}");
+    }
+
+    /// A 10 m x 6 m room with walls, a path along y = 3 m, and the default clutter.
+    fn room_with_clutter(seed: u64) -> (StaticWorld, Segment, Vec<(Circle, f64)>) {
+        let (min, max) = (Point2::new(0.0, 0.0), Point2::new(10.0, 6.0));
+        let corners = [min, Point2::new(10.0, 0.0), max, Point2::new(0.0, 6.0)];
+        let world = StaticWorld {
+            walls: (0..4)
+                .map(|k| Segment::new(corners[k], corners[(k + 1) % 4]))
+                .collect(),
+            obstacles: vec![],
+        };
+        let path = Segment::new(Point2::new(1.0, 3.0), Point2::new(9.0, 3.0));
+        let spots = clutter_spots(
+            &[(min, max)],
+            &[path],
+            &world,
+            &LaserSimSpec::default(),
+            &mut SimRng::stream(seed, "laser/clutter"),
+        );
+        (world, path, spots)
+    }
+
+    #[test]
+    fn clutter_stands_clear_of_walls_and_paths_in_groups() {
+        let spec = LaserSimSpec::default();
+        let (mut pieces, mut paired) = (0usize, 0usize);
+        for seed in 0..200 {
+            let (world, path, spots) = room_with_clutter(seed);
+            for (k, (c, shown)) in spots.iter().enumerate() {
+                assert!(world.clearance_m(c.center) >= c.radius_m + 0.3, "{c:?}");
+                let off_path = path.closest_point(c.center).distance_m(c.center);
+                assert!(off_path >= CLUTTER_PATH_CLEARANCE_M, "{c:?}");
+                assert!((spec.ghost_radius_m[0]..=spec.ghost_radius_m[1]).contains(&c.radius_m));
+                assert!((spec.clutter_shown_prob[0]..=spec.clutter_shown_prob[1]).contains(shown));
+                // A second piece of a pair stands 0.2-0.45 m from the one before it.
+                let d = k
+                    .checked_sub(1)
+                    .map(|j| spots[j].0.center.distance_m(c.center));
+                paired += usize::from(d.is_some_and(|d| (0.2..=0.45).contains(&d)));
+            }
+            pieces += spots.len();
+        }
+        // Placements clash with the walls and the path for about half of the room, so
+        // fewer pieces than the density times the area stand; many come in pairs.
+        let per_room = pieces as f64 / 200.0;
+        assert!((0.5..3.6).contains(&per_room), "{per_room}");
+        assert!(
+            paired as f64 > 0.3 * pieces as f64 / 2.0,
+            "{paired} of {pieces}"
+        );
+        // The same seed places the same clutter.
+        assert_eq!(room_with_clutter(7).2, room_with_clutter(7).2);
+    }
+
+    #[test]
+    fn clutter_shows_now_and_then_and_never_beside_a_leg() {
+        let piece = Circle {
+            center: Point2::new(2.0, 0.0),
+            radius_m: 0.08,
+        };
+        let shown = |legs: &[LegCircle]| {
+            let mut laser = SimLaser::new(
+                LaserModel::urg_04lx(),
+                LaserSimSpec {
+                    ghosts_per_scan: 0.0,
+                    ..LaserSimSpec::default()
+                },
+                SimRng::stream(3, "laser"),
+            )
+            .with_clutter(vec![(piece, 0.5)]);
+            (0..400)
+                .filter(|&k| {
+                    laser
+                        .scan(
+                            Stamp::from_ns(k),
+                            Pose2::IDENTITY,
+                            &StaticWorld::default(),
+                            legs,
+                        )
+                        .unwrap();
+                    !laser.last_ghosts().is_empty()
+                })
+                .count()
+        };
+        let alone = shown(&[]);
+        assert!((150..250).contains(&alone), "{alone}");
+        let leg_beside = [LegCircle {
+            circle: Circle {
+                center: Point2::new(2.0, 0.45),
+                radius_m: 0.06,
+            },
+            person: 0,
+            leg: 0,
+        }];
+        assert_eq!(shown(&leg_beside), 0);
     }
 }

@@ -312,9 +312,19 @@ impl Default for RobotSpec {
 /// - a weak leg's beams are lost with probability `weak_beam_loss_prob` and the others
 ///   read `weak_range_sigma_m` of extra normal error (the cluster is still there but no
 ///   longer looks like a leg);
-/// - transient false positives: a Poisson number (mean `ghosts_per_scan`) of leg-sized
-///   phantom returns per scan (radius 0.04-0.07 m, 0.5-4.5 m away, anywhere in the
-///   field of view), each for one scan: mixed pixels, passing debris, reflections;
+/// - *clutter*: a Poisson number of pieces (mean `clutter_per_m2` times the rooms'
+///   floor area) placed at the start, each a circle of radius `ghost_radius_m`, with a
+///   second one 0.2-0.45 m beside it with probability `ghost_pair_prob`, at least 0.3 m
+///   clear of walls and obstacles and 1 m clear of the people's paths and the robot's
+///   start; each piece shows in a scan with its own probability, uniform in
+///   `clutter_shown_prob`, and not while a person's leg is within 0.5 m of it: the
+///   bags, boxes, bins and chair columns of a real room, in groups, which a real
+///   detector takes for legs now and then;
+/// - *phantoms*: a Poisson number (mean `ghosts_per_scan`) appear per scan, shaped as
+///   the clutter, 0.5-4.5 m away anywhere in the field of view, each staying in place
+///   for a geometric number of scans of mean `ghost_mean_scans` or until a person's leg
+///   comes within 0.5 m: mixed pixels, passing debris, reflections. A beam on a
+///   person's leg keeps the leg;
 /// - foliage (`world.bushes`) loses each return with `foliage_beam_loss_prob` per scan
 ///   (leaves move), so bushes make leg-like clusters that come and go in place.
 ///
@@ -359,8 +369,19 @@ pub struct LaserSimSpec {
     pub weak_beam_loss_prob: f64,
     /// Extra range error of a weak leg's returns, m.
     pub weak_range_sigma_m: f64,
-    /// Mean number of phantom leg-like returns per scan.
+    /// Mean number of phantoms (leg-like returns) that appear per scan.
     pub ghosts_per_scan: f64,
+    /// Mean number of scans a phantom stays (>= 1; 1 is one scan).
+    pub ghost_mean_scans: f64,
+    /// Probability that a phantom appears with a second one 0.2-0.45 m away.
+    pub ghost_pair_prob: f64,
+    /// Smallest and largest radius of a phantom, m.
+    pub ghost_radius_m: [f64; 2],
+    /// Leg-like clutter that stays all run, spots per m^2 of the rooms' floor (shaped
+    /// as the phantoms are).
+    pub clutter_per_m2: f64,
+    /// Smallest and largest probability that a piece of clutter shows in a scan.
+    pub clutter_shown_prob: [f64; 2],
     /// Probability that a return from foliage is lost in a scan.
     pub foliage_beam_loss_prob: f64,
     /// Probability that a beam hitting anything (wall, furniture, leg) returns nothing:
@@ -400,7 +421,12 @@ impl Default for LaserSimSpec {
             spell_weak_leg_prob: 0.9,
             weak_beam_loss_prob: 0.4,
             weak_range_sigma_m: 0.03,
-            ghosts_per_scan: 0.8,
+            ghosts_per_scan: 0.06,
+            ghost_mean_scans: 2.0,
+            ghost_pair_prob: 0.6,
+            ghost_radius_m: [0.04, 0.12],
+            clutter_per_m2: 0.06,
+            clutter_shown_prob: [0.2, 0.9],
             foliage_beam_loss_prob: 0.3,
             object_beam_loss_prob: 0.0,
             scanner: None,

@@ -12,7 +12,8 @@ use thiserror::Error;
 use tether_core::{Camera, Laser, LaserScan, Point2, Pose2, Robot, Stamp, Vector2, World};
 
 use crate::camera::{CameraFrame, CameraTruth, SimCamera};
-use crate::laser::{LegCircle, SimLaser};
+use crate::geometry::Segment;
+use crate::laser::{LegCircle, SimLaser, clutter_spots};
 use crate::person::Person;
 use crate::rng::SimRng;
 use crate::robot::{Command, DiffDrive};
@@ -142,6 +143,27 @@ pub struct Simulation {
     collisions: u32,
 }
 
+/// The people's paths (closed when walked again and again) and the robot's start, as
+/// segments: where the simulated clutter does not stand.
+fn walkways(scenario: &Scenario) -> Vec<Segment> {
+    let p = |xy: [f64; 2]| Point2::<World>::new(xy[0], xy[1]);
+    let start = p([scenario.robot.start.x, scenario.robot.start.y]);
+    let mut segments = vec![Segment { a: start, b: start }];
+    for person in &scenario.people {
+        let mut path: Vec<Point2<World>> = person.path.iter().map(|&xy| p(xy)).collect();
+        if person.repeat
+            && let Some(&first) = path.first()
+        {
+            path.push(first);
+        }
+        if let [only] = path[..] {
+            segments.push(Segment { a: only, b: only });
+        }
+        segments.extend(path.windows(2).map(|w| Segment { a: w[0], b: w[1] }));
+    }
+    segments
+}
+
 impl Simulation {
     /// Builds the world of `scenario` for `seed`. The scenario is validated again (a
     /// hand-built [`Scenario`] may not have been).
@@ -173,6 +195,17 @@ impl Simulation {
                 Person::from_spec(i as u32, spec, &mut rng)
             })
             .collect();
+        let rooms: Vec<(Point2<World>, Point2<World>)> = scenario
+            .world
+            .rooms
+            .iter()
+            .map(|r| {
+                (
+                    Point2::new(r.min[0], r.min[1]),
+                    Point2::new(r.max[0], r.max[1]),
+                )
+            })
+            .collect();
         let laser = scenario.laser_sim.enabled.then(|| {
             SimLaser::new(
                 scenario.laser.clone(),
@@ -180,6 +213,13 @@ impl Simulation {
                 SimRng::stream(seed, "laser"),
             )
             .with_realism_rng(SimRng::stream(seed, "laser/realism"))
+            .with_clutter(clutter_spots(
+                &rooms,
+                &walkways(scenario),
+                &world,
+                &scenario.laser_sim,
+                &mut SimRng::stream(seed, "laser/clutter"),
+            ))
         });
         let camera = scenario.camera_sim.enabled.then(|| {
             SimCamera::new(

@@ -262,8 +262,8 @@ impl Scenario {
         }
     }
 
-    /// `laser_sim`: probabilities in [0, 1], a valid noise model, spells of at least a
-    /// scan, and the weak-leg and long-range distances in order.
+    /// `laser_sim`: probabilities in [0, 1], a valid noise model, spells and phantoms of
+    /// at least a scan, phantom radii in order, and the weak-leg and long-range distances in order.
     fn check_laser_sim(&self, problems: &mut Problems) {
         let ls = &self.laser_sim;
         for (field, value) in [
@@ -276,6 +276,7 @@ impl Scenario {
             ("weak_beam_loss_prob", ls.weak_beam_loss_prob),
             ("foliage_beam_loss_prob", ls.foliage_beam_loss_prob),
             ("object_beam_loss_prob", ls.object_beam_loss_prob),
+            ("ghost_pair_prob", ls.ghost_pair_prob),
         ] {
             if !(0.0..=1.0).contains(&value) {
                 problems.bad(
@@ -297,9 +298,32 @@ impl Scenario {
                 format!("must be at least 1 scan, got {}", ls.spell_mean_scans),
             );
         }
+        if !(ls.ghost_mean_scans.is_finite() && (1.0..=1e4).contains(&ls.ghost_mean_scans)) {
+            problems.bad(
+                path!["laser_sim", "ghost_mean_scans"],
+                format!("must lie in [1, 10000] scans, got {}", ls.ghost_mean_scans),
+            );
+        }
+        let [q_lo, q_hi] = ls.clutter_shown_prob;
+        if !(0.0 <= q_lo && q_lo <= q_hi && q_hi <= 1.0) {
+            problems.bad(
+                path!["laser_sim", "clutter_shown_prob"],
+                format!("must be [min, max] with 0 <= min <= max <= 1, got [{q_lo}, {q_hi}]"),
+            );
+        }
+        let [r_lo, r_hi] = ls.ghost_radius_m;
+        if !(r_lo.is_finite() && r_hi.is_finite() && 0.005 <= r_lo && r_lo <= r_hi && r_hi <= 0.5) {
+            problems.bad(
+                path!["laser_sim", "ghost_radius_m"],
+                format!(
+                    "must be [min, max] with 0.005 <= min <= max <= 0.5 m, got [{r_lo}, {r_hi}]"
+                ),
+            );
+        }
         for (field, value) in [
             ("weak_range_sigma_m", ls.weak_range_sigma_m),
             ("ghosts_per_scan", ls.ghosts_per_scan),
+            ("clutter_per_m2", ls.clutter_per_m2),
         ] {
             if !(value.is_finite() && (0.0..=10.0).contains(&value)) {
                 problems.bad(
