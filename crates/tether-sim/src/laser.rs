@@ -29,7 +29,7 @@ use tether_core::{LaserModel, LaserScan, Point2, Pose2, Stamp, Vector2, World};
 
 use crate::geometry::{Circle, Segment, ray_circle_m, ray_segment_m};
 use crate::rng::SimRng;
-use crate::scenario::LaserSimSpec;
+use crate::scenario::{LaserSimSpec, RoomSpec};
 use crate::world::{ObstacleKind, StaticWorld};
 
 /// What a beam hit.
@@ -189,12 +189,8 @@ impl SimLaser {
             let center = Point2::<World>::new(centre.x, centre.y);
             self.ghosts.push(Circle { center, radius_m });
             if rng.chance(self.spec.ghost_pair_prob) {
-                let gap_m = rng.uniform(0.2, 0.45);
-                let (s, c) = rng.uniform(0.0, TAU).sin_cos();
-                self.ghosts.push(Circle {
-                    center: Point2::new(center.x + gap_m * c, center.y + gap_m * s),
-                    radius_m: rng.uniform(r_lo, r_hi),
-                });
+                self.ghosts
+                    .push(companion(center, self.spec.ghost_radius_m, rng));
             }
         }
     }
@@ -524,6 +520,18 @@ impl SimLaser {
     }
 }
 
+/// The second piece of a pair of phantoms or clutter: 0.2-0.45 m from `center` in a
+/// uniformly drawn direction, its radius uniform in `radius_m` (real clutter comes in
+/// groups: a chair's legs, a bag beside a bin).
+fn companion(center: Point2<World>, radius_m: [f64; 2], rng: &mut SimRng) -> Circle {
+    let gap_m = rng.uniform(0.2, 0.45);
+    let (s, c) = rng.uniform(0.0, TAU).sin_cos();
+    Circle {
+        center: Point2::new(center.x + gap_m * c, center.y + gap_m * s),
+        radius_m: rng.uniform(radius_m[0], radius_m[1]),
+    }
+}
+
 /// Leg-like clutter spread over the floor of `world`'s rooms (realistic mode): a
 /// Poisson number of spots (mean `clutter_per_m2` times each room's area), each uniform
 /// in its room at least 0.3 m clear of walls and obstacles and [`CLUTTER_PATH_CLEARANCE_M`]
@@ -535,7 +543,7 @@ impl SimLaser {
 /// `clutter_shown_prob` (both of a pair alike): real clutter looks like a leg now and
 /// then, as the noise, the light and the point of view change.
 pub fn clutter_spots(
-    rooms: &[(Point2<World>, Point2<World>)],
+    rooms: &[RoomSpec],
     walkways: &[Segment],
     world: &StaticWorld,
     spec: &LaserSimSpec,
@@ -546,34 +554,30 @@ pub fn clutter_spots(
         return spots;
     }
     let [r_lo, r_hi] = spec.ghost_radius_m;
+    let [q_lo, q_hi] = spec.clutter_shown_prob;
     let clear = |c: &Circle| {
         world.clearance_m(c.center) >= c.radius_m + 0.3
             && walkways
                 .iter()
                 .all(|w| w.closest_point(c.center).distance_m(c.center) >= CLUTTER_PATH_CLEARANCE_M)
     };
-    for &(min, max) in rooms {
-        let area_m2 = (max.x - min.x).max(0.0) * (max.y - min.y).max(0.0);
+    for room in rooms {
+        let ([x0, y0], [x1, y1]) = (room.min, room.max);
+        let area_m2 = (x1 - x0).max(0.0) * (y1 - y0).max(0.0);
         let count = rng.poisson(spec.clutter_per_m2 * area_m2);
         for _ in 0..count {
-            let center = Point2::<World>::new(rng.uniform(min.x, max.x), rng.uniform(min.y, max.y));
+            let center = Point2::<World>::new(rng.uniform(x0, x1), rng.uniform(y0, y1));
             let spot = Circle {
                 center,
                 radius_m: rng.uniform(r_lo, r_hi),
             };
-            let [q_lo, q_hi] = spec.clutter_shown_prob;
             let shown_prob = rng.uniform(q_lo, q_hi);
             if !clear(&spot) {
                 continue;
             }
             spots.push((spot, shown_prob));
             if rng.chance(spec.ghost_pair_prob) {
-                let gap_m = rng.uniform(0.2, 0.45);
-                let (s, c) = rng.uniform(0.0, TAU).sin_cos();
-                let second = Circle {
-                    center: Point2::new(center.x + gap_m * c, center.y + gap_m * s),
-                    radius_m: rng.uniform(r_lo, r_hi),
-                };
+                let second = companion(center, spec.ghost_radius_m, rng);
                 if clear(&second) {
                     spots.push((second, shown_prob));
                 }
@@ -846,8 +850,12 @@ mod tests {
             obstacles: vec![],
         };
         let path = Segment::new(Point2::new(1.0, 3.0), Point2::new(9.0, 3.0));
+        let room = RoomSpec {
+            min: [0.0, 0.0],
+            max: [10.0, 6.0],
+        };
         let spots = clutter_spots(
-            &[(min, max)],
+            &[room],
             &[path],
             &world,
             &LaserSimSpec::default(),

@@ -195,17 +195,6 @@ impl Simulation {
                 Person::from_spec(i as u32, spec, &mut rng)
             })
             .collect();
-        let rooms: Vec<(Point2<World>, Point2<World>)> = scenario
-            .world
-            .rooms
-            .iter()
-            .map(|r| {
-                (
-                    Point2::new(r.min[0], r.min[1]),
-                    Point2::new(r.max[0], r.max[1]),
-                )
-            })
-            .collect();
         let laser = scenario.laser_sim.enabled.then(|| {
             SimLaser::new(
                 scenario.laser.clone(),
@@ -214,7 +203,7 @@ impl Simulation {
             )
             .with_realism_rng(SimRng::stream(seed, "laser/realism"))
             .with_clutter(clutter_spots(
-                &rooms,
+                &scenario.world.rooms,
                 &walkways(scenario),
                 &world,
                 &scenario.laser_sim,

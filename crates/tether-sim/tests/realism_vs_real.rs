@@ -252,8 +252,14 @@ fn simulated_detector_statistics_match_the_real_training_split() {
         sim.p_miss_given_miss > 1.5 * sim.person_miss_rate,
         "{sim:?}"
     );
-    // The ideal sensor is not what the real one is: without the failures it falls
-    // outside the tolerance of at least one figure (the false positives).
+    // The ideal sensor is not what the real one is: without the failures the false
+    // positives are too few (with the model of before they were also too persistent,
+    // 0.37 against 0.04 in runs of a second; the built-in model now flickers on the
+    // furniture too, 0.025 against 0.066), so it falls outside at least one tolerance.
+    assert!(
+        (ideal.fp_per_scan - train.fp_per_scan).abs() > 0.1,
+        "{ideal:?}"
+    );
     let ideal_outside = checks
         .iter()
         .filter(|(_, real, _, perfect, tolerance)| (perfect - real).abs() > *tolerance)
