@@ -242,6 +242,64 @@ pub fn nearer_view(
     Some((view, moved))
 }
 
+/// Nearest and farthest a backdrop stands behind the farthest labelled leg of a view,
+/// m: the walls, furniture and people that stand 1-4 m behind a person followed
+/// indoors.
+pub const BACKDROP_BEHIND_M: [f64; 2] = [0.8, 4.0];
+
+/// Range noise of a backdrop's returns (one sigma), m.
+pub const BACKDROP_SIGMA_M: f64 = 0.01;
+
+/// `scan` with a backdrop behind its people: the `k`-th view of a fixed sequence
+/// (design 4.6). The people of the labelled recordings walk in an open hall, where the
+/// beams past a leg return nothing or come back from 5 m and more, so that a model
+/// trained on them alone learns that a leg has nothing behind it and refuses the legs
+/// of a person followed along a corridor or in a room. Here every beam that returns
+/// nothing or reads farther than `r_b = max_i |legs_i| + d` reads `r_b` instead (plus
+/// Gaussian noise of [`BACKDROP_SIGMA_M`]): a surface at a constant range (locally a
+/// wall) `d` behind the farthest leg, `d` running through [`BACKDROP_BEHIND_M`] by the
+/// golden-ratio sequence (as [`target_range_m`]). Everything nearer, the legs
+/// included, stays as recorded; labels stay where they are. `None` when there is no
+/// leg, or the backdrop would lie beyond the scanner's range.
+pub fn backdrop_view(scan: &LaserScan, legs: &[Point2<Laser>], k: usize) -> Option<LaserScan> {
+    const PHI: f64 = 0.618_033_988_749_894_9;
+    let farthest_m = legs
+        .iter()
+        .map(|l| l.range_m())
+        .filter(|r| r.is_finite())
+        .reduce(f64::max)?;
+    let [near, far] = BACKDROP_BEHIND_M;
+    let backdrop_m = farthest_m + near + ((k as f64 + 1.0) * PHI).fract() * (far - near);
+    if backdrop_m + 3.0 * BACKDROP_SIGMA_M >= scan.range_max_m {
+        return None;
+    }
+    let ranges = scan
+        .ranges_m()
+        .iter()
+        .enumerate()
+        .map(|(i, &r)| {
+            let r = f64::from(r);
+            if r.is_finite() && r >= scan.range_min_m && r <= backdrop_m {
+                return r as f32;
+            }
+            // Box-Muller.
+            let (u1, u2) = (uniform(k, i, 4).max(1e-300), uniform(k, i, 5));
+            let z = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+            (backdrop_m + BACKDROP_SIGMA_M * z) as f32
+        })
+        .collect();
+    LaserScan::new(
+        scan.stamp,
+        scan.frame_id.clone(),
+        scan.angle_min_rad,
+        scan.angle_increment_rad,
+        scan.range_min_m,
+        scan.range_max_m,
+        ranges,
+    )
+    .ok()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -298,6 +356,52 @@ mod tests {
     fn objects_that_are_already_near_are_not_moved() {
         let scan = disc_scan(0.5, 0.06);
         assert!(nearer_view(&scan, Point2::new(0.5, 0.0), &[], 0).is_none());
+    }
+
+    #[test]
+    fn a_backdrop_stands_behind_the_legs_and_leaves_them_as_recorded() {
+        let scan = disc_scan(1.0, 0.06);
+        let legs = [Point2::new(1.0, 0.0)];
+        assert!(
+            backdrop_view(&scan, &[], 0).is_none(),
+            "no leg, no backdrop"
+        );
+        for k in 0..20 {
+            let view = backdrop_view(&scan, &legs, k).unwrap();
+            assert_eq!(view.len(), scan.len());
+            let mut backdrop = Vec::new();
+            for (i, (&before, &after)) in scan.ranges_m().iter().zip(view.ranges_m()).enumerate() {
+                if before.is_finite() {
+                    assert_eq!(before, after, "beam {i} on the disc is kept");
+                } else {
+                    backdrop.push(f64::from(after));
+                }
+            }
+            let mean = backdrop.iter().sum::<f64>() / backdrop.len() as f64;
+            let behind = mean - 1.0;
+            assert!(
+                (BACKDROP_BEHIND_M[0] - 0.01..=BACKDROP_BEHIND_M[1] + 0.01).contains(&behind),
+                "view {k}: {behind} m behind"
+            );
+            let sd = (backdrop.iter().map(|r| (r - mean).powi(2)).sum::<f64>()
+                / backdrop.len() as f64)
+                .sqrt();
+            assert!(
+                (sd - BACKDROP_SIGMA_M).abs() < 0.002,
+                "view {k}: sigma {sd}"
+            );
+        }
+        // Deterministic, and the sequence spreads the distances.
+        assert_eq!(
+            backdrop_view(&scan, &legs, 3),
+            backdrop_view(&scan, &legs, 3)
+        );
+        assert_ne!(
+            backdrop_view(&scan, &legs, 3),
+            backdrop_view(&scan, &legs, 4)
+        );
+        // A backdrop past the scanner's range (5.6 m) is not drawn.
+        assert!(backdrop_view(&scan, &[Point2::new(5.0, 0.0)], 0).is_none());
     }
 
     #[test]

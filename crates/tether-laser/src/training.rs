@@ -36,7 +36,7 @@
 
 use tether_core::{Laser, LaserScan, Point2};
 
-use crate::augment::{coarser_view, nearer_view};
+use crate::augment::{backdrop_view, coarser_view, nearer_view};
 use crate::classifier::{LegClassifier, Provenance};
 use crate::detector::{Detection, LegDetector, learned_centre};
 use crate::features::FeatureVector;
@@ -381,6 +381,23 @@ pub fn folds_from_scans(
                     }
                 }
             }
+            let mut backdrops = Vec::new();
+            for v in 0..views.backdrop {
+                for (k, (scan, legs, _)) in bases.iter().enumerate() {
+                    let Some(view) = backdrop_view(scan, legs, k + v * bases.len()) else {
+                        continue;
+                    };
+                    if !views.coarse_only {
+                        let mut sample =
+                            ScanSample::labelled(detector, &view, legs, LabelledRegion::NONE);
+                        sample.drop_unmatched_labels();
+                        sample.view_from_nearer = true;
+                        samples.push(sample);
+                    }
+                    backdrops.push((view, legs.clone(), LabelledRegion::NONE));
+                }
+            }
+            bases.extend(backdrops);
             for (scan, legs, region) in &bases {
                 for view in coarser(scan) {
                     let mut sample = ScanSample::labelled(detector, &view, legs, *region);
@@ -469,6 +486,10 @@ pub struct TrainingViews {
     /// Views by a coarser, noisier scanner ([`crate::augment::coarser_view`]), of the
     /// scan and of each view from nearer.
     pub coarser: usize,
+    /// Views with a backdrop behind the people ([`crate::augment::backdrop_view`]), of
+    /// each labelled scan and each view from nearer (scans without people keep the
+    /// room they were recorded in).
+    pub backdrop: usize,
     /// Train on the coarser views only (a model for coarse scanners), not on the
     /// recorded scans and the views from nearer themselves.
     pub coarse_only: bool,
@@ -480,6 +501,7 @@ impl TrainingViews {
     pub const FINE: TrainingViews = TrainingViews {
         nearer: 1,
         coarser: 0,
+        backdrop: 0,
         coarse_only: false,
     };
 
@@ -489,6 +511,7 @@ impl TrainingViews {
     pub const COARSE: TrainingViews = TrainingViews {
         nearer: 2,
         coarser: 1,
+        backdrop: 0,
         coarse_only: true,
     };
 }

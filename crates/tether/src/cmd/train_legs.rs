@@ -41,6 +41,12 @@ pub struct Args {
     /// with `--coarse`.
     #[arg(long, value_name = "N")]
     pub coarser_views: Option<usize>,
+    /// Also train on each labelled scan (and each view from nearer) seen that many
+    /// times with a backdrop 0.8-4 m behind its people, where the recording saw
+    /// nothing or saw farther (people in a room rather than an open hall: design 4.6).
+    /// Default 0: on the test split it costs recall (docs/measured.md).
+    #[arg(long, value_name = "N")]
+    pub backdrop_views: Option<usize>,
     /// Train a model for coarse scanners (beams 0.45 degrees apart or more), on the
     /// coarser views only: the built-in one is
     /// `crates/tether-laser/models/legs_coarse.json`.
@@ -157,6 +163,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             TrainingViews {
                 nearer: args.nearer_views.unwrap_or(base.nearer),
                 coarser: args.coarser_views.unwrap_or(base.coarser),
+                backdrop: args.backdrop_views.unwrap_or(base.backdrop),
                 coarse_only: args.coarse,
             }
         },
