@@ -517,6 +517,33 @@ pub enum BaseError {
     },
 }
 
+/// Opens a base's device that is not a serial port (a FIFO that a motor driver reads, a
+/// character device, or a file that logs the commands) for appending. It must exist:
+/// tether creates nothing, so that a run started before its reader made the FIFO leaves
+/// no regular file in the FIFO's place. Opening a FIFO waits for its reader.
+pub fn open_existing_device(path: &std::path::Path) -> io::Result<std::fs::File> {
+    std::fs::OpenOptions::new()
+        .append(true)
+        .open(path)
+        .map_err(|e| {
+            if e.kind() == io::ErrorKind::NotFound {
+                io::Error::new(
+                    e.kind(),
+                    format!(
+                        "{} does not exist, and tether creates no device: make the FIFO the \
+                         base's reader listens on (`mkfifo {}`; `tether urg-emulator \
+                         --commands {}` reads one), or name an existing file",
+                        path.display(),
+                        path.display(),
+                        path.display()
+                    ),
+                )
+            } else {
+                e
+            }
+        })
+}
+
 /// Opens the base adapter of `[base]`: `None` without a device or with `kind = "none"`.
 pub fn open_base(base: &BaseSection) -> Result<Option<Box<dyn CommandSink>>, BaseError> {
     let Some(device) = &base.device else {
@@ -553,7 +580,7 @@ pub fn open_base(base: &BaseSection) -> Result<Option<Box<dyn CommandSink>>, Bas
                 Some(baud) => Box::new(WheelLines::new(name, format, serial(baud)?)),
                 None => {
                     let file =
-                        std::fs::File::create(device).map_err(|source| BaseError::WheelFile {
+                        open_existing_device(device).map_err(|source| BaseError::WheelFile {
                             path: shown.clone(),
                             source,
                         })?;

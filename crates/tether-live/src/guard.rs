@@ -149,12 +149,7 @@ fn open_device(spec: &GuardSpec) -> io::Result<Box<dyn Write>> {
             port.set_exclusive(false).map_err(io::Error::other)?;
             Ok(Box::new(port))
         }
-        None => Ok(Box::new(
-            std::fs::OpenOptions::new()
-                .append(true)
-                .create(true)
-                .open(&spec.device)?,
-        )),
+        None => Ok(Box::new(crate::base::open_existing_device(&spec.device)?)),
     }
 }
 

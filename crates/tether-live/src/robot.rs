@@ -106,10 +106,16 @@ pub fn run(
     // One clock for the laser's stamps, the camera's and the control loop's.
     let clock = MonotonicClock::new();
     let mut outputs = Outputs::open(config)?;
+    let mut recording_path = None;
     let mut recorder = match &config.output.record {
         Some(path) => {
             let path = fresh_recording_path(path);
-            Some(Recorder::create(&path).map_err(|source| StartError::Recording { path, source })?)
+            let recorder = Recorder::create(&path).map_err(|source| StartError::Recording {
+                path: path.clone(),
+                source,
+            })?;
+            recording_path = Some(path);
+            Some(recorder)
         }
         None => None,
     };
@@ -130,6 +136,16 @@ pub fn run(
             }
             stop.store(true, Ordering::Relaxed);
             outputs.end();
+            // A run that never started leaves no recording: the file is new and empty
+            // of data ([`fresh_recording_path`] never reuses one).
+            if let Some(r) = recorder {
+                let _ = r.finish();
+            }
+            if let Some(path) = recording_path
+                && let Err(f) = std::fs::remove_file(&path)
+            {
+                tracing::warn!("cannot remove {} of the failed start: {f}", path.display());
+            }
             return Err(e);
         }
     };

@@ -4,7 +4,10 @@
 //! - [`shared_dir`], [`shared`], [`skip`], [`skip_unless`], [`or_skip`]: the data beside
 //!   the workspace (`../shared`) and the rule for a test whose prerequisite is missing:
 //!   it prints `SKIPPED: reason` and passes, unless `TETHER_REQUIRE_SHARED=1` (set in
-//!   CI), which makes it fail with the reason.
+//!   CI), which makes it fail with the reason, or it runs under `tools/test` (the
+//!   README's test command), which leaves out the tests whose prerequisites are
+//!   missing, reports them as skipped, and fails a test that still reaches a skip (it
+//!   is missing from its group in `tools/test-groups/`).
 //! - [`python_modules`], [`python_cv2`], [`python`], [`opencv_reference`],
 //!   [`opencv_cascade`]: the Python peers the tests compare against and Debian's OpenCV
 //!   cascades.
@@ -21,6 +24,10 @@ pub const REQUIRE_SHARED: &str = "TETHER_REQUIRE_SHARED";
 /// The variable that points the tests at another shared folder than `../shared` beside
 /// the workspace (a folder that does not exist shows what a machine without it does).
 pub const SHARED_DIR: &str = "TETHER_SHARED_DIR";
+
+/// The variable `tools/test` sets: the tests whose prerequisites are missing were left
+/// out by its filter, so a test that reaches a skip is missing from its group.
+pub const GROUPS_FILTERED: &str = "TETHER_TEST_GROUPS_FILTERED";
 
 /// Whether `TETHER_REQUIRE_SHARED=1` demands that every test runs.
 pub fn required() -> bool {
@@ -39,11 +46,21 @@ pub fn decide(reason: &str, required: bool) -> Result<String, String> {
     }
 }
 
+/// What a test that `tools/test` should have left out does: fail, saying so.
+pub fn unfiltered(reason: &str) -> String {
+    format!(
+        "{reason}; this test skips, but tools/test did not leave it out: add it to the group \
+         of tools/test-groups/ that names this prerequisite, so that it is reported as skipped"
+    )
+}
+
 /// Prints why a test does not run (`SKIPPED: reason`, on standard error), or panics
-/// with the reason under `TETHER_REQUIRE_SHARED=1` (at the test's line).
+/// with the reason under `TETHER_REQUIRE_SHARED=1` or under `tools/test` (at the
+/// test's line).
 #[track_caller]
 pub fn skip(reason: &str) {
     match decide(reason, required()) {
+        Ok(_) if std::env::var_os(GROUPS_FILTERED).is_some() => panic!("{}", unfiltered(reason)),
         Ok(line) => eprintln!("{line}"),
         Err(failure) => panic!("{failure}"),
     }

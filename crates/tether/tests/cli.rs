@@ -107,6 +107,58 @@ fn sim_writes_identical_files_for_the_same_seed() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+#[test]
+fn sim_runs_tethers_pipeline_with_the_config_given() {
+    let dir = scratch("sim-config");
+    let run = |sub: &str, config: Option<&Path>| {
+        let out_dir = dir.join(sub);
+        let mut args = vec![
+            "sim".to_owned(),
+            "--scenario".into(),
+            "corridor".into(),
+            "--duration".into(),
+            "6".into(),
+            "--out".into(),
+            out_dir.to_str().unwrap().into(),
+        ];
+        if let Some(c) = config {
+            args.extend(["--config".into(), c.to_str().unwrap().into()]);
+        }
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = tether(&args);
+        (out, out_dir)
+    };
+    let (out, plain) = run("plain", None);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // A softer spring drives otherwise (the follow distance is the scenario's robot's).
+    let far = dir.join("soft.toml");
+    std::fs::write(&far, "[follower]\ndistance_omega_radps = 1.0\n").unwrap();
+    let (out, farther) = run("far", Some(&far));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let metrics = |d: &Path| std::fs::read_to_string(d.join("metrics.json")).unwrap();
+    assert_ne!(
+        metrics(&plain),
+        metrics(&farther),
+        "--config changed nothing"
+    );
+    // The robot file of the README's walk-through is read for its pipeline keys.
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robot.example.toml");
+    let (out, _) = run("robot", Some(&example));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // A bad value is refused, naming the key, and nothing is written.
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "[follower]\ndistance_omega_radps = -1.0\n").unwrap();
+    let (out, none) = run("bad", Some(&bad));
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("distance_omega_radps"),
+        "{}",
+        text(&out.stderr)
+    );
+    assert!(!none.exists(), "a refused run wrote {}", none.display());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Writes the corridor scenario with one edit, runs it, and returns stderr, the file
 /// and the 1-based line on which `marker` stands in the edited file.
 fn bad_scenario(

@@ -137,7 +137,9 @@ fn a_safety_key_that_switches_safety_off_is_refused_by_name_before_any_device_op
     let dir = scratch("live-unsafe-keys");
     let laser = dir.join("no-such-dir").join("ttyACM9");
     let laser = laser.to_str().unwrap();
-    let wheels = dir.join("wheels.txt");
+    // The base's device exists (tether creates none) and stays empty while nothing
+    // opens it.
+    let wheels = write(&dir, "wheels.txt", "");
     let record = dir.join("run.mcap");
     let base = format!(
         "kind = \"wheels\"\ndevice = \"{}\"\nformat = \"text\"",
@@ -161,7 +163,11 @@ fn a_safety_key_that_switches_safety_off_is_refused_by_name_before_any_device_op
         );
         // Refused for the key, not for the missing laser: nothing was opened.
         assert!(!stderr.contains("ttyACM9"), "{key}: {stderr}");
-        assert!(!wheels.exists(), "{key}: the base's device was opened");
+        assert_eq!(
+            std::fs::read_to_string(&wheels).unwrap(),
+            "",
+            "{key}: the base's device was opened"
+        );
         assert!(!record.exists(), "{key}: the recording was created");
         let mut stdout = String::new();
         let _ = std::io::Read::read_to_string(run.child.stdout.as_mut().unwrap(), &mut stdout);
@@ -207,8 +213,12 @@ fn a_safety_key_that_switches_safety_off_is_refused_by_name_before_any_device_op
     let stderr = run.stderr();
     assert!(!status.success(), "{stderr}");
     assert!(stderr.contains("ttyACM9"), "{stderr}");
-    // The base's device is opened before the laser: the refusals above came first.
-    assert!(wheels.exists(), "{stderr}");
+    // The base's device is opened before the laser (and gets the final stop of the
+    // failed start): the refusals above came first.
+    assert!(
+        !std::fs::read_to_string(&wheels).unwrap().is_empty(),
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -236,4 +246,95 @@ fn a_base_of_kind_none_runs_with_its_device_and_baud_left_in_and_says_they_are_i
     }
     assert!(!stderr.contains("base.format"), "{stderr}");
     assert!(!device.exists(), "the ignored device was opened");
+}
+
+#[test]
+fn a_run_that_cannot_start_creates_nothing_and_says_what_to_do() {
+    // The live walk-through's traps: configs/emulator.toml run before the FIFO exists,
+    // or with the placeholder pty left in it.
+    let dir = scratch("live-no-start");
+    let shipped = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/emulator.toml"),
+    )
+    .unwrap();
+    let fifo = dir.join("tether-wheels");
+    let record = dir.join("run.mcap");
+    let edited = |serial: &str| {
+        shipped
+            .replace("/dev/pts/N", serial)
+            .replace("/tmp/tether-wheels", fifo.to_str().unwrap())
+            .replace("\"run.mcap\"", &format!("{:?}", record))
+    };
+    let run = |name: &str, text: &str| {
+        let config = write(&dir, &format!("{name}.toml"), text);
+        let mut run = spawn(
+            name,
+            &dir,
+            &["run", "--config", config.to_str().unwrap()],
+            Stdio::piped(),
+        );
+        let status = wait(&mut run, Duration::from_secs(30), "tether run");
+        assert!(!status.success(), "{name}: it ran:\n{}", run.stderr());
+        run.stderr()
+    };
+    let leftovers = || {
+        std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(".mcap"))
+            .collect::<Vec<_>>()
+    };
+    // No FIFO yet: an error that says how to make it, and no file in its place.
+    let stderr = run("no-fifo", &edited("/dev/pts/N"));
+    assert!(
+        stderr.contains(&format!("mkfifo {}", fifo.display())),
+        "{stderr}"
+    );
+    assert!(
+        !fifo.exists(),
+        "a file was made where the FIFO goes:\n{stderr}"
+    );
+    assert!(leftovers().is_empty(), "{:?}", leftovers());
+    // The FIFO's reader there (here a plain file stands in for it), but the pty left
+    // as the placeholder: the error names the pty to use, and no recording is left.
+    std::fs::write(&fifo, "").unwrap();
+    let stderr = run("placeholder-pty", &edited("/dev/pts/N"));
+    assert!(
+        stderr.contains("the one it printed when it started"),
+        "{stderr}"
+    );
+    assert!(
+        leftovers().is_empty(),
+        "a run that never started left {:?}",
+        leftovers()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_emulator_reads_commands_from_a_fifo_only() {
+    let dir = scratch("emulator-commands-file");
+    let file = write(&dir, "tether-wheels", "0.000 0.000\n");
+    let mut emu = spawn(
+        "emulator",
+        &dir,
+        &[
+            "urg-emulator",
+            "--pty",
+            "--scenario",
+            "corridor",
+            "--commands",
+            file.to_str().unwrap(),
+        ],
+        Stdio::piped(),
+    );
+    let status = wait(&mut emu, Duration::from_secs(30), "the emulator");
+    assert!(!status.success());
+    let stderr = emu.stderr();
+    assert!(stderr.contains("not a FIFO but a regular file"), "{stderr}");
+    assert!(
+        stderr.contains(&format!("mkfifo {}", file.display())),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

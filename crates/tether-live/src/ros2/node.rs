@@ -128,6 +128,8 @@ pub struct NodeReport {
     pub clock: LiveClock,
     /// The resolved `/tf` topic.
     pub tf_topic: String,
+    /// The topic the scans were read from.
+    pub scan_topic: String,
 }
 
 /// Why the node could not start.
@@ -181,6 +183,7 @@ pub enum NodeError {
 /// Runs the node until `settings.duration` passes, `stop` is set, or an output fails;
 /// every output then gets a final stop.
 pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport, NodeError> {
+    let started = std::time::Instant::now();
     let NodeSettings {
         identity,
         ros,
@@ -269,11 +272,19 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         mount_given,
         camera: camera.is_some(),
     };
-    let mount_publisher = mounts.take(&mut node, &mut pipeline, clock.now_ns())?;
+    let clock_start_ns = clock.now_ns();
+    let mount_publisher = mounts.take(&mut node, &mut pipeline, clock_start_ns)?;
     let mut pipeline = crate::leg_model::pipeline(pipeline)?;
+    // `duration` counts from the start, the wait for the first scan and the mounts
+    // included: on sim time in simulated seconds, else on the wall clock.
+    let spent = if use_sim_time {
+        Duration::from_nanos(u64::try_from(clock.now_ns() - clock_start_ns).unwrap_or(0))
+    } else {
+        started.elapsed()
+    };
     let loop_config = LoopConfig {
         control_period: Duration::from_millis(50),
-        duration,
+        duration: duration.map(|d| d.saturating_sub(spent)),
         track_width_m: pipeline.config().limits.track_width_m,
         scan_odometry,
         odometry_input,
@@ -315,6 +326,7 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         graph_problems,
         clock,
         tf_topic,
+        scan_topic,
     })
 }
 

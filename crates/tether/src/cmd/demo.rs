@@ -36,8 +36,16 @@ pub struct Args {
 /// The pipeline variants of a run: the driver and its laser-only and vision-only
 /// passengers.
 pub fn variants(scenario: &Scenario) -> (PipelineConfig, Vec<PipelineConfig>) {
-    let base = PipelineConfig::default();
-    let fused = config_for(scenario, &base);
+    variants_from(scenario, &PipelineConfig::default())
+}
+
+/// [`variants`] from the configuration `base` (`tether sim --config`) instead of the
+/// defaults.
+pub fn variants_from(
+    scenario: &Scenario,
+    base: &PipelineConfig,
+) -> (PipelineConfig, Vec<PipelineConfig>) {
+    let fused = config_for(scenario, base);
     let mut laser_only = fused.clone();
     laser_only.fusion.use_vision = false;
     let mut vision_only = fused.clone();
@@ -65,7 +73,15 @@ pub fn laser_only(scenario: &Scenario) -> Scenario {
 /// The pipeline of a laser-only run: the fused configuration with vision off, driving
 /// alone (no passengers: there is no camera to compare with).
 pub fn laser_only_variants(scenario: &Scenario) -> (PipelineConfig, Vec<PipelineConfig>) {
-    let (mut laser, _) = variants(scenario);
+    laser_only_variants_from(scenario, &PipelineConfig::default())
+}
+
+/// [`laser_only_variants`] from the configuration `base`.
+pub fn laser_only_variants_from(
+    scenario: &Scenario,
+    base: &PipelineConfig,
+) -> (PipelineConfig, Vec<PipelineConfig>) {
+    let (mut laser, _) = variants_from(scenario, base);
     laser.fusion.use_vision = false;
     (laser, Vec::new())
 }

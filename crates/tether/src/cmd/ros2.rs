@@ -460,6 +460,17 @@ fn summarize(
         .iter()
         .map(|(o, e)| format!("the final stop to {o} failed: {e}"))
         .collect();
+    if load(&counters.delivered) == 0 && summary.ending.is_clean() {
+        problems.insert(
+            0,
+            format!(
+                "no scan arrived on {} in the whole run: is something publishing it on \
+                 this ROS_DOMAIN_ID and network, under that name (remap it with --ros-args \
+                 -r scan:=/your/scan)?",
+                report.scan_topic
+            ),
+        );
+    }
     match &summary.ending {
         Ending::Duration | Ending::Interrupted => {}
         Ending::OutputFailed { output, error } => {

@@ -74,7 +74,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary,
         pipeline,
         recording_error,
-    } = robot::run(&config, pipeline_config, &settings, &stop)?;
+    } = robot::run(&config, pipeline_config, &settings, &stop).map_err(|e| {
+        let hint = start_hint(&e, &config);
+        anyhow::Error::new(e).context(hint)
+    })?;
     let mut problems = Vec::new();
     if let Some(e) = recording_error {
         problems.push(format!("finishing the recording: {e}"));
@@ -96,7 +99,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if summary.clamped_stamps > 0 {
         tracing::info!(
             "{} scans or frames were stamped before the loop's last tick (a sensor thread a \
-             little late, a busy machine) and were processed at that tick's time instead",
+             little late, a busy machine) and were processed at that tick's time instead: \
+             nothing to do, unless it is most of them on a robot whose laser is not \
+             emulated (then the machine is too slow for the scan rate)",
             summary.clamped_stamps
         );
     }
@@ -142,5 +147,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "{}; a final stop was sent to every output that still worked",
             problems.join("; ")
         )
+    }
+}
+
+/// What to tell the user when the robot of `config` cannot start: where to look first.
+fn start_hint(error: &robot::StartError, config: &RobotConfig) -> String {
+    use robot::StartError;
+    let serial = config.laser.serial.as_deref().unwrap_or("");
+    match error {
+        StartError::Laser(_) if serial.starts_with("/dev/pts/") => format!(
+            "the laser at {serial} did not start: a pseudo-terminal is what `tether \
+             urg-emulator` serves; put in [laser] serial the one it printed when it started \
+             (\"URG-04LX emulator ... on /dev/pts/K\"), and start it first"
+        ),
+        StartError::Laser(_) => format!(
+            "the laser did not start: is it plugged in and powered, is [laser] serial \
+             ({serial}) or tcp its port, and is no other program using it?"
+        ),
+        StartError::Base(_) | StartError::Guard(_) => {
+            "the base's device did not open (nothing was sent and no recording was kept)".into()
+        }
+        _ => "tether run did not start (nothing was sent and no recording was kept)".into(),
     }
 }

@@ -64,6 +64,12 @@ pub struct Args {
     /// noise, no-returns and mount height replace the scenario's).
     #[arg(long, value_name = "NAME")]
     pub scanner: Option<String>,
+    /// A pipeline configuration for tether's pipeline (TOML, every table optional: the
+    /// keys of `tether config defaults`, or a robot file of `tether run`, whose
+    /// pipeline keys are taken). The scenario's robot keeps its own laser, camera,
+    /// follow distance, wheel limits and radius. Only with `--driver tether`.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
     /// The leg model (`--leg-model`).
     #[command(flatten)]
     pub leg_model: super::leg_model::LegModelArg,
@@ -281,6 +287,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.laser_only {
         scenario = super::demo::laser_only(&scenario);
     }
+    anyhow::ensure!(
+        args.config.is_none() || (args.driver == DriverChoice::Tether && !args.ros2),
+        "--config configures tether's pipeline, which `--driver scenario` and `--ros2` do \
+         not run"
+    );
+    let base = super::track::load_config(args.config.as_ref())?;
     #[cfg(not(feature = "ros2"))]
     anyhow::ensure!(
         !args.ros2,
@@ -341,12 +353,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(context)?,
         DriverChoice::Tether => {
             let (mut driver, mut passengers) = if args.laser_only {
-                super::demo::laser_only_variants(&scenario)
+                super::demo::laser_only_variants_from(&scenario, &base)
             } else {
-                super::demo::variants(&scenario)
+                super::demo::variants_from(&scenario, &base)
             };
             args.leg_model
                 .apply_all(std::iter::once(&mut driver).chain(&mut passengers));
+            // A configuration the pipeline refuses is refused before anything is written.
+            for config in std::iter::once(&driver).chain(&passengers) {
+                tether_live::leg_model::pipeline(config.clone())
+                    .context("tether's pipeline refuses this configuration")?;
+            }
             let with_odometry = scenario.odometry_available();
             let mut recorder =
                 RunRecorder::create(&args.out, &scenario, args.seed).with_context(context)?;

@@ -159,8 +159,8 @@ pub fn read_commands(
     (count, last)
 }
 
-/// Reads commands from the file or FIFO at `path`: a FIFO again after each time its
-/// writers close it (one `tether run` after another), a plain file once.
+/// Reads commands from the FIFO at `path`, again after each time its writers close it
+/// (one `tether run` after another).
 fn read_command_file(path: &std::path::Path, inbox: &CommandInbox, track_width_m: f64) {
     use std::os::unix::fs::FileTypeExt;
     loop {
@@ -308,6 +308,12 @@ impl ScanSource for SimulatedScans {
                     return;
                 }
             }
+            tracing::warn!(
+                "scenario `{}` ended after {:.1} s of scans: it starts over (the people and \
+                 the robot go back to their start; a run still reading sees them jump)",
+                self.scenario.name,
+                self.scenario.duration_s
+            );
             match Simulation::new(&self.scenario, self.seed) {
                 Ok(sim) => self.sim = sim,
                 Err(_) => break,
@@ -392,12 +398,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let source = args.commands.clone();
         if let Some(path) = &source {
             // Refused now rather than in the reader thread.
-            std::fs::metadata(path).with_context(|| {
+            use std::os::unix::fs::FileTypeExt;
+            let meta = std::fs::metadata(path).with_context(|| {
                 format!(
-                    "--commands {}: no such file or FIFO (mkfifo it first)",
+                    "--commands {}: no such FIFO (mkfifo it first)",
                     path.display()
                 )
             })?;
+            anyhow::ensure!(
+                meta.file_type().is_fifo(),
+                "--commands {}: not a FIFO but a {}; a regular file there is likely left by a \
+                 `tether run` started before the FIFO existed: remove it and `mkfifo {}`",
+                path.display(),
+                if meta.is_file() {
+                    "regular file"
+                } else {
+                    "file of another kind"
+                },
+                path.display()
+            );
         }
         std::thread::Builder::new()
             .name("commands".into())

@@ -153,7 +153,7 @@ bearing_omega_radps = 3.0
 }
 
 /// `DIR/robot.toml`: [`config_text`] on `pty` with the wheels' commands in
-/// `DIR/wheels.txt` as text, stdout, the recording `DIR/run.mcap`, the laser and
+/// `DIR/wheels.txt` (made empty here) as text, stdout, the recording `DIR/run.mcap`, the laser and
 /// target timeouts widened for a loaded machine, and `extra` tables.
 pub fn wheels_config(dir: &Path, pty: &str, extra: &str) -> PathBuf {
     let path = dir.join("robot.toml");
@@ -171,5 +171,8 @@ pub fn wheels_config(dir: &Path, pty: &str, extra: &str) -> PathBuf {
     );
     std::fs::write(&path, config_text(pty, &base, &output, &tables))
         .expect("the scratch folder is writable");
+    // tether writes into the base's device but creates none: the log of the wheel
+    // speeds is made here, as a FIFO would be by its reader.
+    std::fs::write(dir.join("wheels.txt"), "").expect("the scratch folder is writable");
     path
 }
