@@ -36,6 +36,9 @@ const LABEL_H_PX: f64 = 11.0;
 const LEGEND_CHAR_PX: f64 = 8.0;
 /// Longest scale bar of a fitted map, px.
 const SCALE_BAR_MAX_PX: f64 = 160.0;
+/// How much farther off each ring of places for a label is, px, when the places
+/// beside its point are taken.
+const LEAD_PX: f64 = 12.0;
 
 /// Colours for the people: the target in red, others from a colour-blind-safe set.
 pub fn person_color(index: usize, is_target: bool) -> &'static str {
@@ -129,6 +132,9 @@ pub enum LegendMark {
     Robot,
     /// A dashed square (a region shown magnified).
     Square,
+    /// A dashed line with the robot's triangle on it: the robot's path and its pose at
+    /// a few instants, one entry.
+    RobotOnPath,
 }
 
 /// One entry of a map's legend.
@@ -163,6 +169,8 @@ pub struct MapSvg {
     fitted: bool,
     /// Boxes of the labels placed so far (left, top, right, bottom), px in the body.
     labels: Vec<[f64; 4]>,
+    /// Boxes that labels keep off (the squares of magnified views), px in the body.
+    kept_clear: Vec<[f64; 4]>,
 }
 
 impl MapSvg {
@@ -270,6 +278,7 @@ impl MapSvg {
             legend: Vec::new(),
             fitted: false,
             labels: Vec::new(),
+            kept_clear: Vec::new(),
         };
         map.draw_world(scenario, world, lo, hi);
         map
@@ -415,13 +424,31 @@ impl MapSvg {
         self.legend.iter().map(|e| e.label.as_str()).collect()
     }
 
-    /// Draws a path, with a dot at its start and a square at its end when `ends`.
+    /// Draws a path, with a dot at its start and a square at its end when `ends`, and
+    /// adds it to the legend.
     pub fn path(
         &mut self,
         points: &[Point2<World>],
         color: &str,
         dashed: bool,
         label: &str,
+        ends: bool,
+    ) {
+        if points.is_empty() {
+            return;
+        }
+        self.draw_path(points, color, dashed, label, ends);
+        self.legend(label, color, dashed);
+    }
+
+    /// Draws a path like [`MapSvg::path`], titled `title`, without a legend entry (for
+    /// paths that share one).
+    pub fn draw_path(
+        &mut self,
+        points: &[Point2<World>],
+        color: &str,
+        dashed: bool,
+        title: &str,
         ends: bool,
     ) {
         if points.is_empty() {
@@ -441,7 +468,7 @@ impl MapSvg {
             self.body,
             r#"<polyline points="{}" fill="none" stroke="{color}" stroke-width="2.5" stroke-linejoin="round"{dash}><title>{}</title></polyline>"#,
             pts.join(" "),
-            xml_escape(label)
+            xml_escape(title)
         );
         if ends && let (Some(a), Some(b)) = (points.first(), points.last()) {
             let _ = writeln!(
@@ -453,7 +480,6 @@ impl MapSvg {
                 self.y(b.y) - 4.5
             );
         }
-        self.legend(label, color, dashed);
     }
 
     /// Draws the robot as a triangle at `pose`.
@@ -495,7 +521,17 @@ impl MapSvg {
     /// few other places beside it where it overlaps no label written before and
     /// stays on the picture.
     pub fn label(&mut self, p: Point2<World>, text: &str, color: &str) {
-        let (x, y) = self.place_label(self.x(p.x), self.y(p.y), text);
+        let (u, v) = (self.x(p.x), self.y(p.y));
+        let (x, y) = self.place_label(u, v, text);
+        // Put farther off than the first spots: a thin line leads to it.
+        let (w, h) = (label_width_px(text), LABEL_H_PX);
+        let (nx, ny) = (u.clamp(x, x + w), v.clamp(y - h, y + 2.0));
+        if (nx - u).hypot(ny - v) > 6.0 + LEAD_PX {
+            let _ = writeln!(
+                self.body,
+                r#"<line class="leader" x1="{u:.1}" y1="{v:.1}" x2="{nx:.1}" y2="{ny:.1}" stroke="{color}" stroke-width="0.8"/>"#
+            );
+        }
         let _ = writeln!(
             self.body,
             r#"<text class="map-label" x="{x:.1}" y="{y:.1}" font-size="11" fill="{color}">{}</text>"#,
@@ -508,7 +544,11 @@ impl MapSvg {
     fn place_label(&mut self, u: f64, v: f64, text: &str) -> (f64, f64) {
         let w = label_width_px(text);
         let h = LABEL_H_PX;
-        let candidates = label_spots((u, v), (w, h), 6.0, 4.0);
+        // Beside the point, then in rings farther off when those are taken.
+        let candidates: Vec<(f64, f64)> = [0.0, 1.0, 2.0, 3.0, 4.0]
+            .iter()
+            .flat_map(|k| label_spots((u, v), (w, h), 6.0 + k * LEAD_PX, 4.0 + k * 2.0))
+            .collect();
         // The body's area, margins included.
         let (l, t, r, b) = (
             -MARGIN_PX + 2.0,
@@ -516,7 +556,7 @@ impl MapSvg {
             self.map_w + MARGIN_PX - 2.0,
             self.map_h,
         );
-        let boxed = |(x, y): (f64, f64)| [x, y - h, x + w, y + 2.0];
+        let boxed = |(x, y): (f64, f64)| [x, y - h, x + w, y + 3.0];
         let fits = |c: &(f64, f64)| {
             let [x0, y0, x1, y1] = boxed(*c);
             x0 >= l
@@ -526,6 +566,7 @@ impl MapSvg {
                 && !self
                     .labels
                     .iter()
+                    .chain(&self.kept_clear)
                     .any(|q| x0 < q[2] && q[0] < x1 && y0 < q[3] && q[1] < y1)
         };
         let (x, y) = candidates
@@ -538,10 +579,18 @@ impl MapSvg {
     }
 
     /// Outlines a square `side_m` across (at least 10 px) around `center`, dashed, and
-    /// writes `text` beside it in bold: where a magnified view is taken.
+    /// writes `text` beside it in bold: where a magnified view is taken. Labels written
+    /// after it keep off the square.
     pub fn zoom_box(&mut self, center: Point2<World>, side_m: f64, color: &str, text: &str) {
         let side = (side_m * self.px_per_m).max(10.0);
         let (u, v) = (self.x(center.x), self.y(center.y));
+        let square = [
+            u - side / 2.0,
+            v - side / 2.0,
+            u + side / 2.0,
+            v + side / 2.0,
+        ];
+        self.kept_clear.push(square);
         let (x, y) = self.place_label(u + side / 2.0 - 4.0, v - side / 2.0 + 4.0, text);
         let _ = writeln!(
             self.body,
@@ -638,10 +687,25 @@ impl MapSvg {
                     x + 8.0,
                     y - 7.0
                 ),
+                LegendMark::RobotOnPath => format!(
+                    r#"<line x1="{x_text}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="{color}" stroke-width="3" stroke-dasharray="7 4"/><polygon points="{:.1},{y:.1} {:.1},{:.1} {:.1},{:.1}" fill="{color}" fill-opacity="0.5"/>"#,
+                    x + 30.0,
+                    x + 24.0,
+                    x + 8.0,
+                    y - 7.0,
+                    x + 8.0,
+                    y + 7.0
+                ),
+            };
+            // A fitted map's legend names its entry's colour (for checks of the page).
+            let data = if self.fitted {
+                format!(r#" data-color="{}""#, xml_escape(color))
+            } else {
+                String::new()
             };
             let _ = writeln!(
                 s,
-                r#"{mark}<text x="{:.1}" y="{:.1}">{}</text>"#,
+                r#"{mark}<text x="{:.1}" y="{:.1}"{data}>{}</text>"#,
                 x + 38.0,
                 y + 4.0,
                 xml_escape(&e.label)
@@ -835,6 +899,30 @@ mod tests {
                 assert!(!overlap, "{a:?} and {b:?}");
             }
         }
+    }
+
+    #[test]
+    fn labels_keep_off_the_squares_of_magnified_views() {
+        let mut map = fitted("corridor");
+        let p = Point2::new(5.0, 0.0);
+        map.zoom_box(p, 0.4, "#444", "A");
+        let square = map.kept_clear[0];
+        // Labels at the square's centre, more than the places beside it hold.
+        for k in 0..12 {
+            map.label(p, &format!("{k}.0 s"), "#444");
+        }
+        for b in &map.labels {
+            let on = square[0] < b[2] && b[0] < square[2] && square[1] < b[3] && b[1] < square[3];
+            assert!(!on, "{b:?} on {square:?}");
+        }
+        for (i, a) in map.labels.iter().enumerate() {
+            for b in &map.labels[i + 1..] {
+                let overlap = a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
+                assert!(!overlap, "{a:?} and {b:?}");
+            }
+        }
+        // Those put farther off are led to by a line.
+        assert!(map.body.contains("class=\"leader\""));
     }
 
     #[test]

@@ -176,18 +176,130 @@ fn legend_layout(
     out
 }
 
+/// How a plot is drawn, beyond its data.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct View {
+    /// Only this time window, s: the x axis spans it and the y axis fits what lies in
+    /// it.
+    pub window: Option<(f64, f64)>,
+    /// A long run's overview: the first series is drawn last (on top), the others
+    /// solid, thinner and translucent beneath it, so that a noisy estimate does not
+    /// hide the truth (a dashed line cannot be read once a series is thinned to its
+    /// least and greatest value per pixel column).
+    pub first_on_top: bool,
+}
+
+/// Baseline of the legend's first row below the plot's frame (`H`), px: below the
+/// time axis's title.
+const LEGEND_TOP: f64 = 18.0;
+/// Height of a legend row, px.
+const LEGEND_ROW: f64 = 18.0;
+/// A series with more than this many points per pixel column of the plot is thinned
+/// ([`thin`]).
+pub const POINTS_PER_PX: f64 = 2.0;
+
+/// The points of `points` to draw across `columns` pixel columns from `x0` to `x1`:
+/// all of them when there are at most [`POINTS_PER_PX`] a column, else, in each
+/// column, the point of least and the point of greatest value, in time order (every
+/// peak and dip stays, the line's pixels are the same). `None` (a break in the line)
+/// is kept.
+pub fn thin(
+    points: &[(f64, Option<f64>)],
+    x0: f64,
+    x1: f64,
+    columns: f64,
+) -> Vec<(f64, Option<f64>)> {
+    if (points.len() as f64) <= POINTS_PER_PX * columns || !(x1 > x0) {
+        return points.to_vec();
+    }
+    let column = |x: f64| ((x - x0) / (x1 - x0) * columns).floor() as i64;
+    let mut out = Vec::new();
+    // The current column and the indices of its least and greatest point.
+    let mut bucket: Option<(i64, usize, usize)> = None;
+    let flush = |bucket: &mut Option<(i64, usize, usize)>, out: &mut Vec<(f64, Option<f64>)>| {
+        if let Some((_, lo, hi)) = bucket.take() {
+            out.push(points[lo.min(hi)]);
+            if lo != hi {
+                out.push(points[lo.max(hi)]);
+            }
+        }
+    };
+    for (i, &(x, y)) in points.iter().enumerate() {
+        let Some(v) = y.filter(|v| v.is_finite() && x.is_finite()) else {
+            flush(&mut bucket, &mut out);
+            out.push((x, None));
+            continue;
+        };
+        let c = column(x);
+        match &mut bucket {
+            Some((bc, lo, hi)) if *bc == c => {
+                let value = |j: usize| points[j].1.unwrap_or(v);
+                if v < value(*lo) {
+                    *lo = i;
+                }
+                if v > value(*hi) {
+                    *hi = i;
+                }
+            }
+            _ => {
+                flush(&mut bucket, &mut out);
+                bucket = Some((c, i, i));
+            }
+        }
+    }
+    flush(&mut bucket, &mut out);
+    out
+}
+
+/// The points of `points` within `[a, b]`, with the one just before and the one just
+/// after, so that the line runs to the window's edges.
+fn windowed(points: &[(f64, Option<f64>)], (a, b): (f64, f64)) -> &[(f64, Option<f64>)] {
+    let first = points.iter().position(|p| p.0 >= a).unwrap_or(points.len());
+    let end = points.iter().rposition(|p| p.0 <= b).map_or(0, |i| i + 1);
+    if first >= end {
+        return &[];
+    }
+    &points[first.saturating_sub(1)..(end + 1).min(points.len())]
+}
+
+/// The plot's ranges and its mapping from data to pixels.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+}
+
+impl Frame {
+    const PW: f64 = W - LEFT - RIGHT;
+    const PH: f64 = H - TOP - BOTTOM;
+
+    fn px(&self, x: f64) -> f64 {
+        LEFT + (x - self.x0) / (self.x1 - self.x0) * Self::PW
+    }
+
+    fn py(&self, y: f64) -> f64 {
+        TOP + (self.y1 - y) / (self.y1 - self.y0) * Self::PH
+    }
+}
+
 impl Plot {
     /// Every legend entry the plot's parts ask for, in order: (label, colour, mark),
     /// some maybe without a label (which [`Plot::svg`] leaves out).
-    fn legend_entries(&self) -> Vec<(String, String, &'static str)> {
+    fn legend_entries(&self, view: &View) -> Vec<(String, String, &'static str)> {
         self.series
             .iter()
-            .map(|s| {
-                (
-                    s.label.clone(),
-                    s.color.clone(),
-                    if s.dashed { "dash" } else { "line" },
-                )
+            .enumerate()
+            .map(|(k, s)| {
+                let mark = if view.first_on_top && k > 0 {
+                    "faint"
+                } else if s.dashed {
+                    "dash"
+                } else {
+                    "line"
+                };
+                (s.label.clone(), s.color.clone(), mark)
             })
             .chain(self.bands.iter().map(|b| (b.3.clone(), b.2.clone(), "box")))
             .chain(
@@ -203,12 +315,29 @@ impl Plot {
             .collect()
     }
 
-    /// Renders the plot.
-    pub fn svg(&self) -> String {
+    /// The series' points as drawn: within the view's window, thinned to the plot's
+    /// pixel columns.
+    fn drawn_points(&self, view: &View, frame: &Frame) -> Vec<Vec<(f64, Option<f64>)>> {
+        self.series
+            .iter()
+            .map(|s| {
+                let points = match view.window {
+                    Some(w) => windowed(&s.points, w),
+                    None => &s.points,
+                };
+                thin(points, frame.x0, frame.x1, Frame::PW)
+            })
+            .collect()
+    }
+
+    /// The ranges: the data's (or the window's) in x, the values within it (and the
+    /// bands and lines) in y, padded by 5 %.
+    fn frame(&self, view: &View) -> Frame {
+        let inside = |x: f64| view.window.is_none_or(|(a, b)| x >= a && x <= b);
         let mut xs = Vec::new();
         let mut ys = Vec::new();
         for s in &self.series {
-            for &(x, y) in &s.points {
+            for &(x, y) in s.points.iter().filter(|p| inside(p.0)) {
                 if x.is_finite() {
                     xs.push(x);
                 }
@@ -224,10 +353,13 @@ impl Plot {
             ys.push(h.0);
         }
         let fold = |v: &[f64], f: fn(f64, f64) -> f64, init: f64| v.iter().copied().fold(init, f);
-        let (mut x0, mut x1) = (
-            fold(&xs, f64::min, f64::INFINITY),
-            fold(&xs, f64::max, f64::NEG_INFINITY),
-        );
+        let (mut x0, mut x1) = match view.window {
+            Some((a, b)) => (a, b),
+            None => (
+                fold(&xs, f64::min, f64::INFINITY),
+                fold(&xs, f64::max, f64::NEG_INFINITY),
+            ),
+        };
         let (mut y0, mut y1) = (
             fold(&ys, f64::min, f64::INFINITY),
             fold(&ys, f64::max, f64::NEG_INFINITY),
@@ -244,14 +376,28 @@ impl Plot {
             (y0, y1) = (base, base + 1.0);
         }
         let pad = 0.05 * (y1 - y0);
-        let (y0, y1) = (y0 - pad, y1 + pad);
-        let legend = legend_layout(self.legend_entries());
-        let legend_h = legend.last().map_or(0.0, |e| 18.0 * (e.4 + 1) as f64);
+        Frame {
+            x0,
+            x1,
+            y0: y0 - pad,
+            y1: y1 + pad,
+        }
+    }
+
+    /// Renders the plot.
+    pub fn svg(&self) -> String {
+        self.svg_view(&View::default())
+    }
+
+    /// Renders the plot as `view` says.
+    pub fn svg_view(&self, view: &View) -> String {
+        let frame = self.frame(view);
+        let legend = legend_layout(self.legend_entries(view));
+        let legend_h = legend
+            .last()
+            .map_or(0.0, |e| LEGEND_TOP - 4.0 + LEGEND_ROW * (e.4 + 1) as f64);
         let height = H + legend_h;
-        let pw = W - LEFT - RIGHT;
-        let ph = H - TOP - BOTTOM;
-        let px = |x: f64| LEFT + (x - x0) / (x1 - x0) * pw;
-        let py = |y: f64| TOP + (y1 - y) / (y1 - y0) * ph;
+        let (pw, ph) = (Frame::PW, Frame::PH);
         let mut s = String::new();
         let _ = writeln!(
             s,
@@ -267,91 +413,63 @@ impl Plot {
             s,
             r#"<defs><clipPath id="plotarea"><rect x="{LEFT}" y="{TOP}" width="{pw:.1}" height="{ph:.1}"/></clipPath></defs>"#
         );
-        for (a, b, color, _) in &self.spans {
-            let (xa, xb) = (px(a.max(x0)), px(b.min(x1)));
-            if xb > xa {
-                let _ = writeln!(
-                    s,
-                    r#"<rect x="{xa:.1}" y="{TOP}" width="{:.1}" height="{ph:.1}" fill="{color}" fill-opacity="0.25"/>"#,
-                    xb - xa
-                );
-            }
-        }
-        for (a, b, color, _) in &self.bands {
-            let (ya, yb) = (py(b.max(*a)), py(a.min(*b)));
-            let _ = writeln!(
-                s,
-                r#"<rect x="{LEFT}" y="{ya:.1}" width="{pw:.1}" height="{:.1}" fill="{color}" fill-opacity="0.25"/>"#,
-                (yb - ya).max(0.0)
-            );
-        }
-        // Axes and ticks.
-        let _ = writeln!(s, r##"<g stroke="#999999" stroke-width="1">"##);
-        let _ = writeln!(
-            s,
-            r#"<line x1="{LEFT}" y1="{:.1}" x2="{:.1}" y2="{:.1}"/>"#,
-            TOP + ph,
-            LEFT + pw,
-            TOP + ph
-        );
-        let _ = writeln!(
-            s,
-            r#"<line x1="{LEFT}" y1="{TOP}" x2="{LEFT}" y2="{:.1}"/>"#,
-            TOP + ph
-        );
-        let _ = writeln!(s, "</g>");
-        // Ticks no closer than their labels allow: on the time axis by the labels'
-        // widths, on the y axis by their height.
-        let (_, x_ticks) = axis_ticks(x0, x1, pw, text_width_px, TICK_GAP_PX);
-        for (t, label) in &x_ticks {
-            let _ = writeln!(
-                s,
-                r##"<line x1="{0:.1}" y1="{TOP}" x2="{0:.1}" y2="{1:.1}" stroke="#eeeeee"/><text class="tick-x" x="{0:.1}" y="{2:.1}" text-anchor="middle">{3}</text>"##,
-                px(*t),
-                TOP + ph,
-                TOP + ph + 14.0,
-                xml_escape(label)
-            );
-        }
-        let (_, y_ticks) = axis_ticks(y0, y1, ph, |_| TEXT_H_PX, TICK_GAP_Y_PX);
-        for (t, label) in &y_ticks {
-            let _ = writeln!(
-                s,
-                r##"<line x1="{LEFT}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="#eeeeee"/><text class="tick-y" x="{2:.1}" y="{3:.1}" text-anchor="end">{4}</text>"##,
-                py(*t),
-                LEFT + pw,
-                LEFT - 4.0,
-                py(*t) + 4.0,
-                xml_escape(label)
-            );
-        }
-        let _ = writeln!(
-            s,
-            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">time (s)</text>"#,
-            LEFT + pw / 2.0,
-            TOP + ph + 30.0
-        );
-        let _ = writeln!(
-            s,
-            r#"<text x="12" y="{:.1}" text-anchor="middle" transform="rotate(-90 12 {:.1})">{}</text>"#,
-            TOP + ph / 2.0,
-            TOP + ph / 2.0,
-            xml_escape(&self.y_label)
-        );
+        self.shades(&frame, &mut s);
+        axes(&frame, &self.y_label, &mut s);
         for (y, color, _) in &self.hlines {
             let _ = writeln!(
                 s,
                 r#"<line x1="{LEFT}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="{color}" stroke-dasharray="3 3"/>"#,
-                py(*y),
+                frame.py(*y),
                 LEFT + pw
             );
         }
+        self.lines(view, &frame, &mut s);
+        legend_svg(&legend, &mut s);
+        let _ = writeln!(s, "</svg>");
+        s
+    }
+
+    /// The shaded spans (in time) and bands (in value), clipped to the plot.
+    fn shades(&self, frame: &Frame, s: &mut String) {
+        for (a, b, color, _) in &self.spans {
+            let (xa, xb) = (frame.px(a.max(frame.x0)), frame.px(b.min(frame.x1)));
+            if xb > xa {
+                let _ = writeln!(
+                    s,
+                    r#"<rect x="{xa:.1}" y="{TOP}" width="{:.1}" height="{:.1}" fill="{color}" fill-opacity="0.25"/>"#,
+                    xb - xa,
+                    Frame::PH
+                );
+            }
+        }
+        for (a, b, color, _) in &self.bands {
+            let (ya, yb) = (frame.py(b.max(*a)), frame.py(a.min(*b)));
+            let _ = writeln!(
+                s,
+                r#"<rect x="{LEFT}" y="{ya:.1}" width="{:.1}" height="{:.1}" fill="{color}" fill-opacity="0.25"/>"#,
+                Frame::PW,
+                (yb - ya).max(0.0)
+            );
+        }
+    }
+
+    /// The series' lines, clipped to the plot; with [`View::first_on_top`], the first
+    /// last.
+    fn lines(&self, view: &View, frame: &Frame, s: &mut String) {
         let _ = writeln!(
             s,
             r#"<g clip-path="url(#plotarea)" fill="none" stroke-width="1.6">"#
         );
-        for series in &self.series {
-            let dash = if series.dashed {
+        let points = self.drawn_points(view, frame);
+        let mut order: Vec<usize> = (0..self.series.len()).collect();
+        if view.first_on_top {
+            order.rotate_left(1);
+        }
+        for k in order {
+            let series = &self.series[k];
+            let style = if view.first_on_top && k > 0 {
+                r#" stroke-width="1.1" stroke-opacity="0.55""#
+            } else if series.dashed {
                 r#" stroke-dasharray="6 3""#
             } else {
                 ""
@@ -361,50 +479,115 @@ impl Plot {
                 if run.len() > 1 {
                     let _ = writeln!(
                         s,
-                        r#"<polyline points="{}" stroke="{}"{dash}/>"#,
+                        r#"<polyline points="{}" stroke="{}"{style}/>"#,
                         run.join(" "),
                         series.color
                     );
                 }
                 run.clear();
             };
-            for &(x, y) in &series.points {
+            for &(x, y) in &points[k] {
                 match y.filter(|y| y.is_finite()) {
-                    Some(y) if x.is_finite() => run.push(format!("{:.1},{:.1}", px(x), py(y))),
-                    _ => flush(&mut run, &mut s),
+                    Some(y) if x.is_finite() => {
+                        run.push(format!("{:.1},{:.1}", frame.px(x), frame.py(y)));
+                    }
+                    _ => flush(&mut run, s),
                 }
             }
-            flush(&mut run, &mut s);
+            flush(&mut run, s);
         }
         let _ = writeln!(s, "</g>");
-        // The legend: the entries with a label, in rows.
-        for (label, color, kind, x, row) in &legend {
-            let (x, y) = (*x, H + 4.0 + *row as f64 * 18.0);
-            let mark = match *kind {
-                "box" => format!(
-                    r#"<rect x="{x:.1}" y="{:.1}" width="22" height="10" fill="{color}" fill-opacity="0.35"/>"#,
-                    y - 8.0
-                ),
-                "dash" => format!(
-                    r#"<line x1="{x:.1}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="{color}" stroke-width="2" stroke-dasharray="6 3"/>"#,
-                    y - 3.0,
-                    x + 22.0
-                ),
-                _ => format!(
-                    r#"<line x1="{x:.1}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="{color}" stroke-width="2"/>"#,
-                    y - 3.0,
-                    x + 22.0
-                ),
-            };
-            let _ = writeln!(
-                s,
-                r#"<g class="legend-entry">{mark}<text x="{:.1}" y="{y:.1}">{}</text></g>"#,
-                x + 28.0,
-                xml_escape(label)
-            );
-        }
-        let _ = writeln!(s, "</svg>");
-        s
+    }
+}
+
+/// The axes, their ticks and labels, and their titles.
+fn axes(frame: &Frame, y_label: &str, s: &mut String) {
+    let (pw, ph) = (Frame::PW, Frame::PH);
+    let _ = writeln!(s, r##"<g stroke="#999999" stroke-width="1">"##);
+    let _ = writeln!(
+        s,
+        r#"<line x1="{LEFT}" y1="{:.1}" x2="{:.1}" y2="{:.1}"/>"#,
+        TOP + ph,
+        LEFT + pw,
+        TOP + ph
+    );
+    let _ = writeln!(
+        s,
+        r#"<line x1="{LEFT}" y1="{TOP}" x2="{LEFT}" y2="{:.1}"/>"#,
+        TOP + ph
+    );
+    let _ = writeln!(s, "</g>");
+    // Ticks no closer than their labels allow: on the time axis by the labels'
+    // widths, on the y axis by their height.
+    let (_, x_ticks) = axis_ticks(frame.x0, frame.x1, pw, text_width_px, TICK_GAP_PX);
+    for (t, label) in &x_ticks {
+        let _ = writeln!(
+            s,
+            r##"<line x1="{0:.1}" y1="{TOP}" x2="{0:.1}" y2="{1:.1}" stroke="#eeeeee"/><text class="tick-x" x="{0:.1}" y="{2:.1}" text-anchor="middle">{3}</text>"##,
+            frame.px(*t),
+            TOP + ph,
+            TOP + ph + 14.0,
+            xml_escape(label)
+        );
+    }
+    let (_, y_ticks) = axis_ticks(frame.y0, frame.y1, ph, |_| TEXT_H_PX, TICK_GAP_Y_PX);
+    for (t, label) in &y_ticks {
+        let _ = writeln!(
+            s,
+            r##"<line x1="{LEFT}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="#eeeeee"/><text class="tick-y" x="{2:.1}" y="{3:.1}" text-anchor="end">{4}</text>"##,
+            frame.py(*t),
+            LEFT + pw,
+            LEFT - 4.0,
+            frame.py(*t) + 4.0,
+            xml_escape(label)
+        );
+    }
+    let _ = writeln!(
+        s,
+        r#"<text class="axis-title" x="{:.1}" y="{:.1}" text-anchor="middle">time (s)</text>"#,
+        LEFT + pw / 2.0,
+        TOP + ph + 30.0
+    );
+    let _ = writeln!(
+        s,
+        r#"<text class="axis-title" x="12" y="{:.1}" text-anchor="middle" transform="rotate(-90 12 {:.1})">{}</text>"#,
+        TOP + ph / 2.0,
+        TOP + ph / 2.0,
+        xml_escape(y_label)
+    );
+}
+
+/// The legend: the entries with a label, in rows below the time axis's title.
+fn legend_svg(legend: &[(String, String, &'static str, f64, usize)], s: &mut String) {
+    for (label, color, kind, x, row) in legend {
+        let (x, y) = (*x, H + LEGEND_TOP + *row as f64 * LEGEND_ROW);
+        let mark = match *kind {
+            "box" => format!(
+                r#"<rect x="{x:.1}" y="{:.1}" width="22" height="10" fill="{color}" fill-opacity="0.35"/>"#,
+                y - 8.0
+            ),
+            "dash" => format!(
+                r#"<line x1="{x:.1}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="{color}" stroke-width="2" stroke-dasharray="6 3"/>"#,
+                y - 3.0,
+                x + 22.0
+            ),
+            "faint" => format!(
+                r#"<line x1="{x:.1}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="{color}" stroke-width="1.6" stroke-opacity="0.55"/>"#,
+                y - 3.0,
+                x + 22.0
+            ),
+            _ => format!(
+                r#"<line x1="{x:.1}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="{color}" stroke-width="2"/>"#,
+                y - 3.0,
+                x + 22.0
+            ),
+        };
+        let _ = writeln!(
+            s,
+            r#"<g class="legend-entry">{mark}<text x="{:.1}" y="{y:.1}">{}</text></g>"#,
+            x + 28.0,
+            xml_escape(label)
+        );
     }
 }
 
@@ -557,6 +740,77 @@ mod tests {
             let text = e.split("<text").nth(1).unwrap();
             let text = text.split('>').nth(1).unwrap().split('<').next().unwrap();
             assert!(!text.trim().is_empty(), "{e}");
+        }
+    }
+
+    #[test]
+    fn thinning_keeps_every_peak_and_break_within_the_columns() {
+        // Ten minutes at 30 Hz: noise, one spike, one dip, and a gap.
+        let mut points: Vec<(f64, Option<f64>)> = (0..18_000)
+            .map(|k| {
+                let t = k as f64 / 30.0;
+                (
+                    t,
+                    Some(1.0 + 0.05 * ((k * 7919 % 101) as f64 / 101.0 - 0.5)),
+                )
+            })
+            .collect();
+        points[3_000].1 = Some(2.1);
+        points[9_000].1 = Some(0.2);
+        points[12_000].1 = None;
+        let columns = W - LEFT - RIGHT;
+        let thinned = thin(&points, 0.0, 600.0, columns);
+        assert!(
+            thinned.len() as f64 <= 2.0 * columns + 4.0,
+            "{}",
+            thinned.len()
+        );
+        for kept in [points[3_000], points[9_000], points[12_000]] {
+            assert!(thinned.contains(&kept), "{kept:?}");
+        }
+        // In time order, and a short series is left alone.
+        assert!(thinned.windows(2).all(|w| w[0].0 <= w[1].0));
+        assert_eq!(thin(&points[..500], 0.0, 600.0, columns), points[..500]);
+        // A window shows only its part, the y axis fitted to it.
+        let plot = Plot {
+            series: vec![Series {
+                label: "d".into(),
+                color: "#000".into(),
+                dashed: false,
+                points,
+            }],
+            ..Plot::default()
+        };
+        let frame = plot.frame(&View {
+            window: Some((200.0, 230.0)),
+            first_on_top: false,
+        });
+        assert_eq!((frame.x0, frame.x1), (200.0, 230.0));
+        assert!(frame.y1 < 1.1 && frame.y0 > 0.9, "{frame:?}");
+    }
+
+    #[test]
+    fn the_legend_lies_below_the_time_axis_title() {
+        let svg = plot_over(30.0).svg();
+        let title_y: f64 = svg
+            .split("<text class=\"axis-title\" x=\"")
+            .nth(1)
+            .and_then(|t| t.split("y=\"").nth(1))
+            .and_then(|t| t.split('"').next())
+            .unwrap()
+            .parse()
+            .unwrap();
+        for entry in svg.split("<g class=\"legend-entry\">").skip(1) {
+            let y: f64 = entry
+                .split("<text x=\"")
+                .nth(1)
+                .and_then(|t| t.split("y=\"").nth(1))
+                .and_then(|t| t.split('"').next())
+                .unwrap()
+                .parse()
+                .unwrap();
+            // A line of 11 px text below the title's.
+            assert!(y - title_y >= TEXT_H_PX + 3.0, "{y} under {title_y}");
         }
     }
 

@@ -6,6 +6,13 @@
 //! script in a copy of the page) has every map, plot and inset within the page, at a
 //! wide and at a narrow window, and no two time labels of a plot or labels of a map
 //! overlapping.
+//!
+//! The demo report of every scenario, and the replay report, are measured whole: the
+//! bounding boxes of every text of every picture (axis titles, tick labels, legend
+//! entries, inset labels, time labels, annotations) as Chromium lays them out, pair by
+//! pair within each picture, none overlapping another; no two entries of a legend in
+//! one colour; no label of a map on a magnified view's square; and in the replay
+//! report, every mark drawn in a snapshot or on the map found in its legend.
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
 
@@ -448,5 +455,305 @@ fn replay_report_renders_in_headless_chromium() {
     }
     let distinct = grey_levels(pixels);
     assert!(distinct > 40, "{distinct}");
+
+    // Every text of every picture apart, and every mark drawn in its legend.
+    let measured = measure_texts(browser, &dir, &text, 1400);
+    assert_texts_apart("replay report", &measured);
+    let unlisted: Vec<&str> = measured["unlisted"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    println!(
+        "replay report: {} marks drawn, {} not in their legend",
+        measured["marks"],
+        unlisted.len()
+    );
+    assert!(measured["marks"].as_u64().unwrap() > 50);
+    assert!(unlisted.is_empty(), "not in the legend: {unlisted:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// What the measuring script finds of every text of every picture in Chromium's
+/// layout of a page: per section (its id, or its heading), the pictures and texts
+/// measured and the pairs of texts of one picture whose boxes overlap (by more than
+/// half a pixel each way); legend entries of one picture sharing a colour; map labels
+/// on a magnified view's square; marks drawn but not in their legend.
+const MEASURE_TEXTS: &str = r#"<script>
+(function () {
+  const out = { sections: {}, overlaps: [], colours: [], on_squares: [], unlisted: [], marks: 0 };
+  const hit = (a, b) => a.left < b.right - 0.5 && b.left < a.right - 0.5 &&
+                        a.top < b.bottom - 0.5 && b.top < a.bottom - 0.5;
+  const nameOf = (svg) => {
+    const sec = svg.closest("section");
+    if (!sec) return "page";
+    if (sec.id) return sec.id;
+    const h = sec.querySelector("h2");
+    return h ? h.textContent : "section";
+  };
+  const colourOf = (e) => {
+    const fill = e.getAttribute("fill"), stroke = e.getAttribute("stroke");
+    return (fill && fill !== "none") ? fill : stroke;
+  };
+  for (const svg of document.querySelectorAll("svg")) {
+    const name = nameOf(svg);
+    const kind = svg.getAttribute("class") || "svg";
+    const sec = out.sections[name] || (out.sections[name] = { pictures: 0, texts: 0, overlaps: 0 });
+    sec.pictures += 1;
+    const texts = [...svg.querySelectorAll("text")]
+      .map(t => [t.textContent.trim(), t.getBoundingClientRect()])
+      .filter(([t, r]) => t.length > 0 && r.width > 0 && r.height > 0);
+    sec.texts += texts.length;
+    for (let i = 0; i < texts.length; i++) {
+      for (let j = i + 1; j < texts.length; j++) {
+        if (hit(texts[i][1], texts[j][1])) {
+          sec.overlaps += 1;
+          out.overlaps.push(name + " " + kind + ": \"" + texts[i][0] + "\" / \"" + texts[j][0] + "\"");
+        }
+      }
+    }
+    // The colours of the legend's entries.
+    let entries = [];
+    if (kind === "map" && svg.querySelector("text[data-color]")) {
+      entries = [...svg.querySelectorAll("text[data-color]")].map(t => [t.textContent, t.getAttribute("data-color")]);
+    } else if (kind === "plot" || kind === "inset-zoom") {
+      entries = [...svg.querySelectorAll("g.legend-entry")].map(g => {
+        const mark = [...g.children].find(c => c.tagName !== "text");
+        return [g.querySelector("text").textContent, mark ? colourOf(mark) : ""];
+      });
+    }
+    for (let i = 0; i < entries.length; i++) {
+      for (let j = i + 1; j < entries.length; j++) {
+        if (entries[i][1] === entries[j][1]) {
+          out.colours.push(name + " " + kind + ": \"" + entries[i][0] + "\" and \"" + entries[j][0] + "\" both " + entries[i][1]);
+        }
+      }
+    }
+    // (A demo map's legend is inside it; the replay's map has one beside it.)
+    if (kind === "map" && entries.length === 0 && !svg.parentElement.querySelector("svg.legend")) {
+      out.colours.push(name + ": a map's legend names no colours");
+    }
+    // Labels of a map keep off the squares of the magnified views.
+    const squares = [...svg.querySelectorAll("g.zoom-box rect")].map(r => r.getBoundingClientRect());
+    for (const t of svg.querySelectorAll("text.map-label")) {
+      if (squares.some(q => hit(q, t.getBoundingClientRect()))) {
+        out.on_squares.push(name + ": \"" + t.textContent + "\"");
+      }
+    }
+  }
+  // The replay report: every mark of a snapshot or of the map in its legend.
+  const classes = ["scan", "leg", "person", "track", "tentative", "target", "target-lost",
+                   "robot", "velocity", "trail", "robot-path", "robot-start"];
+  const check = (svg, legend) => {
+    const listed = new Set(legend ? [...legend.querySelectorAll("g.legend-entry")]
+      .flatMap(g => (g.getAttribute("data-marks") || "").split(" ")) : []);
+    for (const e of svg.querySelectorAll(classes.map(c => "." + c).join(","))) {
+      if (e.closest("svg.legend")) continue;
+      const cls = classes.find(c => e.classList.contains(c));
+      const key = cls === "velocity" ? cls : cls + ":" + colourOf(e);
+      out.marks += 1;
+      if (!listed.has(key)) out.unlisted.push(nameOf(svg) + " " + svg.getAttribute("class") + ": " + key);
+    }
+  };
+  const shots = document.querySelector("div.snapshots");
+  if (shots) {
+    for (const svg of shots.querySelectorAll("svg.snapshot-map")) check(svg, shots.previousElementSibling);
+  }
+  for (const svg of document.querySelectorAll("svg.map")) {
+    const legend = svg.parentElement.querySelector("svg.legend");
+    if (legend) check(svg, legend);
+  }
+  const pre = document.createElement("pre");
+  pre.id = "texts";
+  pre.textContent = JSON.stringify(out);
+  document.body.appendChild(pre);
+})();
+</script>"#;
+
+/// Chromium's measure of every text of the page `html_text` (see [`MEASURE_TEXTS`]),
+/// laid out `width` px wide.
+fn measure_texts(browser: &str, dir: &Path, html_text: &str, width: u32) -> Value {
+    let measured = dir.join(format!("texts-{width}.html"));
+    std::fs::write(
+        &measured,
+        html_text.replace("</body>", &format!("{MEASURE_TEXTS}</body>")),
+    )
+    .unwrap();
+    let dom = headless(
+        browser,
+        dir,
+        &measured,
+        &[
+            format!("--window-size={width},1200"),
+            "--dump-dom".to_owned(),
+        ],
+    );
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    let json = dom
+        .split("<pre id=\"texts\">")
+        .nth(1)
+        .and_then(|t| t.split("</pre>").next())
+        .unwrap_or_else(|| panic!("no texts measured: {}", &dom[..dom.len().min(2000)]));
+    serde_json::from_str(
+        &json
+            .replace("&quot;", "\"")
+            .replace("&lt;", "<")
+            .replace("&gt;", ">")
+            .replace("&amp;", "&"),
+    )
+    .unwrap()
+}
+
+/// Prints the texts and overlapping pairs of each section, and fails, naming them,
+/// when any texts overlap, any legend gives two entries one colour, or any map label
+/// lies on a magnified view's square. Returns the sections' names.
+fn assert_texts_apart(what: &str, measured: &Value) -> Vec<String> {
+    let sections = measured["sections"].as_object().unwrap();
+    for (name, s) in sections {
+        println!(
+            "{what}: {name}: {} pictures, {} texts, {} overlapping pairs",
+            s["pictures"], s["texts"], s["overlaps"]
+        );
+    }
+    let list = |key: &str| -> Vec<String> {
+        measured[key]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_str().unwrap().to_owned())
+            .collect()
+    };
+    let (overlaps, colours, on_squares) = (list("overlaps"), list("colours"), list("on_squares"));
+    println!(
+        "{what}: {} overlapping pairs of texts, {} legend entries sharing a colour, {} map labels on a magnified view's square",
+        overlaps.len(),
+        colours.len(),
+        on_squares.len()
+    );
+    assert!(
+        overlaps.is_empty(),
+        "{what}: {} overlapping pairs of texts:\n{}",
+        overlaps.len(),
+        overlaps.join("\n")
+    );
+    assert!(colours.is_empty(), "{what}: {}", colours.join("\n"));
+    assert!(on_squares.is_empty(), "{what}: {}", on_squares.join("\n"));
+    sections.keys().cloned().collect()
+}
+
+/// The demo report of every scenario, fused and laser only, and of the printed
+/// controller: no two texts of a picture overlap, no legend gives two entries one
+/// colour, no map label lies on a magnified view's square; every run is in the
+/// navigation and the summary, every measure explained under it; laser-only runs are
+/// named so; the long run's plots are thinned and magnified.
+#[test]
+fn no_text_of_the_demo_report_overlaps_another() {
+    let Some(browser) = chromium_or_skip() else {
+        return;
+    };
+    let dir = tether_testkit::scratch("report-texts");
+    tether_ok(&["demo", "--out", dir.to_str().unwrap()]);
+    let text = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert_self_contained(&text);
+    let measured = measure_texts(browser, &dir, &text, 1400);
+    let sections = assert_texts_apart("demo report", &measured);
+    let runs: Vec<String> = tether_sim::BUILTIN_NAMES
+        .iter()
+        .flat_map(|n| [(*n).to_owned(), format!("{n}-laser-only")])
+        .chain(std::iter::once("printed-controller".to_owned()))
+        .collect();
+    let nav = text
+        .split("<nav>")
+        .nth(1)
+        .unwrap()
+        .split("</nav>")
+        .next()
+        .unwrap();
+    let summary = text
+        .split("<h2 id=\"summary\">")
+        .nth(1)
+        .unwrap()
+        .split("</table>")
+        .next()
+        .unwrap();
+    for run in &runs {
+        assert!(sections.contains(run), "no pictures measured in {run}");
+        assert!(
+            nav.contains(&format!("href=\"#{run}\"")),
+            "{run} not in the navigation"
+        );
+        assert!(
+            summary.contains(&format!("href=\"#{run}\"")),
+            "{run} not in the summary"
+        );
+    }
+    assert_eq!(summary.matches("<tr><td>").count(), runs.len());
+    // Every measure explained, MOTA's sign too.
+    let definitions = text
+        .split("<dl class=\"measures\" id=\"measures\">")
+        .nth(1)
+        .unwrap()
+        .split("</dl>")
+        .next()
+        .unwrap();
+    for term in [
+        "NEES",
+        "MOTA",
+        "MOTP",
+        "ID switches",
+        "RMS jerk",
+        "in band",
+        "RMSE",
+    ] {
+        assert!(
+            definitions.contains(&format!("<dt>{term}")),
+            "{term} undefined"
+        );
+    }
+    assert!(definitions.contains("<b>negative</b>"), "{definitions}");
+    // A laser-only run: named so in its row and its section, no "what fusion buys".
+    for name in tether_sim::BUILTIN_NAMES {
+        let section = text
+            .split(&format!("<section id=\"{name}-laser-only\">"))
+            .nth(1)
+            .unwrap()
+            .split("</section>")
+            .next()
+            .unwrap();
+        assert!(!section.contains("What fusion buys"), "{name}-laser-only");
+        assert!(
+            section.contains("Laser only: no fusion to magnify"),
+            "{name}"
+        );
+        assert!(
+            section.contains("</a></td><td>laser only</td>"),
+            "{name}-laser-only's row"
+        );
+    }
+    // The ten-minute run: its plots thinned to the plot's pixel columns, and each
+    // magnified.
+    let park = text
+        .split("<section id=\"outdoor_follow\">")
+        .nth(1)
+        .unwrap()
+        .split("</section>")
+        .next()
+        .unwrap();
+    assert_eq!(park.matches("class=\"figure zoom\"").count(), 3);
+    let most = park
+        .split("class=\"plot\"")
+        .skip(1)
+        .flat_map(|plot| {
+            let plot = plot.split("</svg>").next().unwrap();
+            plot.split("<polyline points=\"")
+                .skip(1)
+                .map(|p| p.split('"').next().unwrap().split(' ').count())
+                .collect::<Vec<_>>()
+        })
+        .max()
+        .unwrap();
+    println!("outdoor_follow: at most {most} points in a plot's line");
+    assert!(most <= 2 * 692 + 2, "{most}");
     let _ = std::fs::remove_dir_all(&dir);
 }

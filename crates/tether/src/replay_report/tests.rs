@@ -1,7 +1,11 @@
 //! Tests of the replay report's pictures and table.
 
+use super::frame::{AXIS_BOTTOM, AXIS_LEFT, AXIS_RIGHT};
 use super::*;
-use tether_core::{Cov2, Vector2};
+use tether_core::{Cov2, Gaussian2, LaserScan, Point2, Pose2, Stamp, Vector2};
+use tether_fusion::{LossReason, TargetState};
+use tether_laser::Leg;
+use tether_pipeline::TrackView;
 
 #[test]
 fn the_scale_bar_is_a_round_length() {

@@ -525,8 +525,17 @@ pub fn caption(inset: &Inset) -> String {
 }
 
 /// The "what fusion buys" part of a scenario's section: the insets side by side, or
-/// a line saying why there are none.
-pub fn html(scenario_name: &str, insets: &[Inset]) -> String {
+/// a line saying why there are none. A run driven by the laser alone (`laser_only`)
+/// has no fusion: its part says so under a heading of its own.
+pub fn html(scenario_name: &str, insets: &[Inset], laser_only: bool) -> String {
+    if laser_only && insets.is_empty() {
+        return String::from(
+            "<h3>Laser only: no fusion to magnify</h3>\n<p class=\"no-insets\">The camera is \
+             off in this run: the laser alone finds, tracks and follows the target, so there is \
+             no camera estimate and no fused one to set beside the laser's. The same scenario \
+             with the camera on shows what fusion buys.</p>\n",
+        );
+    }
     let mut s = String::from("<h3>What fusion buys</h3>\n");
     if insets.is_empty() {
         s.push_str(
