@@ -208,6 +208,20 @@ impl LaserScan {
         self.ranges_m.get(i).copied().filter(|r| r.is_finite())
     }
 
+    /// The same scan (stamp, frame, geometry, limits) with other ranges, checked as
+    /// [`LaserScan::new`] checks them.
+    pub fn with_ranges(&self, ranges_m: Vec<f32>) -> Result<Self, ScanError> {
+        LaserScan::new(
+            self.stamp,
+            self.frame_id.clone(),
+            self.angle_min_rad,
+            self.angle_increment_rad,
+            self.range_min_m,
+            self.range_max_m,
+            ranges_m,
+        )
+    }
+
     /// All ranges, `+inf` marking "no return".
     pub fn ranges_m(&self) -> &[f32] {
         &self.ranges_m

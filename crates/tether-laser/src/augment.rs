@@ -288,16 +288,7 @@ pub fn backdrop_view(scan: &LaserScan, legs: &[Point2<Laser>], k: usize) -> Opti
             (backdrop_m + BACKDROP_SIGMA_M * z) as f32
         })
         .collect();
-    LaserScan::new(
-        scan.stamp,
-        scan.frame_id.clone(),
-        scan.angle_min_rad,
-        scan.angle_increment_rad,
-        scan.range_min_m,
-        scan.range_max_m,
-        ranges,
-    )
-    .ok()
+    scan.with_ranges(ranges).ok()
 }
 
 #[cfg(test)]

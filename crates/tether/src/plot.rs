@@ -791,24 +791,20 @@ mod tests {
 
     #[test]
     fn the_legend_lies_below_the_time_axis_title() {
-        let svg = plot_over(30.0).svg();
-        let title_y: f64 = svg
-            .split("<text class=\"axis-title\" x=\"")
-            .nth(1)
-            .and_then(|t| t.split("y=\"").nth(1))
-            .and_then(|t| t.split('"').next())
-            .unwrap()
-            .parse()
-            .unwrap();
-        for entry in svg.split("<g class=\"legend-entry\">").skip(1) {
-            let y: f64 = entry
-                .split("<text x=\"")
+        // The `y` of the first text after `opening` in `svg`.
+        let text_y = |svg: &str, opening: &str| -> f64 {
+            svg.split(opening)
                 .nth(1)
                 .and_then(|t| t.split("y=\"").nth(1))
                 .and_then(|t| t.split('"').next())
                 .unwrap()
                 .parse()
-                .unwrap();
+                .unwrap()
+        };
+        let svg = plot_over(30.0).svg();
+        let title_y = text_y(&svg, "<text class=\"axis-title\" x=\"");
+        for entry in svg.split("<g class=\"legend-entry\">").skip(1) {
+            let y = text_y(entry, "<text x=\"");
             // A line of 11 px text below the title's.
             assert!(y - title_y >= TEXT_H_PX + 3.0, "{y} under {title_y}");
         }

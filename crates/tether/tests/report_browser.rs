@@ -293,14 +293,21 @@ const MEASURE: &str = r#"<script>
 })();
 </script>"#;
 
-/// The page laid out by Chromium in a window `width` px wide: every map, plot and
-/// inset lies within the page's body (shrunk to fit when the window is narrow, its
-/// shape kept), and no two time labels of a plot nor labels of a map overlap.
-fn demo_layout_fits(browser: &str, dir: &Path, html_text: &str, width: u32) {
-    let measured = dir.join(format!("measured-{width}.html"));
+/// The JSON that `script` (added to a copy of the page `html_text`) writes into its
+/// `<pre id="ID">`, from Chromium's layout of the page `width` px wide, as the DOM has it
+/// (entities still escaped).
+fn measured_json(
+    browser: &str,
+    dir: &Path,
+    html_text: &str,
+    width: u32,
+    script: &str,
+    id: &str,
+) -> String {
+    let measured = dir.join(format!("{id}-{width}.html"));
     std::fs::write(
         &measured,
-        html_text.replace("</body>", &format!("{MEASURE}</body>")),
+        html_text.replace("</body>", &format!("{script}</body>")),
     )
     .unwrap();
     let dom = headless(
@@ -313,11 +320,23 @@ fn demo_layout_fits(browser: &str, dir: &Path, html_text: &str, width: u32) {
         ],
     );
     let dom = String::from_utf8_lossy(&dom.stdout);
-    let json = dom
-        .split("<pre id=\"layout\">")
+    dom.split(&format!("<pre id=\"{id}\">"))
         .nth(1)
         .and_then(|t| t.split("</pre>").next())
-        .unwrap_or_else(|| panic!("no layout measured: {dom}"));
+        .unwrap_or_else(|| {
+            panic!(
+                "nothing measured into #{id}: {}",
+                &dom[..dom.len().min(2000)]
+            )
+        })
+        .to_owned()
+}
+
+/// The page laid out by Chromium in a window `width` px wide: every map, plot and
+/// inset lies within the page's body (shrunk to fit when the window is narrow, its
+/// shape kept), and no two time labels of a plot nor labels of a map overlap.
+fn demo_layout_fits(browser: &str, dir: &Path, html_text: &str, width: u32) {
+    let json = measured_json(browser, dir, html_text, width, MEASURE, "layout");
     let layout: Value = serde_json::from_str(&json.replace("&quot;", "\"")).unwrap();
     let (left, right) = (
         layout["page"][0].as_f64().unwrap(),
@@ -574,27 +593,7 @@ const MEASURE_TEXTS: &str = r#"<script>
 /// Chromium's measure of every text of the page `html_text` (see [`MEASURE_TEXTS`]),
 /// laid out `width` px wide.
 fn measure_texts(browser: &str, dir: &Path, html_text: &str, width: u32) -> Value {
-    let measured = dir.join(format!("texts-{width}.html"));
-    std::fs::write(
-        &measured,
-        html_text.replace("</body>", &format!("{MEASURE_TEXTS}</body>")),
-    )
-    .unwrap();
-    let dom = headless(
-        browser,
-        dir,
-        &measured,
-        &[
-            format!("--window-size={width},1200"),
-            "--dump-dom".to_owned(),
-        ],
-    );
-    let dom = String::from_utf8_lossy(&dom.stdout);
-    let json = dom
-        .split("<pre id=\"texts\">")
-        .nth(1)
-        .and_then(|t| t.split("</pre>").next())
-        .unwrap_or_else(|| panic!("no texts measured: {}", &dom[..dom.len().min(2000)]));
+    let json = measured_json(browser, dir, html_text, width, MEASURE_TEXTS, "texts");
     serde_json::from_str(
         &json
             .replace("&quot;", "\"")

@@ -777,14 +777,29 @@ fn publishers_and_subscribers_dds_will_not_connect_are_reported_with_the_fix() {
     let misfit = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/misfit.py");
     let script = format!(
         "(cd '{tests}' && python3 '{misfit}' --seconds 9) & \
-         '{bin}' ros2 --duration 7 2> '{d}/ros2.err'; R=$?; wait; exit $R",
+         S=$(date +%s%N); '{bin}' ros2 --duration 7 2> '{d}/ros2.err'; R=$?; \
+         echo $(( $(date +%s%N) - S )) > '{d}/elapsed_ns'; wait; exit $R",
         tests = misfit.parent().unwrap().display(),
         misfit = misfit.display(),
         d = dir.display(),
     );
     let out = in_private_network(&script);
     let log = std::fs::read_to_string(dir.join("ros2.err")).unwrap_or_default();
-    assert!(out.status.success(), "{}\n{log}", text(&out.stderr));
+    // `--duration` counts from the start, the 5 s wait for a first scan included (it
+    // was 12-13 s in all when the wait came on top).
+    let elapsed_s = std::fs::read_to_string(dir.join("elapsed_ns"))
+        .unwrap()
+        .trim()
+        .parse::<f64>()
+        .unwrap()
+        * 1e-9;
+    assert!((7.0..9.5).contains(&elapsed_s), "{elapsed_s} s\n{log}");
+    // No scan reached the node in its whole run: it says so and fails, after its stop.
+    assert!(!out.status.success(), "{}\n{log}", text(&out.stderr));
+    assert!(
+        log.contains("no scan arrived on /scan in the whole run") && log.contains("final stop"),
+        "{log}"
+    );
     for expected in [
         // The wrong type on the scans, and how to point tether elsewhere.
         "/scan: a publisher sends std_msgs/msg/String, but tether reads \
