@@ -261,12 +261,28 @@ fn opencv_expectation(name: &str) -> Vec<u8> {
     }
 }
 
+/// The crafted files written as files (into `$TETHER_JPEG_DUMP` when set, to check them
+/// against OpenCV by hand: that is where the expectations below came from) and read
+/// back through [`crate::imread_gray`] decode as from memory.
 #[test]
-#[ignore = "writes the crafted files for checking them against OpenCV"]
-fn dump() {
-    let dir = std::env::var("TETHER_JPEG_DUMP").unwrap_or_else(|_| "/tmp".into());
+fn crafted_files_read_from_disk_as_from_memory() {
+    let dir = match std::env::var_os("TETHER_JPEG_DUMP") {
+        Some(dir) => std::path::PathBuf::from(dir),
+        None => std::env::temp_dir().join(format!("tether-jpeg-crafted-{}", std::process::id())),
+    };
+    std::fs::create_dir_all(&dir).expect("a writable folder");
     for (name, data) in crafted() {
-        std::fs::write(format!("{dir}/{name}.jpg"), data).expect("write");
+        let path = dir.join(format!("{name}.jpg"));
+        std::fs::write(&path, &data).expect("write");
+        let expected = opencv_expectation(name);
+        if expected.is_empty() {
+            continue;
+        }
+        let read = crate::imread_gray(&path).expect("a crafted file with an expectation reads");
+        assert_eq!(read.pixels(), expected.as_slice(), "{name}");
+    }
+    if std::env::var_os("TETHER_JPEG_DUMP").is_none() {
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
 
