@@ -1,6 +1,7 @@
 //! The commands the documents give cannot drift from the program (issue 34): every
-//! `tether ...` command of the README, `docs/`, the crates' READMEs and the configs'
+//! `tether ...` command of the README, `docs/`, the crates' READMEs, the configs'
 //! comments (inline code and shell blocks, `cargo run --release --` read as `tether`)
+//! and the `--help` of every subcommand
 //! is parsed by the release binary (`TETHER_PARSE_ONLY=1`: parsing is all it does),
 //! its placeholders (`BAG`, `N`, `FILE.json`, `[--optional ...]`) filled in; and the
 //! commands of the walk-throughs that need no hardware, no files and little time are
@@ -55,6 +56,54 @@ fn documented_commands() -> Vec<Found> {
         all.extend(commands(&name, &text));
     }
     all
+}
+
+/// The subcommands listed under `Commands:` in a `--help` text (`help` left out).
+fn subcommands(help: &str) -> Vec<String> {
+    help.lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| !l.trim().is_empty())
+        .filter_map(|l| {
+            l.strip_prefix("  ")?
+                .split_whitespace()
+                .next()
+                .map(str::to_owned)
+        })
+        .filter(|c| c != "help")
+        .collect()
+}
+
+/// The commands that `tether [SUB [SUB2]] --help` name in backticks, as mentions.
+fn help_mentions() -> Vec<Found> {
+    let help = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_tether"))
+            .args(args)
+            .arg("--help")
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let mut pages = vec![(String::new(), help(&[]))];
+    for sub in subcommands(&pages[0].1) {
+        let page = help(&[&sub]);
+        for sub2 in subcommands(&page) {
+            pages.push((format!("{sub} {sub2}"), help(&[&sub, &sub2])));
+        }
+        pages.push((sub, page));
+    }
+    let mut out = Vec::new();
+    for (sub, page) in pages {
+        // Help text is wrapped: a command in backticks may run over two lines.
+        let joined: String = page.lines().map(str::trim).collect::<Vec<_>>().join(" ");
+        for found in commands(&format!("tether {sub} --help"), &joined) {
+            out.push(Found {
+                whole: false,
+                ..found
+            });
+        }
+    }
+    out
 }
 
 /// A command found in a document: where, its text, and whether it is a whole command
@@ -211,7 +260,14 @@ fn bash(dir: &Path, script: &str, parse_only: bool) -> (bool, String) {
 #[test]
 fn every_documented_command_parses() {
     let dir = scratch("walkthrough-parse");
-    let all = documented_commands();
+    let mut all = documented_commands();
+    let from_help = help_mentions();
+    assert!(
+        from_help.len() > 20,
+        "too few commands in --help: {}",
+        from_help.len()
+    );
+    all.extend(from_help);
     let mut failures = Vec::new();
     for found in &all {
         let line = filled(&found.text);

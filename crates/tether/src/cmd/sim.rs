@@ -93,7 +93,7 @@ pub struct Args {
     #[arg(long, requires = "ros2")]
     pub use_sim_time: bool,
     /// With `--ros2`: take the commands as `geometry_msgs/msg/TwistStamped` (Jazzy's
-    /// diff-drive controller's type; `tether ros2 -p cmd_vel_stamped:=true`) instead of
+    /// diff-drive controller's type; `tether ros2 --ros-args -p cmd_vel_stamped:=true`) instead of
     /// `Twist`.
     #[arg(long, requires = "ros2")]
     pub cmd_vel_stamped: bool,
