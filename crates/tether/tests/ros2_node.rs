@@ -934,3 +934,54 @@ fn a_node_with_no_address_to_announce_refuses_to_start() {
         "{stderr}"
     );
 }
+
+#[test]
+fn the_walk_through_s_namespace_command_runs_as_written() {
+    // docs/ros2.md's "The simulator as the robot": its shell block, as written (`sudo`
+    // dropped: the tests run as root), from a scratch folder with this tether on the PATH.
+    if !skip_unless(
+        runs("unshare", &["-n", "true"]),
+        "cannot make a private network namespace (`unshare -n` needs root)",
+    ) {
+        return;
+    }
+    let doc =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/ros2.md"))
+            .unwrap();
+    let block = doc
+        .split("```sh\n")
+        .skip(1)
+        .filter_map(|b| b.split("```").next())
+        .find(|b| b.contains("unshare -n"))
+        .expect("docs/ros2.md has the namespace command");
+    let script = block.trim().strip_prefix("sudo ").unwrap_or(block.trim());
+    let dir = scratch("ros2-walk-through");
+    let bin = Path::new(env!("CARGO_BIN_EXE_tether")).parent().unwrap();
+    let started = std::time::Instant::now();
+    let out = Command::new("sh")
+        .args(["-c", script])
+        .current_dir(&dir)
+        .env(
+            "PATH",
+            format!(
+                "{}:{}",
+                bin.display(),
+                std::env::var("PATH").unwrap_or_default()
+            ),
+        )
+        .output()
+        .unwrap();
+    let took_s = started.elapsed().as_secs_f64();
+    let said = format!("{}{}", text(&out.stdout), text(&out.stderr));
+    assert!(out.status.success(), "{said}");
+    // `tether ros2 --duration 24` ended by its duration, the simulator after its 26 s.
+    assert!(said.contains("duration: "), "{said}");
+    assert!((25.0..40.0).contains(&took_s), "{took_s} s\n{said}");
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("out/ros2/ros2_run.json")).unwrap())
+            .unwrap();
+    let err = run["mean_abs_distance_error_m"].as_f64().unwrap();
+    // 0.042 m on a quiet machine.
+    assert!(err < 0.15, "{run}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
