@@ -7,7 +7,7 @@ use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use tether::closed_loop::{self, RunLog, config_for};
 use tether::metrics::{RunMetrics, measure};
-use tether::report::{self, ScenarioRun};
+use tether::report::{self, Driver, ScenarioRun};
 use tether_control::SpringVariant;
 use tether_pipeline::PipelineConfig;
 use tether_sim::{BUILTIN_NAMES, Scenario};
@@ -171,9 +171,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let f = |v: Option<f64>| v.map_or("-".to_owned(), |x| format!("{x:.3}"));
     let rows = logs
         .iter()
-        .map(|(_, m)| (m.scenario.clone(), m))
-        .chain(std::iter::once(("printed*".to_owned(), &printed_metrics)));
-    for (name, m) in rows {
+        .zip(&scenarios)
+        .map(|((_, m), s)| (m.scenario.clone(), m, Driver::of(s)))
+        .chain(std::iter::once((
+            "printed*".to_owned(),
+            &printed_metrics,
+            Driver::Fused,
+        )));
+    for (name, m, driver) in rows {
+        let [fused, laser, vision] = driver.rmse_columns(m);
         tether::outln!(
             "{:<24} {:>10} {:>9} {:>8.2} {:>8} {:>9.1} {:>6} {:>5} {:>22}",
             name,
@@ -185,12 +191,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             m.target_lost_s,
             m.target_swaps,
             m.collisions,
-            format!(
-                "{}/{}/{}",
-                f(m.rmse_fused_m),
-                f(m.rmse_laser_m),
-                f(m.rmse_vision_m)
-            )
+            format!("{}/{}/{}", f(fused), f(laser), f(vision))
         )?;
     }
     tether::outln!(
@@ -241,7 +242,7 @@ fn printed_section<'a>(log: &RunLog, metrics: &'a RunMetrics) -> report::Extra<'
     let row = report::Row {
         name: "corridor, controller as printed".to_owned(),
         anchor: Some(PRINTED_ID.to_owned()),
-        driver: report::Driver::Fused,
+        driver: Driver::Fused,
         metrics,
     };
     body.push_str(&report::metrics_table(std::slice::from_ref(&row)));

@@ -165,8 +165,9 @@ fn start_hint(error: &robot::StartError, config: &RobotConfig) -> String {
              ({serial}) or tcp its port, and is no other program using it?"
         ),
         StartError::Base(_) | StartError::Guard(_) => {
-            "the base's device did not open (nothing was sent and no recording was kept)".into()
+            "the base's device did not open: no command went to it and no recording was made".into()
         }
-        _ => "tether run did not start (nothing was sent and no recording was kept)".into(),
+        _ => "tether run did not start: its outputs got a final stop and no recording was kept"
+            .into(),
     }
 }

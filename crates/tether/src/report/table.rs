@@ -27,6 +27,16 @@ impl Driver {
         }
     }
 
+    /// The RMSE of the run's fused, laser-only and camera-only estimates, m: a
+    /// laser-only run's driving estimate (its `rmse_fused_m`) is the laser's, with no
+    /// fusion and no camera.
+    pub fn rmse_columns(self, m: &RunMetrics) -> [Option<f64>; 3] {
+        match self {
+            Driver::Fused => [m.rmse_fused_m, m.rmse_laser_m, m.rmse_vision_m],
+            Driver::LaserOnly => [None, m.rmse_fused_m, None],
+        }
+    }
+
     /// As the table says it.
     pub fn text(self) -> &'static str {
         match self {
@@ -81,11 +91,7 @@ pub fn metrics_table(rows: &[Row<'_>]) -> String {
             ),
             None => xml_escape(&row.name),
         };
-        // A laser-only run's driving estimate is the laser's: no fusion, no camera.
-        let (fused, laser, vision) = match row.driver {
-            Driver::Fused => (m.rmse_fused_m, m.rmse_laser_m, m.rmse_vision_m),
-            Driver::LaserOnly => (None, m.rmse_fused_m, None),
-        };
+        let [fused, laser, vision] = row.driver.rmse_columns(m);
         let _ = writeln!(
             s,
             "<tr><td>{name}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td>\
