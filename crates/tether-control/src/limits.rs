@@ -226,10 +226,17 @@ impl MotionLimits {
         self.saturate(self.limit_acceleration(previous, self.saturate(desired), dt_s))
     }
 
-    /// Saturation, jerk and acceleration limits from the previous motion state: the
-    /// acceleration moves towards the one `desired` asks for by at most
-    /// `max_jerk * dt`, then the acceleration limits apply. With `emergency` the jerk
-    /// limit is skipped (braking as hard as allowed at once).
+    /// Saturation, jerk and acceleration limits from the previous motion state, never
+    /// stepping past the wanted velocity (design 6, "Limits").
+    ///
+    /// Per axis, with `e = v_wanted - v`: the acceleration moves toward `e / dt` (there
+    /// in one step) by at most `j dt`, then the acceleration limits apply. A step that
+    /// would cross the wanted velocity (the acceleration, limited in how fast it may
+    /// change, still carrying the command on) ends on it instead, one that starts on it
+    /// stays there, and one that would cross zero away from it ends at zero: a stop
+    /// never commands the opposite direction, and no command changes sign unless asked
+    /// to. With `emergency` the jerk limit is skipped (braking as hard as allowed at
+    /// once).
     pub fn apply_smooth(
         &self,
         previous: MotionState,
@@ -241,24 +248,46 @@ impl MotionLimits {
             return previous;
         }
         let target = self.saturate(desired);
-        let want_av = (target.v_mps - previous.twist.v_mps) / dt_s;
-        let want_aw = (target.w_radps - previous.twist.w_radps) / dt_s;
-        let (av, aw) = if emergency {
-            (want_av, want_aw)
-        } else {
-            let jv = self.max_jerk_mps3 * dt_s;
-            let jw = self.max_angular_jerk_radps3 * dt_s;
-            (
-                previous.accel_mps2 + (want_av - previous.accel_mps2).clamp(-jv, jv),
-                previous.angular_accel_radps2
-                    + (want_aw - previous.angular_accel_radps2).clamp(-jw, jw),
-            )
+        let accel = |v: f64, a: f64, wanted: f64, jerk: f64| {
+            let e = wanted - v;
+            if emergency {
+                return e / dt_s;
+            }
+            a + (e / dt_s - a).clamp(-jerk * dt_s, jerk * dt_s)
         };
+        let av = accel(
+            previous.twist.v_mps,
+            previous.accel_mps2,
+            target.v_mps,
+            self.max_jerk_mps3,
+        );
+        let aw = accel(
+            previous.twist.w_radps,
+            previous.angular_accel_radps2,
+            target.w_radps,
+            self.max_angular_jerk_radps3,
+        );
         let stepped = Twist {
             v_mps: previous.twist.v_mps + av * dt_s,
             w_radps: previous.twist.w_radps + aw * dt_s,
         };
-        let twist = self.saturate(self.limit_acceleration(previous.twist, stepped, dt_s));
+        let limited = self.saturate(self.limit_acceleration(previous.twist, stepped, dt_s));
+        // Never past the wanted velocity: a step that crosses it ends on it, one that
+        // starts on it stays there, and one that crosses zero to the side the wanted
+        // velocity is not on (the acceleration still carrying it away) ends at zero.
+        let no_further = |from: f64, to: f64, wanted: f64| {
+            if (wanted - from) * (wanted - to) < 0.0 || from == wanted {
+                wanted
+            } else if from * to < 0.0 && wanted * to <= 0.0 {
+                0.0
+            } else {
+                to
+            }
+        };
+        let twist = Twist {
+            v_mps: no_further(previous.twist.v_mps, limited.v_mps, target.v_mps),
+            w_radps: no_further(previous.twist.w_radps, limited.w_radps, target.w_radps),
+        };
         MotionState {
             twist,
             accel_mps2: (twist.v_mps - previous.twist.v_mps) / dt_s,
@@ -349,6 +378,35 @@ mod tests {
         }
     }
 
+    proptest! {
+        /// Issue 32: braking from any motion to any wanted velocity (a stop among them),
+        /// smoothly or in an emergency, never steps past it on either axis, and gets
+        /// there within 3 s.
+        #[test]
+        fn a_command_never_steps_past_the_wanted_velocity(
+            v0 in -0.2..1.4f64, a0 in -2.5..1.2f64, w0 in -1.8..1.8f64, aw0 in -4.0..4.0f64,
+            v1 in prop_oneof![Just(0.0), -0.2..1.4f64], w1 in prop_oneof![Just(0.0), -1.8..1.8f64],
+            dt in 0.01..0.2f64, emergency in any::<bool>(),
+        ) {
+            let lim = MotionLimits::default();
+            let wanted = lim.saturate(Twist { v_mps: v1, w_radps: w1 });
+            let mut s = MotionState {
+                twist: lim.saturate(Twist { v_mps: v0, w_radps: w0 }),
+                accel_mps2: a0,
+                angular_accel_radps2: aw0,
+            };
+            let side = |x: f64, goal: f64| (goal - x).signum();
+            let (sv, sw) = (side(s.twist.v_mps, wanted.v_mps), side(s.twist.w_radps, wanted.w_radps));
+            for _ in 0..(3.0 / dt) as usize {
+                s = lim.apply_smooth(s, Twist { v_mps: v1, w_radps: w1 }, dt, emergency);
+                let (v, w) = (s.twist.v_mps, s.twist.w_radps);
+                prop_assert!(v == wanted.v_mps || side(v, wanted.v_mps) == sv, "v {v} past {}", wanted.v_mps);
+                prop_assert!(w == wanted.w_radps || side(w, wanted.w_radps) == sw, "w {w} past {}", wanted.w_radps);
+            }
+            prop_assert!((s.twist.v_mps - wanted.v_mps).abs() < 1e-6 && (s.twist.w_radps - wanted.w_radps).abs() < 1e-6);
+        }
+    }
+
     #[test]
     fn jerk_is_bounded_unless_braking_in_an_emergency() {
         let lim = MotionLimits::default();
@@ -361,10 +419,14 @@ mod tests {
         let mut last_a = 0.0;
         for _ in 0..40 {
             s = lim.apply_smooth(s, go, dt, false);
-            assert!((s.accel_mps2 - last_a).abs() <= lim.max_jerk_mps3 * dt + 1e-9);
+            // The step that lands on the wanted velocity ends the acceleration faster
+            // than the jerk limit would: it never steps past it.
+            if s.twist.v_mps != 1.0 {
+                assert!((s.accel_mps2 - last_a).abs() <= lim.max_jerk_mps3 * dt + 1e-9);
+            }
             last_a = s.accel_mps2;
         }
-        assert!((s.twist.v_mps - 1.0).abs() < 1e-6);
+        assert_eq!(s.twist.v_mps, 1.0);
         let stopped = lim.apply_smooth(s, Twist::STOP, dt, true);
         assert!((stopped.twist.v_mps - (1.0 - lim.max_decel_mps2 * dt)).abs() < 1e-9);
     }

@@ -11,8 +11,18 @@ use tether_core::{Point2, Robot, Stamp};
 pub struct SafetyConfig {
     /// Stop when the newest laser scan is older than this, s.
     pub laser_timeout_s: f64,
-    /// Stop when the target's estimate has not been updated for this long, s.
+    /// Stop when the target's estimate has not been updated for this long, s. Until
+    /// then the robot follows the target where it should be (its track's prediction),
+    /// at a pace that falls to zero by then (see `unseen_full_pace_s`).
     pub target_timeout_s: f64,
+    /// For this long an unseen target is followed at full pace, s; from then the pace
+    /// falls linearly to zero at `target_timeout_s`, and the robot stops at once when
+    /// another person is within `unseen_clear_m` of where the target should be (design
+    /// 6, safety 2). A missed scan or two changes nothing.
+    pub unseen_full_pace_s: f64,
+    /// Another person this near where an unseen target should be makes the guess
+    /// ambiguous, m: the robot stops (`unseen_among_others`).
+    pub unseen_clear_m: f64,
     /// Free space kept ahead of the footprint in the direction of travel, m.
     pub stop_distance_m: f64,
     /// Radius of the robot's footprint, m.
@@ -28,7 +38,9 @@ impl Default for SafetyConfig {
     fn default() -> Self {
         SafetyConfig {
             laser_timeout_s: 0.3,
-            target_timeout_s: 0.5,
+            target_timeout_s: 1.0,
+            unseen_full_pace_s: 0.3,
+            unseen_clear_m: 1.0,
             stop_distance_m: 0.35,
             robot_radius_m: 0.2,
             corridor_margin_m: 0.05,
@@ -49,6 +61,9 @@ pub enum StopReason {
     StaleLaser,
     /// The target's estimate is too old.
     StaleTarget,
+    /// The target has gone unseen with another person near where it should be: the
+    /// robot does not follow a guess that could be somebody else.
+    UnseenAmongOthers,
     /// Something is in the way ahead (turning is still allowed).
     Obstacle,
 }
@@ -61,6 +76,7 @@ impl StopReason {
             StopReason::TargetLost => "target_lost",
             StopReason::StaleLaser => "stale_laser",
             StopReason::StaleTarget => "stale_target",
+            StopReason::UnseenAmongOthers => "unseen_among_others",
             StopReason::Obstacle => "obstacle",
         }
     }
@@ -98,6 +114,20 @@ impl SafetyConfig {
                 f64::MIN_POSITIVE,
                 2.0,
                 "must be in (0, 2] s: longer drives on towards a guess",
+            ),
+            (
+                "unseen_full_pace_s",
+                self.unseen_full_pace_s,
+                0.0,
+                self.target_timeout_s,
+                "must be in [0, target_timeout_s] s",
+            ),
+            (
+                "unseen_clear_m",
+                self.unseen_clear_m,
+                0.0,
+                5.0,
+                "must be in [0, 5] m (0: never ambiguous)",
             ),
             (
                 "stop_distance_m",
@@ -248,8 +278,9 @@ mod tests {
             s.watchdog(at(1000), None, Some(at(950))),
             Some(StopReason::StaleLaser)
         );
+        assert_eq!(s.watchdog(at(1000), Some(at(950)), Some(at(400))), None);
         assert_eq!(
-            s.watchdog(at(1000), Some(at(950)), Some(at(400))),
+            s.watchdog(at(1000), Some(at(950)), Some(at(-100))),
             Some(StopReason::StaleTarget)
         );
     }

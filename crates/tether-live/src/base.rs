@@ -19,7 +19,7 @@
 //! because the run ends; `stop` then says why: `duration`, `interrupted`, `laser_failed`,
 //! `output_failed`, `inputs_closed`, `panicked` (a bug in the loop; the stop still goes out), or `startup_failed` when a sensor could not be
 //! started after the outputs were opened). `stop` names why the robot is held (`no_target`, `target_lost`,
-//! `stale_laser`, `stale_target`, `obstacle`) or is `null`. `target` is the locked
+//! `stale_laser`, `stale_target`, `unseen_among_others`, `obstacle`) or is `null`. `target` is the locked
 //! target, in the dead-reckoned odometry frame (`x_m`, `y_m`) and from the robot
 //! (`range_m`, `bearing_rad`), or `null`.
 //!

@@ -179,6 +179,7 @@ mod tests {
                 velocity: None,
             },
             command: Twist::STOP,
+            wanted: Twist::STOP,
             stop: None,
             refusals: Vec::new(),
             somebody_else: Vec::new(),

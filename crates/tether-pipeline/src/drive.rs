@@ -11,24 +11,67 @@ use crate::{FusionMode, Pipeline, TargetView, follow};
 impl Pipeline {
     /// Why the robot may not follow (design 6, safety 1 and 2): no target yet, the
     /// target lost, or, while locked, the watchdogs (the newest scan or the target's
-    /// last update too old). `None` when it may follow.
+    /// last update too old), or the target unseen for longer than a missed scan or two
+    /// with another person near where it should be. `None` when it may follow.
     pub(super) fn hold_reason(&self, stamp: Stamp, target: &TargetView) -> Option<StopReason> {
-        let last_target_update = match self.config.fusion.mode {
+        let last_target_update = self.last_target_update(target);
+        match target.state {
+            TargetState::Searching => Some(StopReason::NoTarget),
+            TargetState::Lost { .. } => Some(StopReason::TargetLost),
+            TargetState::Locked { .. } => {
+                let safety = &self.config.safety;
+                safety
+                    .watchdog(stamp, self.last_scan, last_target_update)
+                    .or_else(|| {
+                        let unseen_s = stamp.secs_since(last_target_update?);
+                        (unseen_s > safety.unseen_full_pace_s && self.another_could_be_it(target))
+                            .then_some(StopReason::UnseenAmongOthers)
+                    })
+            }
+        }
+    }
+
+    /// When the target's estimate last took in a measurement.
+    fn last_target_update(&self, target: &TargetView) -> Option<Stamp> {
+        match self.config.fusion.mode {
             FusionMode::Tracker => target
                 .id
                 .and_then(|id| self.tracker.track(id))
                 .map(|t| t.last_update),
             FusionMode::PerFrame => self.per_frame_target.map(|(t, _)| t),
-        };
-        match target.state {
-            TargetState::Searching => Some(StopReason::NoTarget),
-            TargetState::Lost { .. } => Some(StopReason::TargetLost),
-            TargetState::Locked { .. } => {
-                self.config
-                    .safety
-                    .watchdog(stamp, self.last_scan, last_target_update)
-            }
         }
+    }
+
+    /// The pace at which the robot follows the target (design 6, safety 2): 1 while it
+    /// is seen and for `unseen_full_pace_s` after, then falling linearly to 0 at
+    /// `target_timeout_s`, when the watchdog holds the robot. Meanwhile the robot
+    /// follows the target where it should be (its track's prediction): a person does
+    /// not stop walking because a scan missed their legs.
+    ///
+    /// `pace = clamp((T - t) / (T - t_full), 0, 1)`, `t` the time unseen.
+    pub(super) fn unseen_pace(&self, stamp: Stamp, target: &TargetView) -> f64 {
+        let safety = &self.config.safety;
+        let Some(last) = self.last_target_update(target) else {
+            return 1.0;
+        };
+        let unseen_s = stamp.secs_since(last);
+        let fading_s = safety.target_timeout_s - safety.unseen_full_pace_s;
+        if unseen_s <= safety.unseen_full_pace_s || fading_s <= 0.0 {
+            return 1.0;
+        }
+        ((safety.target_timeout_s - unseen_s) / fading_s).clamp(0.0, 1.0)
+    }
+
+    /// Another confirmed track within `unseen_clear_m` of where the unseen target
+    /// should be: following the guess could mean following them.
+    fn another_could_be_it(&self, target: &TargetView) -> bool {
+        let (Some(id), Some(estimate)) = (target.id, target.estimate) else {
+            return false;
+        };
+        let clear_m = self.config.safety.unseen_clear_m;
+        self.tracker.tracks().iter().any(|t| {
+            t.id != id && t.confirmed && t.position().mean.distance_m(estimate.mean) < clear_m
+        })
     }
 
     /// Records where the robot is and, while locked, where the target is: the trails

@@ -243,6 +243,10 @@ pub struct Tick {
     pub target: TargetView,
     /// The command to send.
     pub command: Twist,
+    /// The command the follower asked for, before the base's limits smoothed it: the
+    /// spring's, or the held command, after the obstacle stop and the reverse rule
+    /// (design 6). `command` never steps past it.
+    pub wanted: Twist,
     /// Why the robot is held, if it is.
     pub stop: Option<StopReason>,
     /// While the target is lost: the tracks refused as the target at this tick, and
@@ -694,6 +698,7 @@ impl Pipeline {
             tracks: self.track_views(),
             target: self.target_view(),
             command: self.command,
+            wanted: self.command,
             stop: None,
             refusals: Vec::new(),
             somebody_else: Vec::new(),
@@ -758,7 +763,12 @@ impl Pipeline {
         self.record_trails(stamp, world_from_robot, &target);
         let mut desired = match (stop, target.estimate) {
             (None, Some(estimate)) => {
-                self.follow(world_from_robot, estimate.mean, target.velocity, dt_s)
+                let pace = self.unseen_pace(stamp, &target);
+                let twist = self.follow(world_from_robot, estimate.mean, target.velocity, dt_s);
+                Twist {
+                    v_mps: pace * twist.v_mps,
+                    w_radps: pace * twist.w_radps,
+                }
             }
             _ => self.held_command(stamp, world_from_robot, target.state),
         };
@@ -773,12 +783,18 @@ impl Pipeline {
         let emergency = obstacle
             || matches!(
                 stop,
-                Some(StopReason::Obstacle | StopReason::StaleLaser | StopReason::StaleTarget)
+                Some(
+                    StopReason::Obstacle
+                        | StopReason::StaleLaser
+                        | StopReason::StaleTarget
+                        | StopReason::UnseenAmongOthers
+                )
             );
         let command = self.apply_limits(desired, dt_s, emergency);
         Tick {
             target,
             command,
+            wanted: desired,
             stop,
             refusals: self.selector.refusals().to_vec(),
             somebody_else: self.selector.refused_as_somebody_else().to_vec(),

@@ -8,7 +8,10 @@
 //! - a laser that falls silent, or sends only unusable scans, stops the robot (the laser
 //!   watchdog, design 6, safety 2);
 //! - a return in the corridor ahead, or on the arc a turning robot sweeps, stops it
-//!   (the obstacle stop, design 6, safety 3).
+//!   (the obstacle stop, design 6, safety 3);
+//! - a target gone unseen is followed where it should be, at a pace falling to zero by
+//!   `target_timeout_s`, unless somebody else is near where it should be (design 6,
+//!   safety 2).
 
 use tether_control::{SafetyConfig, StopReason, Twist};
 use tether_core::{Cov2, Gaussian2, LaserScan, Point2, Pose2, Robot, Stamp};
@@ -354,4 +357,116 @@ fn a_return_straight_ahead_of_a_turning_robot_stops_it() {
         "{ahead:?} is off the swept arc"
     );
     stops_for(&mut p, &config, ahead, v);
+}
+
+/// Ticks every 50 ms (scans with nobody in them every 100 ms, the control timer
+/// between) for 1.5 s after the last scan that saw the person, with `others` (robot
+/// frame) still seen; the ticks with their time unseen, s.
+fn person_unseen(
+    p: &mut Pipeline,
+    config: &PipelineConfig,
+    others: &[(f64, f64)],
+) -> Vec<(f64, Tick)> {
+    let last_seen_ms = 2900;
+    (last_seen_ms + 50..last_seen_ms + 1500)
+        .step_by(50)
+        .map(|ms| {
+            let tick = if ms % 100 == 0 {
+                let legs: Vec<_> = others.iter().map(|&(x, y)| legs_at(config, x, y)).collect();
+                p.on_laser_people(at_ms(ms), &legs, &[], HERE)
+            } else {
+                p.on_timer(at_ms(ms), HERE)
+            };
+            ((ms - last_seen_ms) as f64 / 1000.0, tick)
+        })
+        .collect()
+}
+
+#[test]
+fn an_unseen_target_is_followed_where_it_should_be_slowing_down_then_the_robot_stops() {
+    // Issue 32: a missed scan or two changes nothing, then the pace falls to zero by
+    // `target_timeout_s`, then the watchdog (or the loss) holds the robot.
+    let (mut p, config, moving) = following_on_the_laser();
+    let safety = &config.safety;
+    let ticks = person_unseen(&mut p, &config, &[]);
+    let mut last_wanted = f64::INFINITY;
+    for (unseen_s, tick) in &ticks {
+        let wanted = tick.wanted.v_mps;
+        if *unseen_s <= safety.unseen_full_pace_s {
+            assert_eq!(tick.stop, None, "{unseen_s} s unseen");
+            assert!(wanted > 0.5 * moving.wanted.v_mps, "{unseen_s} s: {wanted}");
+        } else if *unseen_s < safety.target_timeout_s - 0.05 {
+            assert_eq!(tick.stop, None, "{unseen_s} s unseen: still followed");
+            assert!(is_locked(tick));
+            assert!(
+                wanted > 0.0 && wanted < last_wanted,
+                "{unseen_s} s: {wanted}"
+            );
+            let pace = (safety.target_timeout_s - unseen_s)
+                / (safety.target_timeout_s - safety.unseen_full_pace_s);
+            assert!(
+                wanted <= pace * 1.4 + 1e-9,
+                "{unseen_s} s: {wanted} at pace {pace}"
+            );
+        } else if *unseen_s > safety.target_timeout_s {
+            assert!(
+                matches!(
+                    tick.stop,
+                    Some(StopReason::StaleTarget | StopReason::TargetLost)
+                ),
+                "{unseen_s} s unseen: {:?}",
+                tick.stop
+            );
+        }
+        if *unseen_s > safety.unseen_full_pace_s {
+            last_wanted = wanted;
+        }
+    }
+    let (_, last) = ticks.last().expect("ticks");
+    assert_eq!(last.command.v_mps, 0.0, "braked to a stand");
+}
+
+#[test]
+fn an_unseen_target_with_somebody_near_where_it_should_be_stops_the_robot() {
+    // A second person stands 0.8 m from the target, to the robot's left, and stays in
+    // view: once the target has gone unseen for more than a missed scan or two, the
+    // guess could be them.
+    let config = laser_only();
+    let mut p = pipeline(&config);
+    let other = (2.0, 0.8);
+    let ticks: Vec<_> = (0..3000)
+        .step_by(100)
+        .map(|ms| {
+            let legs = [
+                legs_at(&config, 2.0, 0.0),
+                legs_at(&config, other.0, other.1),
+            ];
+            p.on_laser_people(at_ms(ms), &legs, &[], HERE)
+        })
+        .collect();
+    let following = locks_and_follows(&ticks, 0.1);
+    assert!(following.tracks.iter().filter(|t| t.confirmed).count() >= 2);
+    let unseen = person_unseen(&mut p, &config, &[other]);
+    let full_pace_s = config.safety.unseen_full_pace_s;
+    for (unseen_s, tick) in &unseen {
+        if *unseen_s <= full_pace_s {
+            assert_eq!(tick.stop, None, "{unseen_s} s unseen");
+        } else if is_locked(tick) {
+            assert_eq!(
+                tick.stop,
+                Some(StopReason::UnseenAmongOthers),
+                "{unseen_s} s unseen"
+            );
+        } else {
+            assert!(tick.stop.is_some(), "{unseen_s} s unseen");
+        }
+    }
+    let (_, last) = unseen.last().expect("ticks");
+    assert_eq!(last.command.v_mps, 0.0, "braked to a stand");
+    assert!(
+        unseen
+            .iter()
+            .any(|(_, t)| t.stop == Some(StopReason::UnseenAmongOthers)),
+        "held for the ambiguity"
+    );
 }
