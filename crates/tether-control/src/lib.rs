@@ -13,7 +13,7 @@ pub mod safety;
 pub mod spring;
 
 pub use limits::{LimitsError, MotionLimits, MotionState, Twist};
-pub use safety::{SafetyConfig, SafetyConfigError, StopReason};
+pub use safety::{SEARCH_RATE_RADPS, SafetyConfig, SafetyConfigError, StopReason};
 pub use spring::{
     PersonInRobot, SpringConfig, SpringConfigError, SpringGains, SpringVariant, VirtualSpring,
 };

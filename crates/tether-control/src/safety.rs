@@ -5,6 +5,10 @@
 use serde::{Deserialize, Serialize};
 use tether_core::{Point2, Robot, Stamp};
 
+/// The turn rate of the opt-in search for a lost target, rad/s: slow enough for the
+/// sensors to see what sweeps past (a camera frame every 2 degrees at 15 Hz).
+pub const SEARCH_RATE_RADPS: f64 = 0.5;
+
 /// Safety settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -32,6 +36,13 @@ pub struct SafetyConfig {
     /// For this long after losing the target the robot, standing, turns on the spot
     /// towards where the target should be, s (0: it only stands).
     pub search_turn_s: f64,
+    /// The opt-in search for a lost target (0: off): once that turn is done, the robot
+    /// rotates on the spot on toward the side where the target was last seen, at
+    /// `SEARCH_RATE_RADPS`, until it has turned this far since the loss, rad, as Nav2's
+    /// Following Server rotates to search.
+    pub search_rotate_rad: f64,
+    /// The search ends this long after the loss, s, whatever it has turned.
+    pub search_rotate_s: f64,
 }
 
 impl Default for SafetyConfig {
@@ -45,6 +56,8 @@ impl Default for SafetyConfig {
             robot_radius_m: 0.2,
             corridor_margin_m: 0.05,
             search_turn_s: 3.0,
+            search_rotate_rad: 0.0,
+            search_rotate_s: 10.0,
         }
     }
 }
@@ -157,6 +170,20 @@ impl SafetyConfig {
                 60.0,
                 "must be in [0, 60] s",
             ),
+            (
+                "search_rotate_rad",
+                self.search_rotate_rad,
+                0.0,
+                std::f64::consts::TAU,
+                "must be in [0, 6.28] rad (0: no search; 6.28: one whole turn)",
+            ),
+            (
+                "search_rotate_s",
+                self.search_rotate_s,
+                0.0,
+                60.0,
+                "must be in [0, 60] s",
+            ),
         ] {
             if !(value.is_finite() && (low..=high).contains(&value)) {
                 return Err(SafetyConfigError { field, value, why });
@@ -258,6 +285,10 @@ mod tests {
             ("robot_radius_m", |s| s.robot_radius_m = 0.0),
             ("corridor_margin_m", |s| s.corridor_margin_m = -0.1),
             ("search_turn_s", |s| s.search_turn_s = f64::INFINITY),
+            ("unseen_full_pace_s", |s| s.unseen_full_pace_s = 1.5),
+            ("unseen_clear_m", |s| s.unseen_clear_m = f64::NAN),
+            ("search_rotate_rad", |s| s.search_rotate_rad = 7.0),
+            ("search_rotate_s", |s| s.search_rotate_s = -1.0),
         ] {
             let mut s = SafetyConfig::default();
             set(&mut s);

@@ -2,11 +2,21 @@
 //! or the held command, the obstacle stop, reversing only along its own trail, and
 //! the limits of the base.
 
-use tether_control::{PersonInRobot, SafetyConfig, StopReason, Twist};
-use tether_core::{Point2, Pose2, Robot, Stamp, Vector2, World};
+use tether_control::{PersonInRobot, SEARCH_RATE_RADPS, SafetyConfig, StopReason, Twist};
+use tether_core::{Point2, Pose2, Robot, Stamp, Vector2, World, wrap_angle_rad};
 use tether_fusion::TargetState;
 
 use crate::{FusionMode, Pipeline, TargetView, follow};
+
+/// The search for a lost target under way (design 6, safety 1): the heading at the
+/// last tick, how far the robot has turned since the loss, and which way it searches
+/// (+1 left, -1 right: the side where the target was last seen).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Search {
+    last_yaw: f64,
+    turned_rad: f64,
+    direction: f64,
+}
 
 impl Pipeline {
     /// Why the robot may not follow (design 6, safety 1 and 2): no target yet, the
@@ -146,8 +156,10 @@ impl Pipeline {
     }
 
     /// The command while the robot is held: the spring is reset, and the robot stands,
-    /// except that for a moment after a loss it turns on the spot toward where the
-    /// target should be (design 6, safety 1; design 11.3).
+    /// except that after a loss it turns on the spot: for `search_turn_s` toward where
+    /// the target should be, then, with the opt-in search, on toward the side where it
+    /// was last seen until it has turned `search_rotate_rad` since the loss or
+    /// `search_rotate_s` have passed (design 6, safety 1; design 11.3).
     pub(super) fn held_command(
         &mut self,
         stamp: Stamp,
@@ -155,22 +167,44 @@ impl Pipeline {
         state: TargetState,
     ) -> Twist {
         self.spring.reset();
-        // A target lost a moment ago: stay put but turn on the spot towards where it
-        // should be (it may have stepped out of the sensors' field of view beside the
-        // robot). Turning in place sweeps no new ground.
-        match (state, self.selector.lost_prediction(stamp)) {
-            (TargetState::Lost { since, .. }, Some(predicted))
-                if stamp.secs_since(since) <= self.config.safety.search_turn_s =>
-            {
-                let p = world_from_robot.inverse() * predicted.mean;
-                let w = (1.5 * p.bearing_rad()).clamp(-1.0, 1.0);
-                Twist {
-                    v_mps: 0.0,
-                    w_radps: if p.bearing_rad().abs() > 0.2 { w } else { 0.0 },
-                }
-            }
-            _ => Twist::STOP,
+        let TargetState::Lost { since, .. } = state else {
+            self.search = None;
+            return Twist::STOP;
+        };
+        let safety = &self.config.safety;
+        let lost_s = stamp.secs_since(since);
+        // Turning in place sweeps no new ground.
+        let bearing = self
+            .selector
+            .lost_prediction(stamp)
+            .map(|p| (world_from_robot.inverse() * p.mean).bearing_rad());
+        let yaw = world_from_robot.yaw;
+        let search = self.search.get_or_insert(Search {
+            last_yaw: yaw,
+            turned_rad: 0.0,
+            direction: bearing.map_or(1.0, f64::signum),
+        });
+        search.turned_rad += wrap_angle_rad(yaw - search.last_yaw).abs();
+        search.last_yaw = yaw;
+        let turn = |w_radps: f64| Twist {
+            v_mps: 0.0,
+            w_radps,
+        };
+        if lost_s <= safety.search_turn_s {
+            // The look: it may have stepped out of the sensors' field of view beside
+            // the robot.
+            return match bearing {
+                Some(b) if b.abs() > 0.2 => turn((1.5 * b).clamp(-1.0, 1.0)),
+                _ => Twist::STOP,
+            };
         }
+        if safety.search_rotate_rad > 0.0
+            && lost_s <= safety.search_rotate_s
+            && search.turned_rad < safety.search_rotate_rad
+        {
+            return turn(search.direction * SEARCH_RATE_RADPS);
+        }
+        Twist::STOP
     }
 
     /// The obstacle stop (design 6, safety 3): true when a return of the last scan

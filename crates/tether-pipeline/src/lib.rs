@@ -302,6 +302,8 @@ pub struct Pipeline {
     near_obstacles: Vec<Point2<Robot>>,
     obstacles_in_world: Vec<Point2<World>>,
     per_frame_target: Option<(Stamp, Gaussian2<World>)>,
+    /// The search for the lost target under way, if any.
+    search: Option<drive::Search>,
     trails: follow::Trails,
     motion: MotionState,
     heights: std::collections::BTreeMap<u64, vision::LearnedHeight>,
@@ -395,6 +397,7 @@ impl Pipeline {
             near_obstacles: Vec::new(),
             obstacles_in_world: Vec::new(),
             per_frame_target: None,
+            search: None,
             trails: follow::Trails::default(),
             motion: MotionState::default(),
             heights: std::collections::BTreeMap::new(),
@@ -763,6 +766,7 @@ impl Pipeline {
         self.record_trails(stamp, world_from_robot, &target);
         let mut desired = match (stop, target.estimate) {
             (None, Some(estimate)) => {
+                self.search = None;
                 let pace = self.unseen_pace(stamp, &target);
                 let twist = self.follow(world_from_robot, estimate.mean, target.velocity, dt_s);
                 Twist {

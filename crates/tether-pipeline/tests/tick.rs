@@ -11,9 +11,11 @@
 //!   (the obstacle stop, design 6, safety 3);
 //! - a target gone unseen is followed where it should be, at a pace falling to zero by
 //!   `target_timeout_s`, unless somebody else is near where it should be (design 6,
-//!   safety 2).
+//!   safety 2);
+//! - a lost target is looked for on the spot, and searched for further only when the
+//!   configuration asks, within the angle it sets (design 6, safety 1).
 
-use tether_control::{SafetyConfig, StopReason, Twist};
+use tether_control::{SEARCH_RATE_RADPS, SafetyConfig, StopReason, Twist};
 use tether_core::{Cov2, Gaussian2, LaserScan, Point2, Pose2, Robot, Stamp};
 use tether_fusion::TargetState;
 use tether_pipeline::vision::VisionPerson;
@@ -469,4 +471,76 @@ fn an_unseen_target_with_somebody_near_where_it_should_be_stops_the_robot() {
             .any(|(_, t)| t.stop == Some(StopReason::UnseenAmongOthers)),
         "held for the ambiguity"
     );
+}
+
+/// The laser-only pipeline following the person 2 m ahead, who then walks off to the
+/// robot's left at 1 m/s and vanishes 0.8 m to the side; ticks every 50 ms for 12 s with
+/// the robot turning as commanded (its odometry integrates the turn rate), each with
+/// the robot's heading, rad.
+fn lost_to_the_left(config: &PipelineConfig) -> Vec<(Tick, f64)> {
+    let mut p = pipeline(config);
+    let ticks = scans_with_legs(&mut p, config, 0, 3000);
+    locks_and_follows(&ticks, 0.1);
+    for k in 1..=8 {
+        let ms = 2900 + 100 * k;
+        let y = 0.1 * k as f64;
+        p.on_laser_people(at_ms(ms), &[legs_at(config, 2.0, y)], &[], HERE);
+    }
+    let mut yaw = 0.0;
+    let mut out = Vec::new();
+    for ms in (3750..15750).step_by(50) {
+        let pose = Pose2::new(0.0, 0.0, yaw);
+        let tick = if ms % 100 == 0 {
+            p.on_laser_people(at_ms(ms), &[], &[], pose)
+        } else {
+            p.on_timer(at_ms(ms), pose)
+        };
+        yaw += tick.command.w_radps * 0.05;
+        out.push((tick, yaw));
+    }
+    out
+}
+
+#[test]
+fn a_lost_target_is_searched_for_only_when_asked_and_within_bounds() {
+    // Issue 32: by default the robot only looks toward where the target should be for
+    // `search_turn_s`; with the opt-in search it then rotates on toward the side where
+    // the target was last seen (left), until it has turned `search_rotate_rad` since the
+    // loss, then stands.
+    let mut config = laser_only();
+    let lost = |t: &Tick| matches!(t.target.state, TargetState::Lost { .. });
+    // How far the robot turned from the first tick with the target lost to the last.
+    let turned_after_loss = |ticks: &[(Tick, f64)]| {
+        let at_loss = ticks
+            .iter()
+            .find(|(t, _)| lost(t))
+            .expect("the target is lost")
+            .1;
+        let (last, yaw) = ticks.last().expect("ticks");
+        assert_eq!(last.command, Twist::STOP, "it ends standing");
+        yaw - at_loss
+    };
+    let looked = turned_after_loss(&lost_to_the_left(&config));
+    config.safety.search_rotate_rad = 2.0;
+    let searching = lost_to_the_left(&config);
+    let searched = turned_after_loss(&searching);
+    println!("turned {looked:.2} rad after the loss without the search, {searched:.2} rad with it");
+    assert!(
+        searched > looked + 1.0,
+        "searched to the left: {searched} rad against {looked} rad"
+    );
+    // Bounded: no more than the angle asked for, but for the braking of the turn.
+    let braking_rad = 0.5 * SEARCH_RATE_RADPS * SEARCH_RATE_RADPS
+        / config.limits.max_angular_accel_radps2
+        + SEARCH_RATE_RADPS * 0.05;
+    assert!(searched <= 2.0 + braking_rad, "{searched} rad");
+    for (tick, _) in &searching {
+        let TargetState::Lost { since, .. } = tick.target.state else {
+            continue;
+        };
+        assert_eq!(tick.wanted.v_mps, 0.0, "on the spot: {:?}", tick.wanted);
+        if tick.stamp.secs_since(since) > config.safety.search_turn_s {
+            assert!(tick.wanted.w_radps >= 0.0, "to the left: {:?}", tick.wanted);
+        }
+    }
 }
