@@ -5,7 +5,7 @@
 //!   where it stopped and how many messages it read; one with nothing readable is an
 //!   error;
 //! - an MCAP file cut short (a killed `tether run`, a copy cut off) is read by a linear
-//!   scan up to its last complete chunk; the writer closes a chunk every second;
+//!   scan up to the cut, inside the chunk it cuts too;
 //! - a topic that holds no laser scans, or whose every scan fails to decode, is an error
 //!   naming the topic's type and the topics that do hold scans, and leaves an earlier
 //!   output as it was.
@@ -297,7 +297,7 @@ fn every_scan_failing_to_decode_is_an_error_with_the_first_reason() {
 }
 
 #[test]
-fn an_mcap_cut_short_is_read_up_to_its_last_complete_chunk() {
+fn an_mcap_cut_short_is_read_up_to_the_cut() {
     let dir = scratch("cut-mcap");
     let record = sim_mcap(&dir, 12);
     let bytes = std::fs::read(&record).unwrap().len();
@@ -322,7 +322,9 @@ fn an_mcap_cut_short_is_read_up_to_its_last_complete_chunk() {
             warnings, 1,
             "{percent} %: one warning about the cut:\n{stderr}"
         );
-        // Chunks close every second: at most about 1 s (10 scans) is lost at a cut.
+        // The records of the chunk the cut falls in are read up to it (before issue 33
+        // the whole chunk was lost: up to 1 s, 10 scans); the share of bytes is only
+        // roughly the share of scans.
         let expected = full * percent / 100;
         assert!(
             scans + 25 >= expected && scans >= previous && scans <= full,
@@ -333,6 +335,75 @@ fn an_mcap_cut_short_is_read_up_to_its_last_complete_chunk() {
     let stub = cut(&record, 600, &dir.join("stub.mcap"));
     let stderr = failed(&tether(&["replay", p(&stub)]));
     assert!(stderr.contains("holds nothing readable"), "{stderr}");
+}
+
+/// The top-level chunk records of an MCAP file: (start, start of its records, end).
+fn mcap_chunks(bytes: &[u8]) -> Vec<(usize, usize, usize)> {
+    let le = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap()) as usize;
+    let mut chunks = Vec::new();
+    let mut pos = 8;
+    while pos + 9 <= bytes.len() && bytes[pos] != 0x0F {
+        let end = pos + 9 + le(pos + 1);
+        if bytes[pos] == 0x06 {
+            // Two times, the uncompressed size and CRC, the compression, the length.
+            let compression = pos + 9 + 8 + 8 + 8 + 4;
+            let records = compression + 4 + le(compression) as u32 as usize + 8;
+            chunks.push((pos, records, end));
+        }
+        pos = end;
+    }
+    chunks
+}
+
+#[test]
+fn an_mcap_whose_writer_was_killed_inside_a_chunk_replays_up_to_the_cut() {
+    // Issue 33: what an older tether's chunked live recording looks like when the run is
+    // killed: the open chunk still has the `mcap` crate's placeholder header (length and
+    // sizes u64::MAX, written when the chunk opened, filled in when it closes) and its
+    // records so far after it. Built from a finished recording: its third chunk, with
+    // the header it had while open and 60 % of its records.
+    let dir = scratch("killed-chunk");
+    let record = sim_mcap(&dir, 12);
+    let bytes = std::fs::read(&record).unwrap();
+    let chunks = mcap_chunks(&bytes);
+    assert!(chunks.len() >= 5, "{} chunks", chunks.len());
+    let (start, records, end) = chunks[2];
+    let mut killed = bytes[..start].to_vec();
+    killed.push(0x06);
+    killed.extend_from_slice(&u64::MAX.to_le_bytes());
+    killed.extend_from_slice(&[0; 16]); // message start and end times
+    killed.extend_from_slice(&u64::MAX.to_le_bytes()); // uncompressed size
+    killed.extend_from_slice(&u32::MAX.to_le_bytes()); // uncompressed CRC
+    killed.extend_from_slice(&0u32.to_le_bytes()); // compression: none
+    killed.extend_from_slice(&u64::MAX.to_le_bytes()); // records
+    killed.extend_from_slice(&bytes[records..records + (end - records) * 3 / 5]);
+    let path = dir.join("killed.mcap");
+    std::fs::write(&path, &killed).unwrap();
+    let before = cut(&record, start, &dir.join("before.mcap"));
+    let replay = |p: &Path| {
+        let out = tether(&[
+            "replay",
+            p.to_str().unwrap(),
+            "--odom-topic",
+            "/odom",
+            "--out",
+            dir.join("r.mcap").to_str().unwrap(),
+        ]);
+        let stderr = ok(&out);
+        (replayed_scans(&text(&out.stdout)), stderr)
+    };
+    let (closed, _) = replay(&before);
+    let (scans, stderr) = replay(&path);
+    println!("{closed} scans in the closed chunks, {scans} with the killed one's");
+    assert!(scans > closed, "{scans} scans, {closed} before the open chunk");
+    // One warning, at the record of the killed chunk the file ends in.
+    let warning = format!("of the chunk at byte {start}:");
+    assert_eq!(stderr.matches("is cut short").count(), 1, "{stderr}");
+    assert!(stderr.contains(&warning), "{warning} in:\n{stderr}");
+    assert!(
+        messages_read(&stderr) > 0,
+        "the warning counts what was read:\n{stderr}"
+    );
 }
 
 #[test]

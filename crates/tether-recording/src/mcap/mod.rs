@@ -5,8 +5,11 @@
 //!   file order ([`McapFile::messages`]) or decoded ([`McapFile::decoded`]). Chunks may
 //!   be uncompressed, zstd (decoded by the pure-Rust `ruzstd`) or lz4 (frame format,
 //!   `lz4_flex`), and their CRCs are checked.
-//!   A file without summary or footer (a recorder killed mid-run) is read by a linear
-//!   scan up to its last complete chunk ([`McapFile::salvaged`], [`Messages::cut`]).
+//!   A file without summary or footer (a recorder killed mid-run, a copy cut off) is
+//!   read by a linear scan up to the cut ([`McapFile::salvaged`], [`Messages::cut`]),
+//!   the records of an uncompressed chunk the file ends in included, whether its
+//!   length was never written (its writer was killed in it) or the copy stops inside
+//!   it.
 //! - [`McapWriter`] records a run: messages by topic, log time = the message's stamp;
 //!   a chunk closes (and the file is flushed) at least every second of log time.
 //! - The messages are `tether-msgs`' ([`tether_msgs::Ros2Message`]: `LaserScanMsg`,

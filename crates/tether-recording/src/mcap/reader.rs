@@ -613,6 +613,11 @@ struct Cursor {
     linear: bool,
     /// Where the walk stopped at such a cut.
     cut: Option<CutShort>,
+    /// The chunk being walked runs past the end of the file (never closed, or cut):
+    /// its records run to the end of the file, which needed this many bytes from the
+    /// chunk's start for all of it ([`open_chunk`]).
+    unclosed: bool,
+    unclosed_needs: u64,
 }
 
 impl Cursor {
@@ -629,6 +634,8 @@ impl Cursor {
             skipped: Skips::default(),
             linear: file.salvaged.is_some(),
             cut: None,
+            unclosed: false,
+            unclosed_needs: 0,
         }
     }
 
@@ -654,6 +661,10 @@ impl Cursor {
             // Inside a chunk: walk its records.
             if let Some(chunk_at) = self.chunk_at {
                 if self.chunk_pos >= self.chunk.len() {
+                    if self.unclosed {
+                        self.end_unclosed_chunk(None);
+                        return None;
+                    }
                     self.chunk_at = None;
                     continue;
                 }
@@ -664,6 +675,20 @@ impl Cursor {
                 };
                 let rec = match record_at(&self.chunk, pos, locate) {
                     Ok(r) => r,
+                    Err(McapError::Truncated {
+                        record,
+                        at,
+                        needed,
+                        available,
+                    }) if self.unclosed => {
+                        self.end_unclosed_chunk(Some(CutShort {
+                            record,
+                            at,
+                            needed,
+                            available,
+                        }));
+                        return None;
+                    }
                     Err(e) => return Some(Err(e)),
                 };
                 self.chunk_pos = rec.body.end;
@@ -677,6 +702,13 @@ impl Cursor {
                 return None;
             }
             let pos = self.pos;
+            if self.linear {
+                match self.open_unclosed_chunk(file, pos) {
+                    Ok(true) => continue,
+                    Ok(false) => {}
+                    Err(e) => return Some(Err(e)),
+                }
+            }
             let rec = match record_at(&file.data[..self.end], pos, |p| Location::File(p as u64)) {
                 Ok(r) => r,
                 Err(McapError::Truncated {
@@ -1024,5 +1056,6 @@ impl<M: Ros2Message> Iterator for Decoded<'_, M> {
     }
 }
 
+mod open_chunk;
 #[cfg(test)]
 mod tests;

@@ -42,8 +42,8 @@ struct OpenChannel {
 /// A chunk is closed when it reaches its byte size or when it spans
 /// [`MAX_CHUNK_SPAN_NS`] of log time, whichever comes first, and the underlying writer
 /// is flushed then: a file cut short (a killed recorder, a full disk) holds every
-/// message of the chunks closed before the cut, which [`super::McapFile`] reads by a
-/// linear scan. The schemas and channels are written in the chunk of their first
+/// message of the chunks closed before the cut, and what reached the file of the one
+/// still open, which [`super::McapFile`] reads by a linear scan. The schemas and channels are written in the chunk of their first
 /// message. Chunks close on log time only (never on the wall clock), so the same
 /// messages always give the same bytes.
 ///

@@ -90,22 +90,43 @@ fn read_prefix(bytes: &[u8], cut: usize) -> Option<(usize, Option<CutShort>)> {
     Some((n, messages.cut().copied()))
 }
 
-/// Messages in the chunks that end by `cut`.
-fn complete_before(chunks: &[(u64, u64, usize)], cut: usize) -> usize {
-    chunks
-        .iter()
-        .filter(|c| c.1 <= cut as u64)
-        .map(|c| c.2)
-        .sum()
+/// Where each message record of the file's (uncompressed) chunks ends, in file bytes.
+fn message_ends(bytes: &[u8], chunks: &[(u64, u64, usize)]) -> Vec<u64> {
+    let mut ends = Vec::new();
+    for &(start, end, _) in chunks {
+        // The chunk's header: two times, a size, a CRC, the compression, the length.
+        let mut pos = start as usize + 9 + 8 + 8 + 8 + 4;
+        let compression = u32::from_le_bytes(bytes[pos..pos + 4].try_into().unwrap());
+        assert_eq!(compression, 0, "uncompressed");
+        pos += 4 + 8;
+        while (pos as u64) < end {
+            let len = u64::from_le_bytes(bytes[pos + 1..pos + 9].try_into().unwrap());
+            let record_end = pos as u64 + 9 + len;
+            if bytes[pos] == op::MESSAGE {
+                ends.push(record_end);
+            }
+            pos = record_end as usize;
+        }
+    }
+    ends
+}
+
+/// Messages whose records end by `cut`.
+fn complete_before(ends: &[u64], cut: usize) -> usize {
+    ends.iter().filter(|&&e| e <= cut as u64).count()
 }
 
 #[test]
-fn every_prefix_gives_the_messages_of_the_chunks_complete_before_it() {
+fn every_prefix_gives_every_message_complete_before_it() {
+    // A copy cut off anywhere: the messages of the chunks before the cut and those of
+    // the chunk it cuts, up to the cut (issue 33; before, the cut chunk's were lost).
     let bytes = recording();
     let chunks = chunks_of(&bytes);
     assert!(chunks.len() >= 4, "{} chunks", chunks.len());
     let full: usize = chunks.iter().map(|c| c.2).sum();
     assert_eq!(full, 80);
+    let ends = message_ends(&bytes, &chunks);
+    assert_eq!(ends.len(), 80);
     let header_end = {
         let len = u64::from_le_bytes(bytes[9..17].try_into().unwrap());
         17 + len as usize
@@ -121,12 +142,12 @@ fn every_prefix_gives_the_messages_of_the_chunks_complete_before_it() {
             );
             continue;
         };
-        assert_eq!(n, complete_before(&chunks, cut), "cut at {cut}");
+        assert_eq!(n, complete_before(&ends, cut), "cut at {cut}");
         if let Some(c) = cut_at {
-            assert!(
-                matches!(c.at, Location::File(at) if (at as usize) < cut),
-                "{c}"
-            );
+            let at = match c.at {
+                Location::File(at) | Location::InChunk { chunk: at, .. } => at,
+            };
+            assert!((at as usize) < cut, "{c}");
         }
     }
     // Cut inside the second chunk: the walk says where it stopped.
@@ -139,12 +160,15 @@ fn every_prefix_gives_the_messages_of_the_chunks_complete_before_it() {
         "channels found in chunks"
     );
     let mut messages = file.messages();
-    assert_eq!((&mut messages).count(), chunks[0].2);
+    let n = (&mut messages).count();
+    assert!(n > chunks[0].2 && n < chunks[0].2 + chunks[1].2, "{n}");
+    assert_eq!(n, complete_before(&ends, cut));
     let c = messages.cut().unwrap();
-    assert_eq!(
-        (c.record, c.at),
-        ("chunk record", Location::File(chunks[1].0))
-    );
+    let in_second = match c.at {
+        Location::File(at) => at == chunks[1].0,
+        Location::InChunk { chunk, .. } => chunk == chunks[1].0,
+    };
+    assert!(in_second, "{c}");
     assert!(McapFile::from_bytes(bytes).unwrap().salvaged().is_none());
 }
 
@@ -154,9 +178,10 @@ proptest::proptest! {
     fn any_prefix_reads_without_error(fraction in 0.0..1.0f64) {
         let bytes = recording();
         let chunks = chunks_of(&bytes);
+        let ends = message_ends(&bytes, &chunks);
         let cut = (bytes.len() as f64 * fraction) as usize;
         if let Some((n, _)) = read_prefix(&bytes, cut) {
-            proptest::prop_assert_eq!(n, complete_before(&chunks, cut));
+            proptest::prop_assert_eq!(n, complete_before(&ends, cut));
         }
     }
 }
@@ -181,28 +206,47 @@ impl std::io::Seek for Shared {
 }
 
 #[test]
-fn an_unfinished_recording_holds_every_second_closed_before() {
+fn an_unfinished_recording_holds_every_message_written_before_the_cut() {
+    // A chunked recording whose writer was killed: the chunks closed at 2 s and 3 s of
+    // log time are whole; the open one starts with a placeholder length (u64::MAX) and
+    // holds what was written to it. Every message whose record is complete is read,
+    // whatever byte the file ends at (issue 33; before, the open chunk's were lost).
     let target = Shared::default();
     let mut w = McapWriter::new(target.clone()).unwrap();
+    let mut ends = Vec::new();
     // 3.5 s of 10 Hz scans of 100 beams: far less than a 1 MiB chunk.
     for k in 0..35i64 {
         let t = Stamp::from_ns(1_000_000_000 + k * 100_000_000);
         let scan = LaserScan::new(t, "laser", -1.0, 0.02, 0.02, 5.6, vec![1.5; 100]).unwrap();
         w.write_stamped("/scan", &LaserScanMsg::new(scan, 0.0, 0.1))
             .unwrap();
+        ends.push(target.0.borrow().get_ref().len());
     }
     // The process dies here: what is in the file is all there is.
     let bytes = target.0.borrow().get_ref().clone();
-    let file = McapFile::from_bytes(bytes).unwrap();
-    assert_eq!(file.topics(), ["/scan"]);
-    let mut scans = file.decoded::<LaserScanMsg>(&["/scan"]);
-    let stamps: Vec<i64> = (&mut scans)
-        .map(|m| m.unwrap().message.scan.stamp.ns())
-        .collect();
-    // Chunks closed at 2 s, 3 s and 4 s of log time: 1.0 to 3.9 s are in the file.
-    assert_eq!(stamps.len(), 30);
-    assert_eq!(stamps[29], 3_900_000_000);
-    assert!(scans.cut().unwrap().to_string().contains("never written"));
+    let stamps_of = |bytes: &[u8]| {
+        let file = McapFile::from_bytes(bytes.to_vec()).unwrap();
+        let mut scans = file.decoded::<LaserScanMsg>(&["/scan"]);
+        let stamps: Vec<i64> = (&mut scans)
+            .map(|m| m.unwrap().message.scan.stamp.ns())
+            .collect();
+        (stamps, scans.cut().copied())
+    };
+    let (stamps, cut) = stamps_of(&bytes);
+    assert_eq!(stamps.len(), 35);
+    assert_eq!(stamps[34], 4_400_000_000);
+    let cut = cut.expect("the cut is reported");
+    assert!(cut.to_string().contains("never written"), "{cut}");
+    // Cut anywhere in the open chunk (the chunks before it closed at 30 scans).
+    for at in (ends[29] + 1..=bytes.len())
+        .step_by(37)
+        .chain([bytes.len() - 1])
+    {
+        let (stamps, cut) = stamps_of(&bytes[..at]);
+        let complete = ends.iter().filter(|&&e| e <= at).count();
+        assert_eq!(stamps.len(), complete.max(30), "cut at byte {at}");
+        assert!(cut.is_some(), "cut at byte {at}");
+    }
     w.finish().unwrap();
     // Finished, every scan is there.
     let bytes = target.0.borrow().get_ref().clone();
