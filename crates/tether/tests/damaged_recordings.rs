@@ -395,7 +395,10 @@ fn an_mcap_whose_writer_was_killed_inside_a_chunk_replays_up_to_the_cut() {
     let (closed, _) = replay(&before);
     let (scans, stderr) = replay(&path);
     println!("{closed} scans in the closed chunks, {scans} with the killed one's");
-    assert!(scans > closed, "{scans} scans, {closed} before the open chunk");
+    assert!(
+        scans > closed,
+        "{scans} scans, {closed} before the open chunk"
+    );
     // One warning, at the record of the killed chunk the file ends in.
     let warning = format!("of the chunk at byte {start}:");
     assert_eq!(stderr.matches("is cut short").count(), 1, "{stderr}");
