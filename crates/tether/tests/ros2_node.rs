@@ -760,9 +760,11 @@ fn with_the_realistic_laser_s_dark_spells_and_phantoms_the_robot_still_follows_o
         "--laser-only --ros-args -p use_sim_time:=true",
         "--seconds 12",
     );
-    // 0.086 to 0.201 m over 12 runs here (0.096 m in-process): a run that loses the
-    // person in a dark spell stands for a moment and falls a metre behind.
-    check_closed_loop("sim time at 2 x real time, the realistic laser", &c, 0.3);
+    // 0.050 to 0.114 m over 10 runs here on 2026-12-07 (issue 32's bar: 0.15 m in every
+    // one), 0.086 to 0.201 m before the unseen target was followed and the smoothing
+    // stopped stepping past the wanted velocity; the bound leaves room for a loaded
+    // machine.
+    check_closed_loop("sim time at 2 x real time, the realistic laser", &c, 0.2);
     let ros2 = &c.ros2_log;
     assert!(ros2.contains("target locked"), "{ros2}");
 }
