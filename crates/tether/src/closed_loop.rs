@@ -274,6 +274,59 @@ fn feed(
     }
 }
 
+/// The pipeline variants of a run (`tether demo`, `sim`, `eval-fusion`): the driver and
+/// its laser-only and vision-only passengers.
+pub fn variants(scenario: &Scenario) -> (PipelineConfig, Vec<PipelineConfig>) {
+    variants_from(scenario, &PipelineConfig::default())
+}
+
+/// [`variants`] from the configuration `base` (`tether sim --config`) instead of the
+/// defaults.
+pub fn variants_from(
+    scenario: &Scenario,
+    base: &PipelineConfig,
+) -> (PipelineConfig, Vec<PipelineConfig>) {
+    let fused = config_for(scenario, base);
+    let mut laser_only = fused.clone();
+    laser_only.fusion.use_vision = false;
+    let mut vision_only = fused.clone();
+    vision_only.fusion.use_laser = false;
+    vision_only.fusion.vision_spawns_tracks = true;
+    (fused, vec![laser_only, vision_only])
+}
+
+/// The laser-only version of `scenario`: the camera off (`camera_sim.enabled = false`,
+/// no frames at all), `-laser-only` appended to its name.
+pub fn laser_only(scenario: &Scenario) -> Scenario {
+    let mut s = scenario.clone();
+    if !s.name.ends_with("-laser-only") {
+        s.name = format!("{}-laser-only", scenario.name);
+        s.description = format!(
+            "{} Laser only: the camera is off and the laser alone finds, tracks and vouches \
+             for the target.",
+            scenario.description
+        );
+    }
+    s.camera_sim.enabled = false;
+    s
+}
+
+/// The pipeline of a laser-only run: the fused configuration with vision off, driving
+/// alone (no passengers: there is no camera to compare with).
+pub fn laser_only_variants(scenario: &Scenario) -> (PipelineConfig, Vec<PipelineConfig>) {
+    laser_only_variants_from(scenario, &PipelineConfig::default())
+}
+
+/// [`laser_only_variants`] from the configuration `base`.
+pub fn laser_only_variants_from(
+    scenario: &Scenario,
+    base: &PipelineConfig,
+) -> (PipelineConfig, Vec<PipelineConfig>) {
+    let (mut laser, _) = variants_from(scenario, base);
+    laser.fusion.use_vision = false;
+    (laser, Vec::new())
+}
+
 /// Control rate of the closed loop (timer ticks besides sensor data), Hz.
 pub const CONTROL_RATE_HZ: f64 = 20.0;
 

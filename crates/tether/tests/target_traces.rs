@@ -201,7 +201,7 @@ impl Mode {
 
     /// The scenario and driving configuration as `tether eval-target --mode` and `tether
     /// sim [--laser-only]` run them (`cmd::eval_target::Mode::config`,
-    /// `cmd::demo::laser_only`, in the binary): laser only is the scenario with its
+    /// `closed_loop::laser_only`): laser only is the scenario with its
     /// camera off and vision off in the pipeline.
     fn setup(self, scenario: &Scenario) -> (Scenario, PipelineConfig) {
         let mut s = scenario.clone();

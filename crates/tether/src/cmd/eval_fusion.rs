@@ -73,7 +73,7 @@ pub fn evaluate(
     seeds: u64,
     mut on_run: impl FnMut(),
 ) -> anyhow::Result<Pooled> {
-    let (driver, mut passengers) = super::demo::variants(scenario);
+    let (driver, mut passengers) = closed_loop::variants(scenario);
     let mut kalman = driver.clone();
     kalman.fusion.rule = FusionRule::Kalman;
     passengers.push(kalman);

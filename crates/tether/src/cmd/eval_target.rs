@@ -119,7 +119,7 @@ pub fn evaluate(
     // the demo run it, so that a bad seed is rerun as it was measured.
     let laser_only;
     let run_scenario = if mode == Mode::Laser {
-        laser_only = super::demo::laser_only(scenario);
+        laser_only = closed_loop::laser_only(scenario);
         &laser_only
     } else {
         scenario

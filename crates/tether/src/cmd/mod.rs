@@ -1,6 +1,5 @@
 //! One module per subcommand: each has a clap `Args` struct and a `run` function.
 
-pub mod adapt_legs;
 pub mod base_guard;
 pub mod calibrate_camera;
 pub mod calibrate_laser;

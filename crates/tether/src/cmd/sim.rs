@@ -285,7 +285,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         scenario.duration_s = duration;
     }
     if args.laser_only {
-        scenario = super::demo::laser_only(&scenario);
+        scenario = closed_loop::laser_only(&scenario);
     }
     anyhow::ensure!(
         args.config.is_none() || (args.driver == DriverChoice::Tether && !args.ros2),
@@ -353,9 +353,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(context)?,
         DriverChoice::Tether => {
             let (mut driver, mut passengers) = if args.laser_only {
-                super::demo::laser_only_variants_from(&scenario, &base)
+                closed_loop::laser_only_variants_from(&scenario, &base)
             } else {
-                super::demo::variants_from(&scenario, &base)
+                closed_loop::variants_from(&scenario, &base)
             };
             args.leg_model
                 .apply_all(std::iter::once(&mut driver).chain(&mut passengers));

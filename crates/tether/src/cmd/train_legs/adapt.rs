@@ -19,7 +19,7 @@ use tether_laser::self_label::{EVERYWHERE, SelfLabelConfig, empty_scene, self_la
 use tether_laser::training::{MatchCounts, evaluate};
 use tether_laser::{AdaBoostConfig, DetectorConfig, LegClassifier, LegDetector};
 
-use super::train_legs::Args;
+use super::Args;
 
 /// Cross-validation folds (blocks of consecutive scans) of the part trained on.
 const FOLDS: usize = 4;

@@ -2,6 +2,8 @@
 //! recordings (the training split of issue 3 only), choosing its decision margin by
 //! cross-validation on that split.
 
+mod adapt;
+
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -148,7 +150,7 @@ pub(crate) fn negative_scans(data: &Path, topics: &[&str]) -> anyhow::Result<Vec
 /// Trains on the training split and writes the model.
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(recording) = &args.from_recording {
-        return super::adapt_legs::run(recording, &args);
+        return adapt::run(recording, &args);
     }
     check_data_folder(&args.data)?;
     let config = AdaBoostConfig {
