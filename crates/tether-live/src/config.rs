@@ -362,8 +362,11 @@ pub struct OutputSection {
     pub record: Option<PathBuf>,
 }
 
-/// `[pipeline]` keys that belong to the tables above (where they are required).
-const OWNED_ELSEWHERE: &[(&str, &str)] = &[
+/// `[pipeline]` keys that belong to the tables above (where they are required): the
+/// pipeline key (or table) and the robot file's key it comes from
+/// ([`RobotConfig::pipeline_config`]); a robot file that sets one in `[pipeline]` is
+/// refused.
+pub const OWNED_ELSEWHERE: &[(&str, &str)] = &[
     ("pipeline.laser.mount", "laser.mount"),
     ("pipeline.camera", "camera.intrinsics and camera.mount"),
     ("pipeline.limits.track_width_m", "robot.track_width_m"),

@@ -20,14 +20,24 @@ fn doc_of(name: &str, field: &str) -> Option<(&'static str, &'static str)> {
 
 /// The defaults as annotated TOML, and how many keys had no doc comment.
 pub fn annotated_defaults() -> Result<(String, usize), toml::ser::Error> {
-    let table = toml::Table::try_from(PipelineConfig::default())?;
-    let mut out = String::from(
-        "# tether's pipeline parameters and their defaults (`tether config defaults`).\n\
+    let header = "# tether's pipeline parameters and their defaults (`tether config defaults`).\n\
          # The same layout as a --config file of track, replay and eval-target, and as\n\
          # the [pipeline] tables of a robot's config, which refuses (by name) the keys\n\
          # its own tables hold: laser.mount, camera, and the limits [robot] sets.\n\
-         # Every table and key is optional.\n\n",
-    );
+         # Every table and key is optional.\n\n";
+    annotated(header, &PipelineConfig::default(), &|_| None)
+}
+
+/// `config` as annotated TOML after `header`, each key with its meaning and, where
+/// `source` names one for its dotted key (`safety.laser_timeout_s`), where its value
+/// came from at the end of its line; and how many keys had no doc comment.
+pub fn annotated(
+    header: &str,
+    config: &PipelineConfig,
+    source: &dyn Fn(&str) -> Option<String>,
+) -> Result<(String, usize), toml::ser::Error> {
+    let table = toml::Table::try_from(config)?;
+    let mut out = String::from(header);
     let mut undocumented = 0;
     write_table(
         &mut out,
@@ -35,6 +45,7 @@ pub fn annotated_defaults() -> Result<(String, usize), toml::ser::Error> {
         Some("PipelineConfig"),
         &table,
         &mut undocumented,
+        source,
     );
     Ok((out, undocumented))
 }
@@ -45,6 +56,7 @@ fn write_table(
     strukt: Option<&str>,
     table: &toml::Table,
     undocumented: &mut usize,
+    source: &dyn Fn(&str) -> Option<String>,
 ) {
     // A tagged enum's tag (`rule = "euclidean"`) is said by the enum's own doc.
     let doc = |key: &str| {
@@ -69,7 +81,19 @@ fn write_table(
             }
             _ => *undocumented += 1,
         }
-        let _ = writeln!(out, "{key} = {value}");
+        let dotted = if path.is_empty() {
+            key.clone()
+        } else {
+            format!("{path}.{key}")
+        };
+        match source(&dotted) {
+            Some(from) => {
+                let _ = writeln!(out, "{key} = {value}  # {from}");
+            }
+            None => {
+                let _ = writeln!(out, "{key} = {value}");
+            }
+        }
     }
     // Optional keys, unset by default: said, commented out.
     for (_, key, _, d) in CONFIG_DOCS
@@ -91,7 +115,14 @@ fn write_table(
             let _ = write!(out, "\n# [{inner}]: {d}");
         }
         if let Some(t) = value.as_table() {
-            write_table(out, &inner, found.map(|(ty, _)| ty), t, undocumented);
+            write_table(
+                out,
+                &inner,
+                found.map(|(ty, _)| ty),
+                t,
+                undocumented,
+                source,
+            );
         }
     }
 }

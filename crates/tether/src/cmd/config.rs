@@ -1,4 +1,11 @@
-//! `tether config defaults`: every pipeline parameter with its default and meaning.
+//! `tether config`: every pipeline parameter with its default and meaning (`defaults`),
+//! and the configuration a run with a given file uses, each value with where it came
+//! from (`show`).
+
+use std::path::PathBuf;
+
+use tether_live::config::OWNED_ELSEWHERE;
+use tether_pipeline::PipelineConfig;
 
 /// What `tether config` shows.
 #[derive(Debug, clap::Subcommand)]
@@ -6,6 +13,17 @@ pub enum ConfigCommand {
     /// Print every pipeline parameter with its default and one-line meaning (unit at
     /// the end), in the TOML layout `--config` and a robot's `[pipeline]` read.
     Defaults,
+    /// Print the pipeline configuration a run given `--config FILE` uses (`run`,
+    /// `ros2`, `track`, `replay`, `sim`, `eval-target`...), every key with its meaning
+    /// and, at the end of its line, where its value came from: the file's
+    /// `[pipeline]` (or a pipeline file's own tables), the robot's own tables
+    /// (`[robot]`, `[laser] mount`, `[camera]`, `[follow]`), or the default.
+    Show {
+        /// The configuration file: a robot's (`tether run`'s, with `[robot]`) or a
+        /// pipeline's (every table optional). Without it: the defaults.
+        #[arg(long, value_name = "FILE")]
+        config: Option<PathBuf>,
+    },
 }
 
 /// Prints what was asked for.
@@ -15,6 +33,192 @@ pub fn run(command: ConfigCommand) -> anyhow::Result<()> {
             let (text, _) = tether::config_docs::annotated_defaults()?;
             tether::outln!("{}", text.trim_end())?;
         }
+        ConfigCommand::Show { config } => {
+            tether::outln!("{}", show(config.as_ref())?.trim_end())?;
+        }
     }
     Ok(())
+}
+
+/// The annotated configuration of `tether config show`.
+fn show(path: Option<&PathBuf>) -> anyhow::Result<String> {
+    let config = super::track::load_config(path)?;
+    let defaults = toml::Table::try_from(PipelineConfig::default())?;
+    let effective = toml::Table::try_from(&config)?;
+    let Some(path) = path else {
+        let header = "# The pipeline configuration of a run without --config (`tether config show`):\n\
+                      # every value is the default.\n\n";
+        let (text, _) = tether::config_docs::annotated(header, &config, &|_| None)?;
+        return Ok(text);
+    };
+    let name = path.display().to_string();
+    let file: toml::Table = toml::from_str(&std::fs::read_to_string(path)?)?;
+    let robot = file.contains_key("robot");
+    let empty = toml::Table::new();
+    let pipeline = match robot {
+        true => file
+            .get("pipeline")
+            .and_then(toml::Value::as_table)
+            .unwrap_or(&empty),
+        false => &file,
+    };
+    let source = |key: &str| -> Option<String> {
+        Some(source_of(
+            key,
+            &SourceTables {
+                name: &name,
+                robot,
+                has_camera: file.contains_key("camera"),
+                pipeline,
+                defaults: &defaults,
+                effective: &effective,
+            },
+        ))
+    };
+    let header = format!(
+        "# The pipeline configuration a run given --config {name} uses (`tether config show`):\n\
+         # every key with its meaning and, at the end of its line, where its value came from.\n{}\n",
+        if robot {
+            "# A robot's file: its [base] and [output] tables and the laser's port are the\n\
+             # live run's own, not shown here.\n"
+        } else {
+            ""
+        }
+    );
+    let (text, _) = tether::config_docs::annotated(&header, &config, &source)?;
+    Ok(text)
+}
+
+/// What [`source_of`] looks at.
+struct SourceTables<'a> {
+    /// The file, as the user named it.
+    name: &'a str,
+    /// A robot's file (with `[robot]`).
+    robot: bool,
+    /// It has a `[camera]`.
+    has_camera: bool,
+    /// Its pipeline keys: a robot file's `[pipeline]`, or the whole of a pipeline file.
+    pipeline: &'a toml::Table,
+    /// The defaults and the configuration in use, as TOML.
+    defaults: &'a toml::Table,
+    effective: &'a toml::Table,
+}
+
+/// Where the value of the dotted pipeline key `key` came from.
+fn source_of(key: &str, t: &SourceTables<'_>) -> String {
+    if t.robot {
+        // The robot's key: the owner's, with what follows the owned table (`laser.mount`
+        // -> `laser.mount.x_m`); `[camera]` has the pipeline's layout.
+        let owner = OWNED_ELSEWHERE.iter().find_map(|(owned, owner)| {
+            let owned = owned.strip_prefix("pipeline.").unwrap_or(owned);
+            let rest = key.strip_prefix(owned)?;
+            if !(rest.is_empty() || rest.starts_with('.')) {
+                return None;
+            }
+            Some(match owner.contains(' ') {
+                true => key.to_owned(),
+                false => format!("{owner}{rest}"),
+            })
+        });
+        if let Some(owner) = owner {
+            return format!("{}: {owner}", t.name);
+        }
+        if key == "fusion.use_vision" && !t.has_camera {
+            return format!("{}: no [camera]", t.name);
+        }
+    }
+    if lookup(t.pipeline, key).is_some() {
+        return match t.robot {
+            true => format!("{}: [pipeline]", t.name),
+            false => t.name.to_owned(),
+        };
+    }
+    if lookup(t.effective, key) != lookup(t.defaults, key) {
+        return format!("{} (derived)", t.name);
+    }
+    "default".to_owned()
+}
+
+/// The value at dotted `key` of `table`.
+fn lookup<'a>(table: &'a toml::Table, key: &str) -> Option<&'a toml::Value> {
+    let mut parts = key.split('.');
+    let mut node = table.get(parts.next()?)?;
+    for part in parts {
+        node = node.as_table()?.get(part)?;
+    }
+    Some(node)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
+
+    use super::*;
+
+    fn shown(text: &str, file: &str) -> String {
+        let dir = std::env::temp_dir().join(format!("tether-config-show-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(file);
+        std::fs::write(&path, text).unwrap();
+        show(Some(&path)).unwrap()
+    }
+
+    /// The line of `key` in `[table]` of an annotated configuration.
+    fn line<'a>(text: &'a str, table: &str, key: &str) -> &'a str {
+        let section = text
+            .split(&format!("\n[{table}]\n"))
+            .nth(1)
+            .unwrap_or_else(|| panic!("no [{table}] in\n{text}"));
+        section
+            .lines()
+            .find(|l| l.starts_with(&format!("{key} = ")))
+            .unwrap_or_else(|| panic!("no {key} in [{table}] of\n{text}"))
+    }
+
+    #[test]
+    fn a_pipeline_file_s_keys_are_named_and_the_others_are_defaults() {
+        let text = shown("[safety]\ntarget_timeout_s = 0.8\n", "pipeline.toml");
+        let from = line(&text, "safety", "target_timeout_s");
+        assert!(from.starts_with("target_timeout_s = 0.8  # "), "{from}");
+        assert!(from.ends_with("pipeline.toml"), "{from}");
+        assert!(
+            line(&text, "safety", "laser_timeout_s").ends_with("# default"),
+            "{text}"
+        );
+        // What is shown is what is used: it reads back as the file's configuration.
+        let back: PipelineConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back.safety.target_timeout_s, 0.8);
+        assert_eq!(back.limits, PipelineConfig::default().limits);
+    }
+
+    #[test]
+    fn a_robot_file_names_the_table_each_value_came_from() {
+        let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../configs/robot.example.toml");
+        let text = show(Some(&example)).unwrap();
+        let name = example.display().to_string();
+        assert!(
+            line(&text, "limits", "max_speed_mps")
+                .ends_with(&format!("# {name}: robot.max_speed_mps")),
+            "{text}"
+        );
+        assert!(
+            line(&text, "limits", "max_decel_mps2").ends_with(&format!("# {name}: [pipeline]")),
+            "{text}"
+        );
+        assert!(
+            line(&text, "laser.mount", "x_m").ends_with(&format!("# {name}: laser.mount.x_m")),
+            "{text}"
+        );
+        assert!(
+            line(&text, "limits", "max_jerk_mps3").ends_with("# default"),
+            "{text}"
+        );
+        assert!(
+            line(&text, "camera.intrinsics", "fx_px")
+                .ends_with(&format!("# {name}: camera.intrinsics.fx_px")),
+            "{text}"
+        );
+        assert!(text.contains("[base] and [output]"), "{text}");
+    }
 }
