@@ -40,6 +40,7 @@ pub mod leg_model;
 pub mod markers;
 pub mod monitor;
 pub mod odometry;
+pub mod pipeline_file;
 pub mod recorder;
 pub mod results;
 pub mod robot;

@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 use tether_live::config::OWNED_ELSEWHERE;
+use tether_live::pipeline_file;
 use tether_pipeline::PipelineConfig;
 
 /// What `tether config` shows.
@@ -42,7 +43,7 @@ pub fn run(command: ConfigCommand) -> anyhow::Result<()> {
 
 /// The annotated configuration of `tether config show`.
 fn show(path: Option<&PathBuf>) -> anyhow::Result<String> {
-    let config = super::track::load_config(path)?;
+    let config = pipeline_file::load(path.map(PathBuf::as_path))?;
     let defaults = toml::Table::try_from(PipelineConfig::default())?;
     let effective = toml::Table::try_from(&config)?;
     let Some(path) = path else {

@@ -8,6 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tether::closed_loop;
 use tether::metrics::measure;
 use tether::target_metrics::measure_target_lock;
+use tether_live::pipeline_file;
 use tether_pipeline::PipelineConfig;
 use tether_sim::{BUILTIN_NAMES, Scenario};
 
@@ -211,7 +212,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
-    let mut base = super::track::load_config(args.config.as_ref())?;
+    let mut base = pipeline_file::load(args.config.as_deref())?;
     args.leg_model.apply(&mut base);
     let mut rows = Vec::new();
     for scenario in &scenarios {

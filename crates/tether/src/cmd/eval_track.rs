@@ -7,6 +7,7 @@ use anyhow::Context;
 use tether::recording::Topics;
 use tether::track_eval::{EvalOptions, LabelsFrame, Pairing, PoseLabels, TrackEval};
 use tether::tracking::{Step, run_recording};
+use tether_live::pipeline_file;
 
 /// Options of `tether eval-track`.
 #[derive(Debug, clap::Args)]
@@ -71,7 +72,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.gap_s
     );
     let mut config =
-        super::track::load_recording_config(args.config.as_ref(), args.odom_topic.is_some())?;
+        pipeline_file::load_for_recording(args.config.as_deref(), args.odom_topic.is_some())?;
     config.fusion.use_vision = false;
     args.leg_model.apply(&mut config);
     let (_, mut scan_odometry) = args

@@ -19,6 +19,7 @@ use tether_core::{Gaussian2, Laser, LaserScan, Pose2, Robot, Stamp, World};
 use tether_fusion::tracker::Track;
 use tether_fusion::{TargetState, TargetStats};
 use tether_laser::LegDetector;
+use tether_live::pipeline_file;
 use tether_live::results::ResultWriter;
 use tether_live::target_log::TargetLog;
 use tether_pipeline::Tick;
@@ -316,7 +317,7 @@ impl Summary {
 
 /// Replays the recording.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let config = super::track::load_config(args.config.as_ref())?;
+    let config = pipeline_file::load(args.config.as_deref())?;
     let mut camera = match &args.image_topic {
         Some(_) => Some(super::track::camera(&args.detector)?),
         None => None,

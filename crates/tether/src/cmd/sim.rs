@@ -8,6 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tether::closed_loop::{self, RunError};
 use tether::metrics::measure;
 use tether_core::Stamp;
+use tether_live::pipeline_file;
 use tether_live::results::ResultWriter;
 use tether_msgs::{Header, LaserScanMsg, OdometryMsg, PersonArrayMsg, PersonMsg, Pose3};
 use tether_pipeline::Tick;
@@ -292,7 +293,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "--config configures tether's pipeline, which `--driver scenario` and `--ros2` do \
          not run"
     );
-    let base = super::track::load_config(args.config.as_ref())?;
+    let base = pipeline_file::load(args.config.as_deref())?;
     #[cfg(not(feature = "ros2"))]
     anyhow::ensure!(
         !args.ros2,

@@ -9,9 +9,9 @@ use serde::Serialize;
 use tether::recording::Topics;
 use tether::tracking::{CameraBoxes, ScanStep, Step, run_recording};
 use tether_core::GrayImage;
+use tether_live::pipeline_file;
 use tether_live::results::TargetStateLine;
 use tether_live::target_log::TargetLog;
-use tether_pipeline::PipelineConfig;
 use tether_vision::Cascade;
 
 /// Options of `tether track`.
@@ -101,74 +101,6 @@ struct PoseLine {
     yaw: f64,
 }
 
-/// [`load_config`] for a recording with (`has_odometry`) or without odometry: without, the
-/// sensor is taken as still, its mount zeroed.
-pub fn load_recording_config(
-    path: Option<&PathBuf>,
-    has_odometry: bool,
-) -> anyhow::Result<PipelineConfig> {
-    let mut config = load_config(path)?;
-    if !has_odometry {
-        // A still sensor: the scan's frame is the robot's and the world's.
-        config.laser.mount.x_m = 0.0;
-        config.laser.mount.y_m = 0.0;
-        config.laser.mount.yaw_rad = 0.0;
-    }
-    Ok(config)
-}
-
-/// Reads a configuration file: a pipeline configuration (every table optional), or a
-/// robot's own config (`tether run`'s, with `[robot]`), whose robot, laser mount,
-/// camera, follower and `[pipeline]` tables make the pipeline's configuration; its
-/// live-only tables (`[base]`, `[output]`, the laser's port) are accepted and, with
-/// `-v`, listed as unused.
-pub fn load_config(path: Option<&PathBuf>) -> anyhow::Result<PipelineConfig> {
-    let Some(path) = path else {
-        return Ok(PipelineConfig::default());
-    };
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read config {}", path.display()))?;
-    let is_robot = toml::from_str::<toml::Table>(&text)
-        .map(|t| t.contains_key("robot"))
-        .unwrap_or(false);
-    if is_robot {
-        let robot = tether_live::config::RobotConfig::load_for_recordings(path)?;
-        let table: toml::Table = toml::from_str(&text)?;
-        let unused: Vec<String> = ["base", "output"]
-            .iter()
-            .filter(|k| table.contains_key(**k))
-            .map(|k| format!("[{k}]"))
-            .chain(["serial", "tcp", "baud"].iter().filter_map(|k| {
-                table
-                    .get("laser")
-                    .and_then(|l| l.get(k))
-                    .map(|_| format!("laser.{k}"))
-            }))
-            .collect();
-        tracing::debug!(
-            "config {} is a robot's: its robot, laser mount, camera, follow and pipeline \
-             tables are used; not used here: {}",
-            path.display(),
-            if unused.is_empty() {
-                "nothing".to_string()
-            } else {
-                unused.join(", ")
-            }
-        );
-        return robot
-            .pipeline_config()
-            .map_err(|e| anyhow::anyhow!("config {}: {e}", path.display()));
-    }
-    let mut config: PipelineConfig = toml::from_str(&text).with_context(|| {
-        format!(
-            "config {} is not a valid tether configuration",
-            path.display()
-        )
-    })?;
-    tether_live::leg_model::resolve(&mut config.legs, tether_live::leg_model::folder_of(path));
-    Ok(config)
-}
-
 /// The camera side of a run: the detector and what it saw.
 pub use tether_live::sources::camera::BoxDetector as Camera;
 
@@ -185,7 +117,8 @@ pub fn camera(args: &CameraArgs) -> anyhow::Result<Camera> {
 /// robot's motion from `--odom-topic`, scan matching or none (`--ego-motion`).
 /// Positions and velocities come out in the scan's frame.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut config = load_recording_config(args.config.as_ref(), args.odom_topic.is_some())?;
+    let mut config =
+        pipeline_file::load_for_recording(args.config.as_deref(), args.odom_topic.is_some())?;
     args.leg_model.apply(&mut config);
     let mut camera = match &args.image_topic {
         Some(_) => Some(camera(&args.detector)?),
@@ -323,8 +256,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+    use tether_pipeline::PipelineConfig;
 
-    /// [`load_config`] of `text` written to a file of its own.
+    /// [`pipeline_file::load`] of `text` written to a file of its own.
     fn load_text(text: &str) -> anyhow::Result<PipelineConfig> {
         static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
         let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
@@ -333,9 +267,9 @@ mod tests {
             std::process::id()
         ));
         std::fs::write(&path, text).unwrap();
-        let config = load_config(Some(&path));
+        let config = pipeline_file::load(Some(&path));
         let _ = std::fs::remove_file(&path);
-        config
+        Ok(config?)
     }
 
     /// A config that loads makes a pipeline or an error naming the part, never a panic.
