@@ -434,10 +434,9 @@ struct Cursor {
     /// Where the walk stopped at such a cut.
     cut: Option<CutShort>,
     /// The chunk being walked runs past the end of the file (never closed, or cut):
-    /// its records run to the end of the file, which needed this many bytes from the
-    /// chunk's start for all of it ([`open_chunk`]).
-    unclosed: bool,
-    unclosed_needs: u64,
+    /// its records run to the end of the file, and it needed this many bytes from its
+    /// start for all of it ([`open_chunk`]).
+    unclosed: Option<u64>,
 }
 
 impl Cursor {
@@ -454,8 +453,7 @@ impl Cursor {
             skipped: Skips::default(),
             linear: file.salvaged.is_some(),
             cut: None,
-            unclosed: false,
-            unclosed_needs: 0,
+            unclosed: None,
         }
     }
 
@@ -481,7 +479,7 @@ impl Cursor {
             // Inside a chunk: walk its records.
             if let Some(chunk_at) = self.chunk_at {
                 if self.chunk_pos >= self.chunk.len() {
-                    if self.unclosed {
+                    if self.unclosed.is_some() {
                         self.end_unclosed_chunk(None);
                         return None;
                     }
@@ -500,7 +498,7 @@ impl Cursor {
                         at,
                         needed,
                         available,
-                    }) if self.unclosed => {
+                    }) if self.unclosed.is_some() => {
                         self.end_unclosed_chunk(Some(CutShort {
                             record,
                             at,

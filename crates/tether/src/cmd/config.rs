@@ -63,19 +63,15 @@ fn show(path: Option<&PathBuf>) -> anyhow::Result<String> {
             .unwrap_or(&empty),
         false => &file,
     };
-    let source = |key: &str| -> Option<String> {
-        Some(source_of(
-            key,
-            &SourceTables {
-                name: &name,
-                robot,
-                has_camera: file.contains_key("camera"),
-                pipeline,
-                defaults: &defaults,
-                effective: &effective,
-            },
-        ))
+    let tables = SourceTables {
+        name: &name,
+        robot,
+        has_camera: file.contains_key("camera"),
+        pipeline,
+        defaults: &defaults,
+        effective: &effective,
     };
+    let source = |key: &str| Some(source_of(key, &tables));
     let header = format!(
         "# The pipeline configuration a run given --config {name} uses (`tether config show`):\n\
          # every key with its meaning and, at the end of its line, where its value came from.\n{}\n",

@@ -60,8 +60,7 @@ impl Cursor {
         self.chunk.extend_from_slice(&data[records..]);
         self.chunk_pos = 0;
         self.chunk_at = Some(pos as u64);
-        self.unclosed = true;
-        self.unclosed_needs = u64::from_le_bytes(len_bytes).saturating_add(9);
+        self.unclosed = Some(u64::from_le_bytes(len_bytes).saturating_add(9));
         self.pos = self.end;
         Ok(true)
     }
@@ -71,16 +70,15 @@ impl Cursor {
     /// records, at the chunk itself (what it needs: its stated length, `u64::MAX` when
     /// that was never written).
     pub(super) fn end_unclosed_chunk(&mut self, in_record: Option<CutShort>) {
-        let Some(chunk_at) = self.chunk_at.take() else {
+        let (Some(chunk_at), Some(needed)) = (self.chunk_at.take(), self.unclosed.take()) else {
             return;
         };
         self.cut = Some(in_record.unwrap_or(CutShort {
             record: "chunk record",
             at: Location::File(chunk_at),
-            needed: self.unclosed_needs,
+            needed,
             available: self.end as u64 - chunk_at,
         }));
-        self.unclosed = false;
         self.chunk.clear();
         self.chunk_pos = 0;
     }
