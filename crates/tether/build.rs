@@ -16,6 +16,7 @@ const CRATES: &[&str] = &[
     "tether-fusion",
     "tether-control",
     "tether-pipeline",
+    "tether-scanmatch",
 ];
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {

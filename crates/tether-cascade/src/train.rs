@@ -33,7 +33,7 @@ use crate::boost::{BoostType, MAX_SAMPLES, SortedValues, StageParams, train_stag
 use crate::features::{Feature, FeatureMode, enumerate};
 use crate::info::{Annotation, InfoError, read_info, upper_part};
 use crate::mining::{Miner, Source};
-use crate::model::CascadeModel;
+use crate::model::{CascadeModel, CompiledCascade};
 use crate::rng::SplitMix;
 use crate::sample::{SampleSet, mirrored};
 
@@ -724,27 +724,16 @@ impl Observer for Silent {
     fn event(&self, _: &Event<'_>) {}
 }
 
-/// Trains a cascade (or resumes one from `state_path` when it holds a matching state) and
-/// saves the state there after every stage.
-pub fn train(
-    data: &TrainingData,
-    config: &TrainConfig,
+/// The state to train from: the one saved at `state_path` when it was made from the same
+/// `inputs`, options (but for the number of stages) and `window`, else a new one.
+fn start_state(
     state_path: Option<&Path>,
+    config: &TrainConfig,
+    inputs: Inputs,
+    window: [u32; 2],
     observer: &dyn Observer,
 ) -> Result<TrainState, TrainError> {
-    config.check()?;
-    let boxes = data.boxes(config.upper);
-    let all_boxes: Vec<Rect> = boxes.iter().flatten().copied().collect();
-    let window = config.window.unwrap_or_else(|| auto_window(&all_boxes));
-    let pool = enumerate(window[0], window[1], config.mode);
-    if pool.is_empty() || window[0] < 3 || window[1] < 3 {
-        return Err(TrainError::WindowTooSmall {
-            width: window[0],
-            height: window[1],
-        });
-    }
-    let inputs = Inputs::of(data);
-    let mut state = match state_path.filter(|p| p.exists()) {
+    Ok(match state_path.filter(|p| p.exists()) {
         Some(path) => {
             let s = TrainState::load(path)?;
             let what = if s.inputs != inputs {
@@ -779,7 +768,69 @@ pub fn train(
             cascade: CascadeModel::empty(window[0], window[1], config.mode),
             reports: Vec::new(),
         },
-    };
+    })
+}
+
+/// Where negatives are mined: every frame, its boxes avoided, then every background.
+fn mining_sources(data: &TrainingData, boxes: &[Vec<Rect>]) -> Vec<Source> {
+    data.frames
+        .iter()
+        .zip(boxes)
+        .map(|(f, b)| Source {
+            image: f.clone(),
+            avoid: b.clone(),
+        })
+        .chain(data.backgrounds.iter().map(|f| Source {
+            image: f.clone(),
+            avoid: Vec::new(),
+        }))
+        .collect()
+}
+
+/// The first `num_pos` positives the cascade so far accepts, and how many it refused on
+/// the way.
+fn accepted_positives(
+    positives: &SampleSet,
+    compiled: &CompiledCascade,
+    num_pos: usize,
+    window: [u32; 2],
+) -> (SampleSet, usize) {
+    let mut set = SampleSet::new(window[0], window[1]);
+    let mut dropped = 0;
+    for i in 0..positives.len() {
+        if set.len() == num_pos {
+            break;
+        }
+        if compiled.accepts_sample(positives, i) {
+            set.push_integral(positives, i);
+        } else {
+            dropped += 1;
+        }
+    }
+    (set, dropped)
+}
+
+/// Trains a cascade (or resumes one from `state_path` when it holds a matching state) and
+/// saves the state there after every stage.
+pub fn train(
+    data: &TrainingData,
+    config: &TrainConfig,
+    state_path: Option<&Path>,
+    observer: &dyn Observer,
+) -> Result<TrainState, TrainError> {
+    config.check()?;
+    let boxes = data.boxes(config.upper);
+    let all_boxes: Vec<Rect> = boxes.iter().flatten().copied().collect();
+    let window = config.window.unwrap_or_else(|| auto_window(&all_boxes));
+    let pool = enumerate(window[0], window[1], config.mode);
+    if pool.is_empty() || window[0] < 3 || window[1] < 3 {
+        return Err(TrainError::WindowTooSmall {
+            width: window[0],
+            height: window[1],
+        });
+    }
+    let inputs = Inputs::of(data);
+    let mut state = start_state(state_path, config, inputs, window, observer)?;
 
     // Positives: cut, then the flat ones left out.
     let patches = positive_patches(data, config, window);
@@ -804,19 +855,7 @@ pub fn train(
     if num_pos + config.num_neg > MAX_SAMPLES {
         return Err(TrainError::TooManySamples(num_pos + config.num_neg));
     }
-    let sources: Vec<Source> = data
-        .frames
-        .iter()
-        .zip(&boxes)
-        .map(|(f, b)| Source {
-            image: f.clone(),
-            avoid: b.clone(),
-        })
-        .chain(data.backgrounds.iter().map(|f| Source {
-            image: f.clone(),
-            avoid: Vec::new(),
-        }))
-        .collect();
+    let sources = mining_sources(data, &boxes);
     let miner = Miner::new(
         sources,
         window[0],
@@ -844,18 +883,7 @@ pub fn train(
         let started = observer.now_secs();
         let stage_seed = crate::rng::unit_hash(config.seed, stage_no as u64);
         let compiled = state.cascade.compile(positives.stride());
-        let mut set = SampleSet::new(window[0], window[1]);
-        let mut dropped = 0;
-        for i in 0..positives.len() {
-            if set.len() == num_pos {
-                break;
-            }
-            if compiled.accepts_sample(&positives, i) {
-                set.push_integral(&positives, i);
-            } else {
-                dropped += 1;
-            }
-        }
+        let (mut set, dropped) = accepted_positives(&positives, &compiled, num_pos, window);
         let used_pos = set.len();
         if used_pos < num_pos {
             observer.event(&Event::Warning(format!(
@@ -956,42 +984,4 @@ fn stage_features(pool: &[Feature], max_features: usize, seed: u64) -> Vec<Featu
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn auto_window_follows_the_boxes_aspect() {
-        let full = Rect {
-            x: 0,
-            y: 0,
-            width: 50,
-            height: 100,
-        };
-        assert_eq!(auto_window(&[full]), [16, 32]);
-        assert_eq!(auto_window(&[upper_part(&full, 0.4)]), [25, 20]);
-    }
-
-    #[test]
-    fn fitted_boxes_have_the_window_aspect_and_stay_inside() {
-        let b = Rect {
-            x: 2,
-            y: 5,
-            width: 40,
-            height: 100,
-        };
-        let r = fit_box(&b, [16, 32], 1.0, (0.0, 0.0), (768, 576)).unwrap();
-        assert_eq!((r.width, r.height), (50, 100));
-        assert_eq!((r.x, r.y), (0, 5));
-        assert!(fit_box(&b, [16, 32], 1.0, (0.0, 0.0), (40, 90)).is_none());
-    }
-
-    #[test]
-    fn feature_subsets_are_seeded_and_sorted() {
-        let pool = enumerate(8, 8, FeatureMode::Basic);
-        let a = stage_features(&pool, 100, 3);
-        assert_eq!(a, stage_features(&pool, 100, 3));
-        assert_ne!(a, stage_features(&pool, 100, 4));
-        assert_eq!(a.len(), 100);
-        assert_eq!(stage_features(&pool, 0, 3).len(), pool.len());
-    }
-}
+mod tests;

@@ -8,13 +8,17 @@
 //! F1 = k1 (d - d0)      along u = (cos phi, sin phi)     (stretch, free length d0)
 //! F2 = k2 phi           along n = (-sin phi, cos phi)    (bending)
 //! m dv/dt = F1 cos phi - F2 sin phi - k3 (v - v_ref)
-//! I dw/dt = L (max(F1, 0) sin phi + F2 cos phi) - k4 w
+//! I dw/dt = L (max(F1, 0) sin phi + F2 |cos phi|) - k4 w
 //! ```
 //!
 //! (design 6 has `F1` in the torque; a compressed spring, `F1 < 0`, would turn the robot
 //! away from a person who is close and off to the side, which is exactly the corner
 //! case of following. Only a stretched spring turns the robot here; near `phi = 0` the
-//! two forms have the same linearisation.)
+//! two forms have the same linearisation. Likewise the bending torque takes `|cos phi|`:
+//! with the person behind the robot (`|phi| > pi / 2`, seen by a rear scanner, design
+//! 5.7) `F2 cos phi` would turn the robot away from them, the long way round, and
+//! against the stretched spring, so that a robot whose person walked round it stood
+//! backing up instead of turning round; in front of the robot nothing changes.)
 //!
 //! where `v_ref` is 0 (damping to rest) or, with relative damping, the person's tracked
 //! speed along the robot's x axis, which removes the steady lag `k3 V / k1` behind a
@@ -267,7 +271,11 @@ impl VirtualSpring {
             SpringVariant::Corrected => f1.max(0.0),
             SpringVariant::PaperAsPrinted => f1,
         };
-        let torque = sign * l * (f1_turn * s + f2 * c);
+        let bend_turn = match self.config.variant {
+            SpringVariant::Corrected => c.abs(),
+            SpringVariant::PaperAsPrinted => c,
+        };
+        let torque = sign * l * (f1_turn * s + f2 * bend_turn);
         // Spring forces explicit, damping implicit: unconditionally stable in the
         // damping terms, whatever the control period.
         self.v_mps = (self.v_mps + dt_s * (force + g.k3 * v_ref) / g.mass_kg)
@@ -362,6 +370,28 @@ mod tests {
         assert!(w > 0.0);
         let run = simulate(SpringConfig::default(), 2.5, 1.5, 0.0, 10.0);
         assert!(run.last().unwrap().2.abs() < 0.02, "faces the person");
+    }
+
+    #[test]
+    fn turns_round_towards_a_person_behind_it() {
+        let mut spring = VirtualSpring::new(SpringConfig::default()).unwrap();
+        for y_m in [0.3, 1.0] {
+            let (_, w) = spring.step(
+                &PersonInRobot {
+                    x_m: -2.0,
+                    y_m,
+                    vx_mps: 0.0,
+                },
+                0.05,
+            );
+            assert!(w > 0.0, "behind and to the left ({y_m} m): turns left, {w}");
+            spring.reset();
+        }
+        let run = simulate(SpringConfig::default(), -2.5, 0.4, 0.0, 12.0);
+        let last = run.last().unwrap();
+        assert!(last.2.abs() < 0.05, "faces the person: phi {}", last.2);
+        let d0 = SpringConfig::default().follow_distance_m;
+        assert!((last.1 - d0).abs() < 0.05, "at d0: {}", last.1);
     }
 
     #[test]

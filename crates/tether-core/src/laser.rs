@@ -274,6 +274,18 @@ impl Default for LaserMount {
     }
 }
 
+/// A scanner besides a robot's first (`[[extra_lasers]]`, design 5.7): the `frame_id`
+/// its scans carry and its model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExtraLaser {
+    /// The `frame_id` its scans carry (e.g. `rear_laser`).
+    pub frame_id: String,
+    /// Its geometry, noise and mount (`[extra_lasers.laser]`, the keys of `[laser]`).
+    #[serde(default)]
+    pub laser: LaserModel,
+}
+
 /// Everything tether needs to know about a 2-D laser scanner.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

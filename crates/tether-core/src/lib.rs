@@ -32,7 +32,7 @@ pub use gaussian::{Cov2, CovError, Gaussian2};
 pub use geometry::{Point2, Point3, Pose2, Vector2, wrap_angle_rad};
 pub use image::{GrayImage, ImageError};
 pub use laser::{
-    LaserModel, LaserModelError, LaserMount, Polynomial, RangeNoiseModel, UrgGeometry,
+    ExtraLaser, LaserModel, LaserModelError, LaserMount, Polynomial, RangeNoiseModel, UrgGeometry,
 };
 pub use scan::{LaserScan, MAX_BEAMS, NO_RETURN, ScanError};
 pub use time::{NS_PER_S, Stamp};

@@ -10,7 +10,6 @@
 //! - [`clutter`]: static clutter learned over time (bushes, posts, furniture legs).
 //! - [`shadow`]: what the laser could not have seen (people hidden behind things).
 //! - [`target`]: the target of interest, locked through crossings and occlusions.
-//! - [`mot`]: CLEAR MOT metrics for evaluating tracking against ground truth.
 //!
 //! Pure algorithms: no I/O and no clock; stamps come in with the data.
 
@@ -20,7 +19,6 @@ pub mod clutter;
 pub mod complementary;
 pub mod gate;
 pub mod kalman;
-pub mod mot;
 pub mod shadow;
 pub mod target;
 pub mod tracker;
@@ -35,7 +33,6 @@ pub use clutter::{ClutterConfig, ClutterMap};
 pub use complementary::{FusedPerson, FusionRule, complementary_fusion};
 pub use gate::{CHI2_2DOF_95, CHI2_2DOF_99, CHI2_2DOF_999, Gate, mahalanobis_sq};
 pub use kalman::CvFilter;
-pub use mot::{ClearMot, MotSummary};
 pub use shadow::Shadow;
 pub use target::{
     LossReason, Refusal, SomebodyElse, TargetConfig, TargetSelector, TargetState, TargetStats,

@@ -427,6 +427,181 @@ fn finite(field: &str, value: f64) -> Result<(), (String, String)> {
     }
 }
 
+impl LaserSection {
+    /// Checks `[laser]`; `laser_link`: the run reads the laser itself (`tether run`),
+    /// so it needs `serial` or `tcp`.
+    fn validate(&self, laser_link: bool) -> Result<(), (String, String)> {
+        let l = self;
+        match (&l.serial, &l.tcp) {
+            (Some(_), Some(_)) => {
+                return Err((
+                    "laser".into(),
+                    "has both `serial` and `tcp`: the laser is on one of them".into(),
+                ));
+            }
+            (None, None) if laser_link => {
+                return Err((
+                    "laser".into(),
+                    "needs `serial = \"/dev/ttyACM0\"` or `tcp = \"host:port\"`".into(),
+                ));
+            }
+            (Some(path), None) if path.is_empty() => {
+                return Err(("laser.serial".into(), "is empty".into()));
+            }
+            (None, Some(addr)) if addr.is_empty() => {
+                return Err(("laser.tcp".into(), "is empty".into()));
+            }
+            _ => {}
+        }
+        if l.tcp.is_some() && l.baud.is_some() {
+            return Err((
+                "laser.baud".into(),
+                "only applies to `serial`, not to `tcp`".into(),
+            ));
+        }
+        if l.baud == Some(0) {
+            return Err(("laser.baud".into(), "= 0: must be a baud rate".into()));
+        }
+        if !(l.reconnect_s.is_finite() && (0.0..=3600.0).contains(&l.reconnect_s)) {
+            return Err((
+                "laser.reconnect_s".into(),
+                format!("= {:?}: must be in [0, 3600] s", l.reconnect_s),
+            ));
+        }
+        let m = &l.mount;
+        finite("laser.mount.x_m", m.x_m)?;
+        finite("laser.mount.y_m", m.y_m)?;
+        finite("laser.mount.yaw_rad", m.yaw_rad)?;
+        positive("laser.mount.height_m", m.height_m)?;
+        Ok(())
+    }
+}
+
+impl CameraSection {
+    /// Checks `[camera]`.
+    fn validate(&self) -> Result<(), (String, String)> {
+        let c = self;
+        match (&c.folder, &c.v4l2) {
+            (Some(_), Some(_)) => {
+                return Err((
+                    "camera".into(),
+                    "has both `folder` and `v4l2`: frames come from one of them".into(),
+                ));
+            }
+            (None, None) => {
+                return Err((
+                    "camera".into(),
+                    "needs `folder = \"DIR\"` (with `fps`) or `v4l2 = \"/dev/video0\"`".into(),
+                ));
+            }
+            (Some(_), None) => match c.fps {
+                Some(fps) => positive("camera.fps", fps)?,
+                None => {
+                    return Err((
+                        "camera.fps".into(),
+                        "is missing: a folder of frames needs a rate".into(),
+                    ));
+                }
+            },
+            (None, Some(_)) => {
+                if c.fps.is_some() {
+                    return Err((
+                        "camera.fps".into(),
+                        "only applies to `folder` (a V4L2 device runs at its own rate)".into(),
+                    ));
+                }
+                if c.repeat {
+                    return Err(("camera.repeat".into(), "only applies to `folder`".into()));
+                }
+            }
+        }
+        if let Some(s) = c.scale_factor
+            && !(s.is_finite() && s > 1.0)
+        {
+            return Err((
+                "camera.scale_factor".into(),
+                format!("= {s}: must be above 1 (OpenCV's default is 1.1)"),
+            ));
+        }
+        let i = &c.intrinsics;
+        positive("camera.intrinsics.fx_px", i.fx_px)?;
+        positive("camera.intrinsics.fy_px", i.fy_px)?;
+        finite("camera.intrinsics.cx_px", i.cx_px)?;
+        finite("camera.intrinsics.cy_px", i.cy_px)?;
+        positive("camera.intrinsics.width_px", f64::from(i.width_px))?;
+        positive("camera.intrinsics.height_px", f64::from(i.height_px))?;
+        let m = &c.mount;
+        finite("camera.mount.x_m", m.x_m)?;
+        finite("camera.mount.y_m", m.y_m)?;
+        finite("camera.mount.yaw_rad", m.yaw_rad)?;
+        positive("camera.mount.height_m", m.height_m)?;
+        finite("camera.mount.tilt_rad", m.tilt_rad)?;
+        Ok(())
+    }
+}
+
+impl BaseSection {
+    /// Checks `[base]`.
+    fn validate(&self) -> Result<(), (String, String)> {
+        let b = self;
+        match b.kind {
+            BaseKind::None => {
+                for (key, set) in [
+                    ("device", b.device.is_some()),
+                    ("baud", b.baud.is_some()),
+                    ("format", b.format.is_some()),
+                ] {
+                    if set {
+                        tracing::warn!(
+                            "base.{key} is set but `kind = \"none\"` drives no base: ignored"
+                        );
+                    }
+                }
+            }
+            BaseKind::Create => {
+                if b.device.is_none() {
+                    return Err((
+                        "base.device".into(),
+                        "is missing: the Create's serial port, e.g. \"/dev/ttyUSB0\"".into(),
+                    ));
+                }
+                if b.baud.is_none() {
+                    return Err((
+                        "base.baud".into(),
+                        "is missing: 57600 for a Create 1, 115200 for a Create 2".into(),
+                    ));
+                }
+                if b.format.is_some() {
+                    return Err(("base.format".into(), "only applies to `wheels`".into()));
+                }
+            }
+            BaseKind::Wheels => {
+                if b.device.is_none() {
+                    return Err((
+                        "base.device".into(),
+                        "is missing: a serial device (with `baud`) or a file".into(),
+                    ));
+                }
+            }
+        }
+        if b.baud == Some(0) {
+            return Err(("base.baud".into(), "= 0: must be a baud rate".into()));
+        }
+        if let Some(s) = b.guard_silence_s
+            && !(s.is_finite() && (0.1..=2.0).contains(&s))
+        {
+            return Err((
+                "base.guard_silence_s".into(),
+                format!(
+                    "= {s:?}: must be in [0.1, 2] s (the control loop commands at 20 Hz; \
+                     longer lets a hung tether drive on)"
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
 impl RobotConfig {
     /// Reads and checks a config file.
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
@@ -484,6 +659,22 @@ impl RobotConfig {
                 });
             }
         }
+        // A live robot reads one scanner, `[laser]`, today (design 5.7): extra ones
+        // would never be heard, and the laser watchdog would hold the robot for good.
+        if table
+            .get("pipeline")
+            .and_then(|p| p.get("extra_lasers"))
+            .is_some()
+        {
+            return Err(ConfigError::Invalid {
+                path: path.to_path_buf(),
+                field: "pipeline.extra_lasers".into(),
+                message: "is not read by `tether run` or `tether ros2` yet (one scanner, \
+                          `[laser]`); several scanners are for the simulator and \
+                          `tether track`'s --config (design 5.7): remove it here"
+                    .into(),
+            });
+        }
         let mut config: RobotConfig =
             toml::from_str(text).map_err(|e| parse_error(e.to_string()))?;
         crate::leg_model::resolve(&mut config.pipeline.legs, crate::leg_model::folder_of(path));
@@ -516,165 +707,16 @@ impl RobotConfig {
             "m/s",
         )?;
         at_most("robot.max_accel_mps2", r.max_accel_mps2, 10.0, "m/s^2")?;
-        let l = &self.laser;
-        match (&l.serial, &l.tcp) {
-            (Some(_), Some(_)) => {
-                return Err((
-                    "laser".into(),
-                    "has both `serial` and `tcp`: the laser is on one of them".into(),
-                ));
-            }
-            (None, None) if laser_link => {
-                return Err((
-                    "laser".into(),
-                    "needs `serial = \"/dev/ttyACM0\"` or `tcp = \"host:port\"`".into(),
-                ));
-            }
-            (Some(path), None) if path.is_empty() => {
-                return Err(("laser.serial".into(), "is empty".into()));
-            }
-            (None, Some(addr)) if addr.is_empty() => {
-                return Err(("laser.tcp".into(), "is empty".into()));
-            }
-            _ => {}
-        }
-        if l.tcp.is_some() && l.baud.is_some() {
-            return Err((
-                "laser.baud".into(),
-                "only applies to `serial`, not to `tcp`".into(),
-            ));
-        }
-        if l.baud == Some(0) {
-            return Err(("laser.baud".into(), "= 0: must be a baud rate".into()));
-        }
-        if !(l.reconnect_s.is_finite() && (0.0..=3600.0).contains(&l.reconnect_s)) {
-            return Err((
-                "laser.reconnect_s".into(),
-                format!("= {:?}: must be in [0, 3600] s", l.reconnect_s),
-            ));
-        }
-        let m = &l.mount;
-        finite("laser.mount.x_m", m.x_m)?;
-        finite("laser.mount.y_m", m.y_m)?;
-        finite("laser.mount.yaw_rad", m.yaw_rad)?;
-        positive("laser.mount.height_m", m.height_m)?;
+        self.laser.validate(laser_link)?;
         if let Some(c) = &self.camera {
-            match (&c.folder, &c.v4l2) {
-                (Some(_), Some(_)) => {
-                    return Err((
-                        "camera".into(),
-                        "has both `folder` and `v4l2`: frames come from one of them".into(),
-                    ));
-                }
-                (None, None) => {
-                    return Err((
-                        "camera".into(),
-                        "needs `folder = \"DIR\"` (with `fps`) or `v4l2 = \"/dev/video0\"`".into(),
-                    ));
-                }
-                (Some(_), None) => match c.fps {
-                    Some(fps) => positive("camera.fps", fps)?,
-                    None => {
-                        return Err((
-                            "camera.fps".into(),
-                            "is missing: a folder of frames needs a rate".into(),
-                        ));
-                    }
-                },
-                (None, Some(_)) => {
-                    if c.fps.is_some() {
-                        return Err((
-                            "camera.fps".into(),
-                            "only applies to `folder` (a V4L2 device runs at its own rate)".into(),
-                        ));
-                    }
-                    if c.repeat {
-                        return Err(("camera.repeat".into(), "only applies to `folder`".into()));
-                    }
-                }
-            }
-            if let Some(s) = c.scale_factor
-                && !(s.is_finite() && s > 1.0)
-            {
-                return Err((
-                    "camera.scale_factor".into(),
-                    format!("= {s}: must be above 1 (OpenCV's default is 1.1)"),
-                ));
-            }
-            let i = &c.intrinsics;
-            positive("camera.intrinsics.fx_px", i.fx_px)?;
-            positive("camera.intrinsics.fy_px", i.fy_px)?;
-            finite("camera.intrinsics.cx_px", i.cx_px)?;
-            finite("camera.intrinsics.cy_px", i.cy_px)?;
-            positive("camera.intrinsics.width_px", f64::from(i.width_px))?;
-            positive("camera.intrinsics.height_px", f64::from(i.height_px))?;
-            let m = &c.mount;
-            finite("camera.mount.x_m", m.x_m)?;
-            finite("camera.mount.y_m", m.y_m)?;
-            finite("camera.mount.yaw_rad", m.yaw_rad)?;
-            positive("camera.mount.height_m", m.height_m)?;
-            finite("camera.mount.tilt_rad", m.tilt_rad)?;
+            c.validate()?;
         }
         let f = &self.follow;
         positive("follow.follow_distance_m", f.follow_distance_m)?;
         positive("follow.attach_ahead_m", f.attach_ahead_m)?;
         positive("follow.distance_omega_radps", f.distance_omega_radps)?;
         positive("follow.bearing_omega_radps", f.bearing_omega_radps)?;
-        let b = &self.base;
-        match b.kind {
-            BaseKind::None => {
-                for (key, set) in [
-                    ("device", b.device.is_some()),
-                    ("baud", b.baud.is_some()),
-                    ("format", b.format.is_some()),
-                ] {
-                    if set {
-                        tracing::warn!(
-                            "base.{key} is set but `kind = \"none\"` drives no base: ignored"
-                        );
-                    }
-                }
-            }
-            BaseKind::Create => {
-                if b.device.is_none() {
-                    return Err((
-                        "base.device".into(),
-                        "is missing: the Create's serial port, e.g. \"/dev/ttyUSB0\"".into(),
-                    ));
-                }
-                if b.baud.is_none() {
-                    return Err((
-                        "base.baud".into(),
-                        "is missing: 57600 for a Create 1, 115200 for a Create 2".into(),
-                    ));
-                }
-                if b.format.is_some() {
-                    return Err(("base.format".into(), "only applies to `wheels`".into()));
-                }
-            }
-            BaseKind::Wheels => {
-                if b.device.is_none() {
-                    return Err((
-                        "base.device".into(),
-                        "is missing: a serial device (with `baud`) or a file".into(),
-                    ));
-                }
-            }
-        }
-        if b.baud == Some(0) {
-            return Err(("base.baud".into(), "= 0: must be a baud rate".into()));
-        }
-        if let Some(s) = b.guard_silence_s
-            && !(s.is_finite() && (0.1..=2.0).contains(&s))
-        {
-            return Err((
-                "base.guard_silence_s".into(),
-                format!(
-                    "= {s:?}: must be in [0.1, 2] s (the control loop commands at 20 Hz; \
-                     longer lets a hung tether drive on)"
-                ),
-            ));
-        }
+        self.base.validate()?;
         Ok(())
     }
 
@@ -771,355 +813,4 @@ impl RobotConfig {
 }
 
 #[cfg(test)]
-mod tests {
-    #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
-
-    use super::*;
-
-    const MINIMAL: &str = r#"
-[robot]
-radius_m = 0.2
-track_width_m = 0.3
-max_speed_mps = 1.0
-max_wheel_speed_mps = 1.2
-max_accel_mps2 = 1.0
-
-[laser]
-serial = "/dev/ttyACM0"
-mount = { x_m = 0.1, y_m = 0.0, yaw_rad = 0.0, height_m = 0.3 }
-
-[follow]
-follow_distance_m = 1.2
-attach_ahead_m = 0.3
-distance_omega_radps = 2.0
-bearing_omega_radps = 2.5
-
-[base]
-kind = "none"
-
-[output]
-stdout = true
-"#;
-
-    fn parse(text: &str) -> Result<RobotConfig, ConfigError> {
-        RobotConfig::parse(text, Path::new("robot.toml"))
-    }
-
-    #[test]
-    fn a_minimal_config_fills_the_pipeline() {
-        let c = parse(MINIMAL).unwrap();
-        let p = c.pipeline_config().unwrap();
-        assert_eq!(p.limits.track_width_m, 0.3);
-        assert_eq!(p.limits.max_speed_mps, 1.0);
-        assert_eq!(p.safety.robot_radius_m, 0.2);
-        assert_eq!(p.follower.follow_distance_m, 1.2);
-        assert_eq!(p.laser.mount.x_m, 0.1);
-        assert!(!p.fusion.use_vision, "no camera: laser only");
-        assert_eq!(
-            c.laser_link(),
-            LaserLink::Serial {
-                path: "/dev/ttyACM0".into(),
-                baud: 19_200
-            }
-        );
-        assert!(c.frame_input().is_none());
-    }
-
-    /// Every required key, removed in turn, is named in the error.
-    #[test]
-    fn a_missing_key_is_named() {
-        for key in [
-            "radius_m",
-            "track_width_m",
-            "max_speed_mps",
-            "max_wheel_speed_mps",
-            "max_accel_mps2",
-            "follow_distance_m",
-            "attach_ahead_m",
-            "distance_omega_radps",
-            "bearing_omega_radps",
-            "kind",
-            "stdout",
-        ] {
-            let text: String = MINIMAL
-                .lines()
-                .filter(|l| !l.starts_with(&format!("{key} =")))
-                .map(|l| format!("{l}\n"))
-                .collect();
-            let e = parse(&text).unwrap_err().to_string();
-            assert!(e.contains(&format!("missing field `{key}`")), "{key}: {e}");
-        }
-        let text = MINIMAL.replace(", height_m = 0.3 }", " }");
-        let e = parse(&text).unwrap_err().to_string();
-        assert!(e.contains("missing field `height_m`"), "{e}");
-        for table in ["[robot]", "[follow]", "[output]"] {
-            let name = table.trim_matches(['[', ']']);
-            let text = MINIMAL.replace(table, "[unused]");
-            let e = parse(&text).unwrap_err().to_string();
-            assert!(e.contains(name), "{table}: {e}");
-        }
-    }
-
-    #[test]
-    fn an_unknown_or_mistyped_key_is_named() {
-        let e = parse(&MINIMAL.replace("radius_m = 0.2", "radius_m = 0.2\nwheel_base = 0.3"))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("unknown field `wheel_base`"), "{e}");
-        assert!(e.contains("line"), "has a position: {e}");
-        let e = parse(&MINIMAL.replace("max_speed_mps = 1.0", "max_speed_mps = \"fast\""))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("max_speed_mps"), "{e}");
-        let e = parse(&MINIMAL.replace("kind = \"none\"", "kind = \"roomba\""))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("roomba") && e.contains("create"), "{e}");
-    }
-
-    #[test]
-    fn a_wrong_value_is_named() {
-        let cases = [
-            (
-                "track_width_m = 0.3",
-                "track_width_m = -0.3",
-                "robot.track_width_m",
-            ),
-            (
-                "max_accel_mps2 = 1.0",
-                "max_accel_mps2 = nan",
-                "robot.max_accel_mps2",
-            ),
-            (
-                "serial = \"/dev/ttyACM0\"",
-                "serial = \"/dev/ttyACM0\"\ntcp = \"10.0.0.1\"",
-                "laser",
-            ),
-            ("serial = \"/dev/ttyACM0\"", "baud = 115200", "laser"),
-            ("kind = \"none\"", "kind = \"create\"", "base.device"),
-            (
-                "kind = \"none\"",
-                "kind = \"create\"\ndevice = \"/dev/ttyUSB0\"",
-                "base.baud",
-            ),
-            (
-                "attach_ahead_m = 0.3",
-                "attach_ahead_m = 0.0",
-                "follow.attach_ahead_m",
-            ),
-        ];
-        for (from, to, field) in cases {
-            let e = parse(&MINIMAL.replace(from, to)).unwrap_err();
-            assert_eq!(e.field(), Some(field), "{to}: {e}");
-            assert!(e.to_string().contains(field), "{e}");
-        }
-    }
-
-    #[test]
-    fn a_base_of_kind_none_ignores_a_device_left_in_place() {
-        // Switching a robot's config to "no base" is one line: the device and baud
-        // may stay (a warning says they are ignored).
-        let c = parse(&MINIMAL.replace(
-            "kind = \"none\"",
-            "kind = \"none\"\ndevice = \"/dev/ttyUSB0\"\nbaud = 57600",
-        ))
-        .unwrap();
-        assert_eq!(c.base.kind, BaseKind::None);
-    }
-
-    #[test]
-    fn values_that_switch_safety_off_are_refused_by_name() {
-        for (table, key, value, says) in [
-            ("pipeline.safety", "laser_timeout_s", "inf", "(0, 1] s"),
-            ("pipeline.safety", "laser_timeout_s", "1e9", "(0, 1] s"),
-            ("pipeline.safety", "target_timeout_s", "1e9", "(0, 2] s"),
-            ("pipeline.safety", "stop_distance_m", "-2.0", "[0.1, 3] m"),
-            ("pipeline.safety", "stop_distance_m", "0", "[0.1, 3] m"),
-            ("pipeline.limits", "max_reverse_mps", "10", "[0, 0.5] m/s"),
-        ] {
-            let text = format!("{MINIMAL}\n[{table}]\n{key} = {value}\n");
-            let e = parse(&text).unwrap_err().to_string();
-            assert!(e.contains(key) && e.contains(says), "{key} = {value}: {e}");
-        }
-        let e = parse(&MINIMAL.replace("max_speed_mps = 1.0", "max_speed_mps = 1e300"))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("robot.max_speed_mps") && e.contains("1e300") && e.contains("(0, 3] m/s"),
-            "{e}"
-        );
-    }
-
-    #[test]
-    fn the_laser_is_tried_again_for_a_bounded_time() {
-        assert_eq!(
-            parse(MINIMAL).unwrap().laser.reconnect_s,
-            DEFAULT_RECONNECT_S
-        );
-        let mount = "mount = { x_m";
-        let with = |value: &str| MINIMAL.replace(mount, &format!("reconnect_s = {value}\n{mount}"));
-        assert_eq!(parse(&with("0")).unwrap().laser.reconnect_s, 0.0);
-        assert_eq!(parse(&with("2.5")).unwrap().laser.reconnect_s, 2.5);
-        for bad in ["-1", "inf", "nan", "1e9"] {
-            let e = parse(&with(bad)).unwrap_err();
-            assert_eq!(e.field(), Some("laser.reconnect_s"), "{bad}: {e}");
-            assert!(e.to_string().contains("[0, 3600] s"), "{bad}: {e}");
-        }
-    }
-
-    #[test]
-    fn pipeline_may_not_repeat_what_the_robot_tables_own() {
-        let text = format!("{MINIMAL}\n[pipeline.limits]\ntrack_width_m = 0.5\n");
-        let e = parse(&text).unwrap_err();
-        assert_eq!(e.field(), Some("pipeline.limits.track_width_m"));
-        assert!(e.to_string().contains("robot.track_width_m"), "{e}");
-        // Tuning that is not owned elsewhere is welcome.
-        let text = format!(
-            "{MINIMAL}\n[pipeline.limits]\nmax_turn_radps = 1.0\n[pipeline.safety]\nlaser_timeout_s = 0.5\n"
-        );
-        let c = parse(&text).unwrap();
-        let p = c.pipeline_config().unwrap();
-        assert_eq!(p.limits.max_turn_radps, 1.0);
-        assert_eq!(p.safety.laser_timeout_s, 0.5);
-        assert_eq!(p.limits.track_width_m, 0.3);
-        let e = parse(&format!("{MINIMAL}\n[pipeline.limits]\nturbo = 1.0\n"))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("unknown field `turbo`"), "{e}");
-    }
-
-    #[test]
-    fn the_example_config_parses() {
-        let c = parse(include_str!("../../../configs/robot.example.toml")).unwrap();
-        assert_eq!(c.base.kind, BaseKind::Create);
-        assert_eq!(c.base.baud, Some(115_200));
-        assert_eq!(
-            c.laser_link(),
-            LaserLink::Serial {
-                path: "/dev/ttyACM0".into(),
-                baud: 115_200
-            }
-        );
-        assert!(matches!(c.frame_input(), Some(FrameInput::V4l2 { .. })));
-        let p = c.pipeline_config().unwrap();
-        assert_eq!(p.limits.track_width_m, 0.235);
-        assert_eq!(p.limits.max_reverse_mps, 0.0);
-        assert_eq!(p.camera.mount.height_m, 0.65);
-        assert!(p.fusion.use_vision);
-    }
-
-    #[test]
-    fn camera_sources() {
-        let camera = r#"
-[camera]
-folder = "frames"
-fps = 15.0
-intrinsics = { fx_px = 500.0, fy_px = 500.0, cx_px = 319.5, cy_px = 239.5, width_px = 640, height_px = 480 }
-mount = { x_m = 0.05, y_m = 0.0, yaw_rad = 0.0, height_m = 0.65, tilt_rad = 0.3 }
-"#;
-        let c = parse(&format!("{MINIMAL}{camera}")).unwrap();
-        assert_eq!(
-            c.frame_input(),
-            Some(FrameInput::Folder {
-                path: "frames".into(),
-                fps: 15.0,
-                repeat: false
-            })
-        );
-        let p = c.pipeline_config().unwrap();
-        assert!(p.fusion.use_vision);
-        assert_eq!(p.camera.intrinsics.fx_px, 500.0);
-        assert_eq!(p.camera.mount.tilt_rad, 0.3);
-        let e = parse(&format!("{MINIMAL}{}", camera.replace("fps = 15.0\n", ""))).unwrap_err();
-        assert_eq!(e.field(), Some("camera.fps"));
-        let e = parse(&format!(
-            "{MINIMAL}{}",
-            camera.replace(" tilt_rad = 0.3", "")
-        ))
-        .unwrap_err()
-        .to_string();
-        assert!(e.contains("missing field `tilt_rad`"), "{e}");
-        let v4l2 = camera.replace("folder = \"frames\"\nfps = 15.0", "v4l2 = \"/dev/video0\"");
-        let c = parse(&format!("{MINIMAL}{v4l2}")).unwrap();
-        assert_eq!(
-            c.frame_input(),
-            Some(FrameInput::V4l2 {
-                device: "/dev/video0".into()
-            })
-        );
-    }
-
-    /// Values that break naive parsers and checks: non-finite, huge, negative, zero,
-    /// of the wrong type, unterminated.
-    const NASTY_VALUES: [&str; 16] = [
-        "inf",
-        "-inf",
-        "nan",
-        "1e300",
-        "-1e300",
-        "0",
-        "-0.0",
-        "-2",
-        "1e9",
-        "9223372036854775807",
-        "\"\"",
-        "\"x\"",
-        "[]",
-        "{}",
-        "true",
-        "\"unterminated",
-    ];
-
-    proptest::proptest! {
-        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
-
-        /// A valid config damaged (values replaced by nasty ones, lines dropped or
-        /// doubled, random bytes put in) parses or gives an error, never panics; one that
-        /// passes gives its laser link, frame input and pipeline configuration.
-        #[test]
-        fn damaged_configs_never_panic(
-            edits in proptest::collection::vec((proptest::num::usize::ANY, 0usize..NASTY_VALUES.len() + 3, proptest::num::u8::ANY), 1..5),
-        ) {
-            let mut lines: Vec<String> = MINIMAL.lines().map(str::to_owned).collect();
-            lines.push("[camera]".into());
-            lines.push("folder = \"frames\"".into());
-            lines.push("fps = 10.0".into());
-            for (at, what, byte) in edits {
-                let at = at % lines.len();
-                match what.checked_sub(3) {
-                    Some(v) => {
-                        if let Some((key, _)) = lines[at].split_once('=') {
-                            lines[at] = format!("{key}= {}", NASTY_VALUES[v]);
-                        }
-                    }
-                    None if what == 0 => {
-                        lines.remove(at);
-                    }
-                    None if what == 1 => {
-                        let line = lines[at].clone();
-                        lines.insert(at, line);
-                    }
-                    None => {
-                        let line = &mut lines[at];
-                        let cut = (usize::from(byte) % (line.len() + 1)).min(line.len());
-                        if line.is_char_boundary(cut) {
-                            line.insert(cut, char::from(byte % 128));
-                        }
-                    }
-                }
-            }
-            let text = lines.join("\n");
-            if let Ok(config) = parse(&text) {
-                let _ = config.laser_link();
-                let _ = config.frame_input();
-                let _ = config.pipeline_config();
-            }
-        }
-
-        /// Arbitrary text never panics the parser.
-        #[test]
-        fn arbitrary_text_never_panics(text in "[\\[\\]a-z_=.0-9\"\n {}-]{0,200}") {
-            let _ = parse(&text);
-        }
-    }
-}
+mod tests;

@@ -6,7 +6,8 @@
 
 use std::path::Path;
 
-use tether_laser::{DetectorKind, LegClassifier};
+use tether_core::LaserModel;
+use tether_laser::{DetectorKind, LegClassifier, LegDetector};
 use tether_pipeline::{LegsConfig, Pipeline, PipelineConfig, PipelineError};
 
 /// Why the named model cannot be used; names the file.
@@ -48,6 +49,14 @@ pub fn classifier(legs: &LegsConfig) -> Result<Option<LegClassifier>, PipelineEr
 pub fn pipeline(config: PipelineConfig) -> Result<Pipeline, PipelineError> {
     let model = classifier(&config.legs)?;
     Pipeline::new(config, model)
+}
+
+/// The leg detector of `legs` for a scanner of `laser`'s noise, with the model the
+/// config names read here ([`classifier`]): the detector the pipeline builds, for
+/// commands that detect legs outside a pipeline (`tether legs`, `eval-legs`, the
+/// replay's snapshots).
+pub fn detector(legs: &LegsConfig, laser: &LaserModel) -> Result<LegDetector, PipelineError> {
+    tether_pipeline::leg_detector(legs, laser.noise.clone(), classifier(legs)?)
 }
 
 /// Resolves a relative `legs.model` against `config_dir`, the folder of the config file

@@ -21,6 +21,9 @@
 //! - `ros2::outputs` (feature `ros2`): `/cmd_vel` and the results on `/tether/...`;
 //! - [`recorder`]: the MCAP recording of a run (scans, frames, odometry, ticks).
 //!
+//! [`recording_run`] drives the same pipeline over a recording's samples in log order
+//! (`tether track`, `eval-track`).
+//!
 //! [`leg_model`] reads the leg model a config names for every pipeline built.
 //!
 //! [`robot`] wires them for `tether run`, `ros2::node` for `tether ros2`; the command
@@ -39,15 +42,18 @@ pub mod guard;
 pub mod leg_model;
 pub mod markers;
 pub mod monitor;
+pub mod node_params;
 pub mod odometry;
 pub mod pipeline_file;
 pub mod recorder;
+pub mod recording_run;
 pub mod results;
 pub mod robot;
 #[cfg(feature = "ros2")]
 pub mod ros2;
 pub mod run_loop;
 pub mod sources;
+pub mod stop_log;
 pub mod target_log;
 
 pub use base::{CommandLine, CommandSink};

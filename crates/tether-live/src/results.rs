@@ -11,13 +11,16 @@
 //! | `/tether/markers` | `visualization_msgs/msg/MarkerArray` | every tick: tracks, their ellipses, the target and the observations for RViz and Foxglove ([`crate::markers`]) |
 //! | `/tether/target_state` | `std_msgs/msg/String` | every tick: the target's state as JSON, e.g. `{"state":"lost","track":3,"reason":"unseen","refused":[{"track":5,"why":"not_walking"},{"track":7,"why":"somebody_else","because":"seen_beside"}]}`, with `"transition":"lost"` at the tick the lock moved |
 //!
-//! Positions are in the world (odometry) frame, named by the writer's `frame`.
+//! Positions are in the world (odometry) frame, named by the writer's `frame`. The list
+//! is [`OUTPUTS`]: one entry per topic, which the results files and `tether ros2` both
+//! take (a test holds this table, the design document's and `docs/ros2.md`'s to it).
 
 use std::path::Path;
 
 use tether_core::Stamp;
 use tether_msgs::{
-    Header, MarkerArrayMsg, Pose3, PoseArrayMsg, PoseWithCovarianceStampedMsg, StringMsg, TwistMsg,
+    Header, MarkerArrayMsg, Pose3, PoseArrayMsg, PoseWithCovarianceStampedMsg, Ros2Message,
+    StringMsg, TwistMsg,
 };
 use tether_pipeline::{Tick, TickInput};
 use tether_recording::mcap::{McapError, McapWriter};
@@ -100,81 +103,217 @@ fn poses(stamp: Stamp, frame: &str, points: impl Iterator<Item = (f64, f64)>) ->
     }
 }
 
-/// One tick as the messages of the table above: what the MCAP results hold and what
-/// `tether ros2` publishes.
+/// One message of a tick, whichever its type.
 #[derive(Debug, Clone)]
-pub struct TickMessages {
-    /// `/tether/people`: the confirmed tracks.
-    pub people: PoseArrayMsg,
-    /// `/tether/laser_people` or `/tether/vision_people` (the topic with it), on scans
-    /// and camera frames.
-    pub observed: Option<(&'static str, PoseArrayMsg)>,
-    /// `/tether/target`, while locked.
-    pub target: Option<PoseWithCovarianceStampedMsg>,
-    /// `/tether/target_state`.
-    pub target_state: StringMsg,
-    /// `/tether/markers`.
-    pub markers: MarkerArrayMsg,
-    /// The command.
-    pub cmd_vel: TwistMsg,
+pub enum ResultMessage {
+    /// `geometry_msgs/msg/PoseArray`.
+    Poses(PoseArrayMsg),
+    /// `geometry_msgs/msg/PoseWithCovarianceStamped` (boxed: its covariance is 36
+    /// numbers).
+    PoseWithCovariance(Box<PoseWithCovarianceStampedMsg>),
+    /// `std_msgs/msg/String`.
+    Text(StringMsg),
+    /// `visualization_msgs/msg/MarkerArray`.
+    Markers(MarkerArrayMsg),
+    /// `geometry_msgs/msg/Twist`.
+    Twist(TwistMsg),
 }
 
-impl TickMessages {
-    /// The tracks' topic.
-    pub const PEOPLE: &'static str = "/tether/people";
-    /// The laser observations' topic.
-    pub const LASER_PEOPLE: &'static str = "/tether/laser_people";
-    /// The camera observations' topic.
-    pub const VISION_PEOPLE: &'static str = "/tether/vision_people";
-    /// The target's topic.
-    pub const TARGET: &'static str = "/tether/target";
-    /// The target state's topic.
-    pub const TARGET_STATE: &'static str = "/tether/target_state";
-    /// The markers' topic.
-    pub const MARKERS: &'static str = "/tether/markers";
+/// The message types an [`Output`] can carry ([`ResultMessage`]'s variants).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputKind {
+    /// [`ResultMessage::Poses`].
+    Poses,
+    /// [`ResultMessage::PoseWithCovariance`].
+    PoseWithCovariance,
+    /// [`ResultMessage::Text`].
+    Text,
+    /// [`ResultMessage::Markers`].
+    Markers,
+    /// [`ResultMessage::Twist`].
+    Twist,
+}
 
-    /// The messages of `tick`, positions in `frame`.
-    pub fn of(tick: &Tick, frame: &str) -> TickMessages {
-        let stamp = tick.stamp;
-        let people = poses(
-            stamp,
-            frame,
-            tick.tracks
-                .iter()
-                .filter(|t| t.confirmed)
-                .map(|t| (t.position.mean.x, t.position.mean.y)),
-        );
-        let observed = match tick.input {
-            TickInput::Camera => Some((Self::VISION_PEOPLE, &tick.vision_people)),
-            TickInput::Scan => Some((Self::LASER_PEOPLE, &tick.laser_people)),
-            _ => None,
+impl OutputKind {
+    /// The ROS 2 type name.
+    pub fn type_name(self) -> &'static str {
+        match self {
+            OutputKind::Poses => PoseArrayMsg::TYPE,
+            OutputKind::PoseWithCovariance => PoseWithCovarianceStampedMsg::TYPE,
+            OutputKind::Text => StringMsg::TYPE,
+            OutputKind::Markers => MarkerArrayMsg::TYPE,
+            OutputKind::Twist => TwistMsg::TYPE,
         }
-        .map(|(topic, observed)| {
-            let points = observed.iter().map(|g| (g.mean.x, g.mean.y));
-            (topic, poses(stamp, frame, points))
-        });
-        let target = match (tick.target.state.locked_track(), tick.target.estimate) {
-            (Some(_), Some(estimate)) => {
-                let heading = tick.target.velocity.map_or(0.0, |v| v.y.atan2(v.x));
-                Some(PoseWithCovarianceStampedMsg::from_gaussian(
-                    Header::new(stamp, frame),
-                    &estimate,
-                    heading,
-                    std::f64::consts::PI.powi(2),
-                ))
-            }
-            _ => None,
-        };
-        TickMessages {
-            people,
-            observed,
-            target,
-            target_state: StringMsg {
+    }
+}
+
+impl ResultMessage {
+    /// Its kind.
+    pub fn kind(&self) -> OutputKind {
+        match self {
+            ResultMessage::Poses(_) => OutputKind::Poses,
+            ResultMessage::PoseWithCovariance(_) => OutputKind::PoseWithCovariance,
+            ResultMessage::Text(_) => OutputKind::Text,
+            ResultMessage::Markers(_) => OutputKind::Markers,
+            ResultMessage::Twist(_) => OutputKind::Twist,
+        }
+    }
+
+    /// Writes it on `topic` at `stamp`.
+    pub fn write<W: std::io::Write + std::io::Seek>(
+        &self,
+        writer: &mut McapWriter<W>,
+        topic: &str,
+        stamp: Stamp,
+    ) -> Result<(), McapError> {
+        match self {
+            ResultMessage::Poses(m) => writer.write(topic, stamp, m),
+            ResultMessage::PoseWithCovariance(m) => writer.write(topic, stamp, m.as_ref()),
+            ResultMessage::Text(m) => writer.write(topic, stamp, m),
+            ResultMessage::Markers(m) => writer.write(topic, stamp, m),
+            ResultMessage::Twist(m) => writer.write(topic, stamp, m),
+        }
+    }
+}
+
+/// One output of the pipeline's ticks: a topic of the MCAP results and, when
+/// [`Output::on_ros`], of `tether ros2` (under its namespace). Adding a topic is adding
+/// an entry to [`OUTPUTS`]: the results files, the ROS 2 node and its announcement all
+/// take the list.
+#[derive(Debug, Clone, Copy)]
+pub struct Output {
+    /// The topic, e.g. `/tether/people` (`tether ros2` publishes it relative to its
+    /// namespace, `tether/people`).
+    pub topic: &'static str,
+    /// Its message type.
+    pub kind: OutputKind,
+    /// When it is sent and what it holds.
+    pub when: &'static str,
+    /// The message of a tick, positions in `frame`; `None` when there is none at this
+    /// tick.
+    pub message: fn(&Tick, &str) -> Option<ResultMessage>,
+    /// Also published by `tether ros2` (the command is not: the node's `cmd_vel` is
+    /// the robot's, with its guard).
+    pub on_ros: bool,
+}
+
+/// Every output of a tick, in the order they are written and published.
+pub const OUTPUTS: &[Output] = &[
+    Output {
+        topic: "/tether/people",
+        kind: OutputKind::Poses,
+        when: "every tick: the confirmed tracks",
+        message: |tick, frame| Some(ResultMessage::Poses(people(tick, frame))),
+        on_ros: true,
+    },
+    Output {
+        topic: "/tether/laser_people",
+        kind: OutputKind::Poses,
+        when: "every scan: its person observations",
+        message: |tick, frame| {
+            (tick.input == TickInput::Scan)
+                .then(|| ResultMessage::Poses(observed(tick, &tick.laser_people, frame)))
+        },
+        on_ros: true,
+    },
+    Output {
+        topic: "/tether/vision_people",
+        kind: OutputKind::Poses,
+        when: "every camera frame: its person observations",
+        message: |tick, frame| {
+            (tick.input == TickInput::Camera)
+                .then(|| ResultMessage::Poses(observed(tick, &tick.vision_people, frame)))
+        },
+        on_ros: true,
+    },
+    Output {
+        topic: "/tether/target",
+        kind: OutputKind::PoseWithCovariance,
+        when: "every tick while locked (heading: walking direction, variance pi^2)",
+        message: |tick, frame| {
+            target(tick, frame).map(|m| ResultMessage::PoseWithCovariance(Box::new(m)))
+        },
+        on_ros: true,
+    },
+    Output {
+        topic: "/tether/target_state",
+        kind: OutputKind::Text,
+        when: "every tick: the target's state as JSON",
+        message: |tick, _| {
+            Some(ResultMessage::Text(StringMsg {
                 data: target_state_json(tick),
-            },
-            cmd_vel: TwistMsg::unicycle(tick.command.v_mps, tick.command.w_radps),
-            markers: crate::markers::tick_markers(tick, frame),
+            }))
+        },
+        on_ros: true,
+    },
+    Output {
+        topic: "/tether/markers",
+        kind: OutputKind::Markers,
+        when: "every tick: tracks, their ellipses, the target and the observations",
+        message: |tick, frame| {
+            Some(ResultMessage::Markers(crate::markers::tick_markers(
+                tick, frame,
+            )))
+        },
+        on_ros: true,
+    },
+    Output {
+        topic: "/tether/cmd_vel",
+        kind: OutputKind::Twist,
+        when: "every tick: the command (`linear.x`, `angular.z`)",
+        message: |tick, _| {
+            Some(ResultMessage::Twist(TwistMsg::unicycle(
+                tick.command.v_mps,
+                tick.command.w_radps,
+            )))
+        },
+        on_ros: false,
+    },
+];
+
+/// The outputs `tether ros2` publishes ([`Output::on_ros`]).
+pub fn ros_outputs() -> impl Iterator<Item = &'static Output> {
+    OUTPUTS.iter().filter(|o| o.on_ros)
+}
+
+/// `/tether/people`: the confirmed tracks.
+fn people(tick: &Tick, frame: &str) -> PoseArrayMsg {
+    poses(
+        tick.stamp,
+        frame,
+        tick.tracks
+            .iter()
+            .filter(|t| t.confirmed)
+            .map(|t| (t.position.mean.x, t.position.mean.y)),
+    )
+}
+
+/// The person observations of a scan or a camera frame.
+fn observed(
+    tick: &Tick,
+    observed: &[tether_core::Gaussian2<tether_core::World>],
+    frame: &str,
+) -> PoseArrayMsg {
+    poses(
+        tick.stamp,
+        frame,
+        observed.iter().map(|g| (g.mean.x, g.mean.y)),
+    )
+}
+
+/// `/tether/target` while locked: the estimate, heading the walking direction.
+fn target(tick: &Tick, frame: &str) -> Option<PoseWithCovarianceStampedMsg> {
+    match (tick.target.state.locked_track(), tick.target.estimate) {
+        (Some(_), Some(estimate)) => {
+            let heading = tick.target.velocity.map_or(0.0, |v| v.y.atan2(v.x));
+            Some(PoseWithCovarianceStampedMsg::from_gaussian(
+                Header::new(tick.stamp, frame),
+                &estimate,
+                heading,
+                std::f64::consts::PI.powi(2),
+            ))
         }
+        _ => None,
     }
 }
 
@@ -236,26 +375,71 @@ impl<W: std::io::Write + std::io::Seek> ResultWriter<W> {
         poses(stamp, &self.frame, points)
     }
 
-    /// Writes one tick's tracks, observations, target and command.
+    /// Writes one tick's outputs ([`OUTPUTS`]): tracks, observations, target, state,
+    /// markers and command.
     pub fn write_tick(&mut self, tick: &Tick) -> Result<(), McapError> {
-        let stamp = tick.stamp;
-        let m = TickMessages::of(tick, &self.frame);
-        self.writer.write(TickMessages::PEOPLE, stamp, &m.people)?;
-        if let Some((topic, observed)) = &m.observed {
-            self.writer.write(topic, stamp, observed)?;
+        for output in OUTPUTS {
+            if let Some(message) = (output.message)(tick, &self.frame) {
+                message.write(&mut self.writer, output.topic, tick.stamp)?;
+            }
         }
-        if let Some(target) = &m.target {
-            self.writer.write(TickMessages::TARGET, stamp, target)?;
-        }
-        self.writer
-            .write(TickMessages::TARGET_STATE, stamp, &m.target_state)?;
-        self.writer
-            .write(TickMessages::MARKERS, stamp, &m.markers)?;
-        self.writer.write("/tether/cmd_vel", stamp, &m.cmd_vel)
+        Ok(())
     }
 
     /// Writes the summary and closes the file.
     pub fn finish(self) -> Result<W, McapError> {
         self.writer.finish()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every output is in the tables that document it: this module's, the design
+    /// document's (section 9) and, for those `tether ros2` publishes, `docs/ros2.md`'s.
+    #[test]
+    fn every_output_is_in_the_documents_tables() {
+        let here = include_str!("results.rs");
+        let design = include_str!("../../../docs/design.md");
+        let ros2 = include_str!("../../../docs/ros2.md");
+        for o in OUTPUTS {
+            let short = o.kind.type_name().rsplit('/').next().unwrap_or_default();
+            let row = |doc: &str, topic: &str| {
+                doc.lines().any(|l| {
+                    let l = l.trim_start_matches("//! ");
+                    l.starts_with('|') && l.contains(&format!("`{topic}`")) && l.contains(short)
+                })
+            };
+            assert!(
+                row(here, o.topic),
+                "{} is not in results.rs's table",
+                o.topic
+            );
+            assert!(
+                row(design, o.topic),
+                "{} is not in design.md's table",
+                o.topic
+            );
+            if o.on_ros {
+                let relative = o.topic.trim_start_matches('/');
+                assert!(
+                    row(ros2, relative),
+                    "{relative} is not in docs/ros2.md's table"
+                );
+            }
+        }
+    }
+
+    /// The messages of a tick come out in the order of [`OUTPUTS`], each of its kind.
+    #[test]
+    fn each_output_makes_a_message_of_its_kind() {
+        let mut pipeline = tether_pipeline::Pipeline::new(Default::default(), None).unwrap();
+        let tick = pipeline.on_timer(Stamp::from_ns(1), tether_core::Pose2::IDENTITY);
+        for o in OUTPUTS {
+            if let Some(m) = (o.message)(&tick, "odom") {
+                assert_eq!(m.kind(), o.kind, "{}", o.topic);
+            }
+        }
     }
 }

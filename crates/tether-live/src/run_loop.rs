@@ -32,6 +32,7 @@ use crate::recorder::{Recorder, RecordingError};
 use crate::results::TargetStateLine;
 pub use crate::sources::Input;
 use crate::sources::frames::EncodedFrame;
+use crate::stop_log::StopLog;
 use crate::target_log::TargetLog;
 
 /// A clock that stands still this long in wall time (a simulator that stopped
@@ -147,6 +148,8 @@ pub struct RunSummary {
     pub distance_m: f64,
     /// The target's locks, losses (with reasons) and refusals.
     pub target: TargetLog,
+    /// Why the robot was held, and for how long.
+    pub holds: StopLog,
     /// Odometry messages taken as the robot's pose.
     pub odometry_messages: u64,
     /// Scans and frames skipped because the odometry had stopped.
@@ -318,6 +321,7 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
         line.stop = tick.stop.map(|s| s.name());
         line.target_state = Some(TargetStateLine::of(tick));
         self.summary.target.record_tick(tick);
+        self.summary.holds.record(tick.stamp, tick.stop);
         let range_m = tick
             .target
             .estimate
@@ -593,6 +597,7 @@ pub fn run<W: std::io::Write + std::io::Seek + Send + 'static>(
             final_stop_failures: Vec::new(),
             distance_m: 0.0,
             target: TargetLog::new(),
+            holds: StopLog::new(),
             odometry_messages: 0,
             skipped_stale_odometry: 0,
             clock_stalls: 0,

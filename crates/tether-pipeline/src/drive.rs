@@ -31,7 +31,7 @@ impl Pipeline {
             TargetState::Locked { .. } => {
                 let safety = &self.config.safety;
                 safety
-                    .watchdog(stamp, self.last_scan, last_target_update)
+                    .watchdog(stamp, self.stalest_scan(), last_target_update)
                     .or_else(|| {
                         let unseen_s = stamp.secs_since(last_target_update?);
                         (unseen_s > safety.unseen_full_pace_s && self.another_could_be_it(target))
@@ -39,6 +39,13 @@ impl Pipeline {
                     })
             }
         }
+    }
+
+    /// The last scan of the laser heard from least recently (`None` while one has not
+    /// been heard at all): every scanner must be alive for the robot to drive, since
+    /// each sees what the others cannot.
+    fn stalest_scan(&self) -> Option<Stamp> {
+        self.lasers.iter().map(|l| l.last_scan).min().flatten()
     }
 
     /// When the target's estimate last took in a measurement.
@@ -121,11 +128,19 @@ impl Pipeline {
         let reach_m = (robot_from_world * target_at).range_m() + 1.0;
         let mut obstacles = std::mem::take(&mut self.obstacles_in_world);
         follow::keep_mapped(
-            &self.obstacle_points,
+            &self.lasers[0].returns,
             |p| p.range_at_most(reach_m),
             world_from_robot.point_map(),
             &mut obstacles,
         );
+        for side in &self.lasers[1..] {
+            obstacles.extend(
+                side.returns
+                    .iter()
+                    .filter(|p| p.range_at_most(reach_m))
+                    .map(|p| world_from_robot * *p),
+            );
+        }
         let aim = self.trails.aim(
             world_from_robot,
             attach,
@@ -207,15 +222,14 @@ impl Pipeline {
         Twist::STOP
     }
 
-    /// The obstacle stop (design 6, safety 3): true when a return of the last scan
-    /// lies in the straight corridor ahead of the footprint or on the arc it sweeps,
+    /// The obstacle stop (design 6, safety 3): true when a return of any laser's last
+    /// scan lies in the straight corridor ahead of the footprint or on the arc it sweeps,
     /// within the stop distance plus the braking distance, for the `desired` motion or
     /// the one the robot is still rolling with (a smooth stop takes a moment).
     pub(super) fn obstacle_in_the_way(&self, desired: Twist) -> bool {
         let safety = &self.config.safety;
         let current = self.motion.twist;
         let decel = self.config.limits.max_decel_mps2;
-        let near = &self.near_obstacles;
         let blocked = |v: f64, w: f64| {
             // The free space needed grows with the braking distance at this speed.
             let reach = SafetyConfig {
@@ -223,8 +237,11 @@ impl Pipeline {
                 ..safety.clone()
             };
             v > 0.0
-                && (reach.obstacle_ahead_m(near.iter().copied()).is_some()
-                    || reach.obstacle_on_arc_m(near, v, w).is_some())
+                && self.lasers.iter().any(|side| {
+                    let near = &side.near;
+                    reach.obstacle_ahead_m(near.iter().copied()).is_some()
+                        || reach.obstacle_on_arc_m(near, v, w).is_some()
+                })
         };
         blocked(desired.v_mps, desired.w_radps) || blocked(current.v_mps, current.w_radps)
     }

@@ -19,24 +19,22 @@ mod laser;
 pub mod vision;
 
 use serde::{Deserialize, Serialize};
+use tether_scanmatch::ScanMatcherConfig;
 use thiserror::Error;
 
 use tether_control::{
     MotionLimits, MotionState, SafetyConfig, SpringConfig, StopReason, Twist, VirtualSpring,
 };
+pub use tether_core::ExtraLaser;
 use tether_core::{
-    CameraModel, Cov2, Gaussian2, Laser, LaserModel, LaserScan, Point2, Pose2, Robot, Stamp,
-    Vector2, World,
+    CameraModel, Cov2, Gaussian2, Laser, LaserModel, Point2, Pose2, Robot, Stamp, Vector2, World,
 };
 use tether_fusion::{
     Bearing, ClutterConfig, ClutterMap, FusionRule, Gate, Observation, Refusal, SomebodyElse,
     TargetConfig, TargetSelector, TargetState, Tracker, TrackerConfig, Transition, View,
     complementary_fusion,
 };
-use tether_laser::preprocess::BeamTable;
-use tether_laser::{
-    Detection, DetectorConfig, DetectorKind, LegClassifier, LegDetector, PersonKind,
-};
+use tether_laser::{Detection, DetectorConfig, DetectorKind, LegClassifier, LegDetector};
 
 /// How laser and camera are combined.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -119,8 +117,13 @@ impl Default for LegsConfig {
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PipelineConfig {
-    /// The laser (geometry, noise model, mounting).
+    /// The laser (geometry, noise model, mounting); with `extra_lasers`, the one whose
+    /// scans carry a frame none of them names.
     pub laser: LaserModel,
+    /// More scanners on the robot (`[[extra_lasers]]`: front and rear, left and right),
+    /// each taking the scans of its `frame_id` (design 5.7).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub extra_lasers: Vec<ExtraLaser>,
     /// The camera (intrinsics, mounting).
     pub camera: CameraModel,
     /// Leg detection.
@@ -144,6 +147,10 @@ pub struct PipelineConfig {
     pub limits: MotionLimits,
     /// Safety layer.
     pub safety: SafetyConfig,
+    /// Ego-motion from the scans, where there is no odometry (`--ego-motion scans`, or
+    /// `auto` without odometry; design 11.9): the scan matcher's settings. The pipeline
+    /// does not run it (the runtime does), but a run's configuration holds it.
+    pub scan_matcher: ScanMatcherConfig,
 }
 
 /// Why the pipeline cannot start.
@@ -157,6 +164,35 @@ pub enum PipelineError {
         /// What is wrong.
         message: String,
     },
+}
+
+/// The leg detector of a config, the one constructor every user of a config's detector
+/// calls (the pipeline, `tether legs`, `eval-legs`, the replay's report): the arc test,
+/// or the learned classifier with the model read from `legs.model` (`classifier`, read
+/// by the caller: this crate does no I/O), else the built-in models (the coarse-scan
+/// one for beams 0.45 degrees apart or more; design 4.6).
+pub fn leg_detector(
+    legs: &LegsConfig,
+    noise: tether_core::RangeNoiseModel,
+    classifier: Option<LegClassifier>,
+) -> Result<LegDetector, PipelineError> {
+    match legs.detector {
+        DetectorKind::Arc => LegDetector::arc(legs.config, noise),
+        DetectorKind::Learned => match classifier {
+            Some(c) => LegDetector::learned(legs.config, noise, c),
+            None => LegDetector::builtin(legs.config, noise),
+        },
+    }
+    .map_err(|e| config_err("legs", e))
+}
+
+/// How many of `config`'s lasers take the scans of `frame_id`.
+fn lasers_named(config: &PipelineConfig, frame_id: &str) -> usize {
+    config
+        .extra_lasers
+        .iter()
+        .filter(|l| l.frame_id == frame_id)
+        .count()
 }
 
 fn config_err(part: &'static str, e: impl std::fmt::Display) -> PipelineError {
@@ -277,29 +313,19 @@ pub struct PipelineStats {
 #[derive(Debug)]
 pub struct Pipeline {
     config: PipelineConfig,
-    detector: LegDetector,
-    /// Buffers kept between scans: the detection, the beams' directions (no
-    /// trigonometry per return) and the returns in the robot frame.
+    /// The scanners: the first laser, then the extra ones.
+    lasers: Vec<laser::LaserSide>,
+    /// Buffers kept between scans: the detection and the returns in the robot frame.
     detection: Detection,
-    beams: BeamTable,
     scan_obstacles: Vec<Point2<Robot>>,
     tracker: Tracker,
     selector: TargetSelector,
     spring: VirtualSpring,
     command: Twist,
     last_tick: Option<Stamp>,
+    /// The stamp of the newest scan of any laser.
     last_scan: Option<Stamp>,
-    /// The robot's pose at the last scan (with `obstacle_points`, that scan's returns:
-    /// what it could not see).
-    last_scan_pose: Option<Pose2<World, Robot>>,
-    /// The last scan's people (world) and the velocity of the track each updated, to
-    /// carry them to a camera frame's time.
-    last_laser_people: Option<(Stamp, Vec<LaserMemory>)>,
-    obstacle_points: Vec<Point2<Robot>>,
-    /// The returns of the last scan that can be in the way within the stop distance
-    /// (the obstacle stop), kept from scan to scan; and a buffer for those that can
-    /// stand between the robot and the target.
-    near_obstacles: Vec<Point2<Robot>>,
+    /// A buffer for the returns that can stand between the robot and the target.
     obstacles_in_world: Vec<Point2<World>>,
     per_frame_target: Option<(Stamp, Gaussian2<World>)>,
     /// The search for the lost target under way, if any.
@@ -307,14 +333,10 @@ pub struct Pipeline {
     trails: follow::Trails,
     motion: MotionState,
     heights: std::collections::BTreeMap<u64, vision::LearnedHeight>,
-    /// Static clutter in the world (scenery) and in the laser's frame (the robot's own
-    /// parts, which move with it).
+    /// Static clutter in the world (scenery; each laser keeps that of its own frame,
+    /// the robot's own parts, which move with it).
     clutter_world: ClutterMap<World>,
-    clutter_laser: ClutterMap<Laser>,
-    /// The field of view of the last scan: first and last beam directions, rad, and
-    /// the longest range, m.
-    laser_view: Option<(f64, f64, f64)>,
-    /// Seconds between the last scan and the one before it.
+    /// Seconds between the last scan and the one before it of the same laser.
     scan_gap_s: f64,
     stats: PipelineStats,
 }
@@ -329,10 +351,6 @@ impl Pipeline {
         classifier: Option<LegClassifier>,
     ) -> Result<Self, PipelineError> {
         config
-            .laser
-            .validate()
-            .map_err(|e| config_err("laser", e))?;
-        config
             .camera
             .validate()
             .map_err(|e| config_err("camera", e))?;
@@ -344,6 +362,10 @@ impl Pipeline {
             .safety
             .validate()
             .map_err(|e| config_err("safety", e))?;
+        config
+            .scan_matcher
+            .validate()
+            .map_err(|e| config_err("scan_matcher", e))?;
         if let (Some(path), None) = (&config.legs.model, &classifier) {
             return Err(config_err(
                 "legs",
@@ -353,17 +375,35 @@ impl Pipeline {
                 ),
             ));
         }
-        let noise = config.laser.noise.clone();
-        let detector = match config.legs.detector {
-            DetectorKind::Arc => LegDetector::arc(config.legs.config, noise),
-            // A model of the user's own for every scan; else the built-in ones (the
-            // coarse-scan model for beams 0.45 degrees apart or more).
-            DetectorKind::Learned => match classifier {
-                Some(c) => LegDetector::learned(config.legs.config, noise, c),
-                None => LegDetector::builtin(config.legs.config, noise),
-            },
+        let mut lasers = Vec::with_capacity(1 + config.extra_lasers.len());
+        for extra in &config.extra_lasers {
+            if extra.frame_id.is_empty() || lasers_named(&config, &extra.frame_id) > 1 {
+                return Err(config_err(
+                    "extra_lasers",
+                    format!(
+                        "`frame_id` {:?} must name one laser's scans, and no other's",
+                        extra.frame_id
+                    ),
+                ));
+            }
+            lasers.push(laser::LaserSide::new(
+                Some(extra.frame_id.clone()),
+                extra.laser.clone(),
+                &config.legs,
+                &config.clutter,
+                classifier.clone(),
+            )?);
         }
-        .map_err(|e| config_err("legs", e))?;
+        lasers.insert(
+            0,
+            laser::LaserSide::new(
+                None,
+                config.laser.clone(),
+                &config.legs,
+                &config.clutter,
+                classifier,
+            )?,
+        );
         let tracker = Tracker::new(config.tracker.clone()).map_err(|e| config_err("tracker", e))?;
         let spring =
             VirtualSpring::new(config.follower.clone()).map_err(|e| config_err("follower", e))?;
@@ -374,27 +414,18 @@ impl Pipeline {
         target.validate().map_err(|e| config_err("target", e))?;
         let clutter_world =
             ClutterMap::new(config.clutter.clone()).map_err(|e| config_err("clutter", e))?;
-        let clutter_laser =
-            ClutterMap::new(config.clutter.clone()).map_err(|e| config_err("clutter", e))?;
         Ok(Pipeline {
             selector: TargetSelector::new(target, config.tracker.motion),
             clutter_world,
-            clutter_laser,
-            laser_view: None,
             scan_gap_s: 0.0,
-            detector,
+            lasers,
             detection: Detection::default(),
-            beams: BeamTable::default(),
             scan_obstacles: Vec::new(),
             tracker,
             spring,
             command: Twist::STOP,
             last_tick: None,
             last_scan: None,
-            last_scan_pose: None,
-            last_laser_people: None,
-            obstacle_points: Vec::new(),
-            near_obstacles: Vec::new(),
             obstacles_in_world: Vec::new(),
             per_frame_target: None,
             search: None,
@@ -448,46 +479,6 @@ impl Pipeline {
             return false;
         }
         true
-    }
-
-    /// One laser scan, with the robot's pose at its stamp: leg detection, then
-    /// [`Pipeline::on_laser_people`].
-    pub fn on_scan(&mut self, scan: &LaserScan, world_from_robot: Pose2<World, Robot>) -> Tick {
-        self.stats.malformed_beams += scan.malformed_beams() as u64;
-        if 2 * scan.malformed_beams() > scan.len() {
-            // Mostly NaN or negative ranges: a sick sensor, not an empty room. The scan
-            // neither feeds the tracks nor counts as fresh data, so the watchdog stops
-            // the robot rather than let it drive blind.
-            self.stats.unusable_scans += 1;
-            return self.idle_tick(scan.stamp, TickInput::Scan);
-        }
-        let mut detection = std::mem::take(&mut self.detection);
-        self.detector.detect_into(scan, &mut detection);
-        let people: Vec<LaserPerson> = detection
-            .people
-            .iter()
-            .map(|p| LaserPerson {
-                estimate: p.estimate,
-                two_legs: matches!(p.kind, PersonKind::TwoLegs(_)),
-                weak: false,
-            })
-            .chain(detection.weak_people.iter().map(|p| LaserPerson {
-                estimate: p.estimate,
-                two_legs: false,
-                weak: true,
-            }))
-            .collect();
-        let (first, last) = (scan.angle_min_rad, scan.angle_max_rad());
-        self.laser_view = Some((first.min(last), first.max(last), scan.range_max_m));
-        self.detection = detection;
-        let robot_from_laser = self.config.laser.robot_from_laser().point_map();
-        self.beams.update(scan);
-        let mut obstacles = std::mem::take(&mut self.scan_obstacles);
-        self.beams
-            .points_into(scan, robot_from_laser, &mut obstacles);
-        let tick = self.on_laser_people(scan.stamp, &people, &obstacles, world_from_robot);
-        self.scan_obstacles = obstacles;
-        tick
     }
 
     /// One camera frame's upper-body boxes, with the robot's pose at the frame's stamp:
@@ -592,28 +583,26 @@ impl Pipeline {
         // The last scan's people carried to this frame's time: moved by their track's
         // velocity, with the velocity's uncertainty over that time added (people without
         // a track get a walking-pace allowance).
-        let laser_recent: Vec<(Gaussian2<World>, Option<u64>)> = match &self.last_laser_people {
-            Some((t, people))
-                if stamp.secs_since(*t) <= fusion.pair_max_age_s && fusion.use_laser =>
-            {
+        let laser_recent: Vec<(Gaussian2<World>, Option<u64>)> = self
+            .lasers
+            .iter()
+            .filter_map(|l| l.people.as_ref())
+            .filter(|(t, _)| stamp.secs_since(*t) <= fusion.pair_max_age_s && fusion.use_laser)
+            .flat_map(|(t, people)| {
                 let age = stamp.secs_since(*t).max(0.0);
-                people
-                    .iter()
-                    .map(|(g, motion, id)| {
-                        let (velocity, spread) = match motion {
-                            Some((v, c)) => (*v, c.scaled(age * age).ok()),
-                            None => (Vector2::ZERO, Cov2::isotropic(1.0 * age).ok()),
-                        };
-                        let moved = Gaussian2 {
-                            mean: g.mean + velocity * age,
-                            cov: spread.map_or(g.cov, |c| g.cov.add(&c)),
-                        };
-                        (moved, *id)
-                    })
-                    .collect()
-            }
-            _ => Vec::new(),
-        };
+                people.iter().map(move |(g, motion, id)| {
+                    let (velocity, spread) = match motion {
+                        Some((v, c)) => (*v, c.scaled(age * age).ok()),
+                        None => (Vector2::ZERO, Cov2::isotropic(1.0 * age).ok()),
+                    };
+                    let moved = Gaussian2 {
+                        mean: g.mean + velocity * age,
+                        cov: spread.map_or(g.cov, |c| g.cov.add(&c)),
+                    };
+                    (moved, *id)
+                })
+            })
+            .collect();
         let fused: Vec<Gaussian2<World>> = match fusion.mode {
             FusionMode::Tracker => {
                 if fusion.use_vision {
@@ -836,11 +825,20 @@ impl Pipeline {
         world_from_robot: Pose2<World, Robot>,
     ) {
         let camera_sees = self.camera_sees(world_from_robot);
-        let laser_from_world = (world_from_robot * self.config.laser.robot_from_laser()).inverse();
-        let laser_sees = self.laser_sees(laser_from_world);
-        let (world_map, laser_map) = (&self.clutter_world, &self.clutter_laser);
+        let seen_by: Vec<_> = self
+            .lasers
+            .iter()
+            .map(|l| l.sees(world_from_robot))
+            .collect();
+        let laser_sees = move |p: Point2<World>| seen_by.iter().any(|sees| sees(p));
+        let world_map = &self.clutter_world;
+        let in_laser_clutter: Vec<_> = self
+            .lasers
+            .iter()
+            .map(|l| l.clutter_at(world_from_robot, stamp))
+            .collect();
         let in_clutter = move |p: Point2<World>| {
-            world_map.is_static(p, stamp) || laser_map.is_static(laser_from_world * p, stamp)
+            world_map.is_static(p, stamp) || in_laser_clutter.iter().any(|in_it| in_it(p))
         };
         let lost_after_s = self.selector.config().lost_after_s;
         let sensor_gap = match (input, self.last_scan) {
@@ -876,23 +874,6 @@ impl Pipeline {
         move |p: Point2<World>| {
             let q = camera_from_world * p;
             use_vision && q.x > 0.3 && q.range_m() <= max_range && q.bearing_rad().abs() <= half_fov
-        }
-    }
-
-    /// Whether the laser would see a world point: within the last scan's beams and
-    /// longest range (before the first scan, the laser model's).
-    fn laser_sees(
-        &self,
-        laser_from_world: Pose2<Laser, World>,
-    ) -> impl Fn(Point2<World>) -> bool + use<> {
-        let (first, last, reach) = self.laser_view.unwrap_or((
-            self.config.laser.geometry.angle_min_rad(),
-            self.config.laser.geometry.angle_max_rad(),
-            self.config.laser.range_max_m,
-        ));
-        move |p: Point2<World>| {
-            let q = laser_from_world * p;
-            q.range_m() <= reach && (first..=last).contains(&q.bearing_rad())
         }
     }
 }

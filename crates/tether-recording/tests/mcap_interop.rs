@@ -398,6 +398,10 @@ fn files_written_by_rosbags_read_identically() {
 }
 
 /// What tether writes: every type, with the conversions from tether's own types.
+#[allow(
+    clippy::too_many_lines,
+    reason = "a test's fixture: one message of every type, written in a row"
+)]
 fn write_tether_file(path: &Path, streaming: bool) -> Vec<(String, &'static str, i64, Flat)> {
     let mut w = if streaming {
         // A live run's recording: no chunks.

@@ -31,5 +31,8 @@ pub use args::{ArgsError, ParamValue, Remap, RosArgs, domain_id};
 pub use node::{
     GraphWatcher, NodeIdentity, Received, Ros2Error, RosNode, offer, qos, spawn_reader,
 };
+/// What [`RosNode::publisher`] returns (ros2-client's, re-exported so that a user of the
+/// node names it without depending on ros2-client).
+pub use ros2_client::dds::Publisher;
 pub use tf::StaticTransforms;
 pub use wire::Wire;

@@ -121,6 +121,97 @@ pub struct IcpScratch {
     histogram: Vec<u32>,
 }
 
+/// The residual above which a row is trimmed so that `keep` rows remain: the
+/// `keep`-th smallest `|r|` read off a histogram of `|r|` (bins of
+/// `max_correspondence / TRIM_BINS`; a residual is never trimmed for less than a bin's
+/// width), infinite when the last bin is reached.
+fn trim_threshold(
+    rows: &[[f64; 4]],
+    keep: usize,
+    config: &IcpConfig,
+    histogram: &mut Vec<u32>,
+) -> f64 {
+    let top = config.max_correspondence_m.max(1e-6);
+    let per_bin = TRIM_BINS as f64 / top;
+    histogram.clear();
+    histogram.resize(TRIM_BINS + 1, 0);
+    for row in rows {
+        let b = ((row[3].abs() * per_bin) as usize).min(TRIM_BINS);
+        histogram[b] += 1;
+    }
+    let mut count = 0usize;
+    let mut threshold = f64::INFINITY;
+    for (b, &c) in histogram.iter().enumerate() {
+        count += c as usize;
+        if count >= keep {
+            threshold = if b == TRIM_BINS {
+                f64::INFINITY
+            } else {
+                (b + 1) as f64 / per_bin
+            };
+            break;
+        }
+    }
+    threshold
+}
+
+/// The Gauss-Newton system of one iteration, from the rows kept.
+struct NormalEquations {
+    /// `sum w J^T J` (scaled yaw column).
+    h: Mat3,
+    /// `sum w J^T r`.
+    g: [f64; 3],
+    /// `sum w`.
+    weight_sum: f64,
+    /// `sum w r^2`.
+    weighted_sq: f64,
+    /// `sum |r|`.
+    abs_sum: f64,
+    /// Rows kept.
+    used: usize,
+}
+
+/// [`NormalEquations`] over `rows` (`[J_x, J_y, J_yaw, r]`) whose `|r|` is at most
+/// `threshold`, each weighted by Huber's rule with `huber_m` (`w = 1` up to it,
+/// `huber_m / |r|` beyond).
+fn normal_equations(rows: &[[f64; 4]], threshold: f64, huber_m: f64) -> NormalEquations {
+    let mut h = ZERO3;
+    let mut g = [0.0; 3];
+    let mut weight_sum = 0.0;
+    let mut weighted_sq = 0.0;
+    let mut abs_sum = 0.0;
+    let mut used = 0usize;
+    for row in rows {
+        let r = row[3];
+        let ar = r.abs();
+        if ar > threshold {
+            continue;
+        }
+        let w = if ar <= huber_m { 1.0 } else { huber_m / ar };
+        for i in 0..3 {
+            for k in i..3 {
+                h[i][k] += w * row[i] * row[k];
+            }
+            g[i] += w * row[i] * r;
+        }
+        weight_sum += w;
+        weighted_sq += w * r * r;
+        abs_sum += ar;
+        used += 1;
+    }
+    h[1][0] = h[0][1];
+    h[2][0] = h[0][2];
+    h[2][1] = h[1][2];
+    NormalEquations {
+        h,
+        g,
+        weight_sum,
+        weighted_sq,
+        abs_sum,
+        used,
+    }
+}
+
 /// Matches `points` (the new scan, its robot frame) against `reference` (the keyframe),
 /// starting from `guess` (`keyframe_from_robot`), with `prior_covariance` (the guess's
 /// uncertainty, used along degenerate directions).
@@ -235,62 +326,18 @@ pub fn match_scan(
         let keep = ((rows as f64) * (1.0 - config.trim_fraction.clamp(0.0, 0.9))).ceil() as usize;
         let keep = keep.clamp(min_points.min(rows), rows);
         let threshold = if keep < rows {
-            let top = config.max_correspondence_m.max(1e-6);
-            let per_bin = TRIM_BINS as f64 / top;
-            scratch.histogram.clear();
-            scratch.histogram.resize(TRIM_BINS + 1, 0);
-            for row in &scratch.rows {
-                let b = ((row[3].abs() * per_bin) as usize).min(TRIM_BINS);
-                scratch.histogram[b] += 1;
-            }
-            let mut count = 0usize;
-            let mut threshold = f64::INFINITY;
-            for (b, &c) in scratch.histogram.iter().enumerate() {
-                count += c as usize;
-                if count >= keep {
-                    threshold = if b == TRIM_BINS {
-                        f64::INFINITY
-                    } else {
-                        (b + 1) as f64 / per_bin
-                    };
-                    break;
-                }
-            }
-            threshold
+            trim_threshold(&scratch.rows, keep, config, &mut scratch.histogram)
         } else {
             f64::INFINITY
         };
-        let mut h = ZERO3;
-        let mut g = [0.0; 3];
-        let mut weight_sum = 0.0;
-        let mut weighted_sq = 0.0;
-        let mut abs_sum = 0.0;
-        let mut used = 0usize;
-        for row in &scratch.rows {
-            let r = row[3];
-            let ar = r.abs();
-            if ar > threshold {
-                continue;
-            }
-            let w = if ar <= config.huber_m {
-                1.0
-            } else {
-                config.huber_m / ar
-            };
-            for i in 0..3 {
-                for k in i..3 {
-                    h[i][k] += w * row[i] * row[k];
-                }
-                g[i] += w * row[i] * r;
-            }
-            weight_sum += w;
-            weighted_sq += w * r * r;
-            abs_sum += ar;
-            used += 1;
-        }
-        h[1][0] = h[0][1];
-        h[2][0] = h[0][2];
-        h[2][1] = h[1][2];
+        let NormalEquations {
+            h,
+            g,
+            weight_sum,
+            weighted_sq,
+            abs_sum,
+            used,
+        } = normal_equations(&scratch.rows, threshold, config.huber_m);
         let normalised = h.map(|row| row.map(|v| v / weight_sum.max(1e-12)));
         let (values, vectors) = symmetric_eigen3(&normalised);
         // Step along the constrained eigenvectors only: d = -sum_k (v_k . g) / l_k v_k,

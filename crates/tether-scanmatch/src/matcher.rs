@@ -339,6 +339,36 @@ pub struct Estimate {
     pub prior_reset: bool,
 }
 
+impl Estimate {
+    /// A scan that was not matched: the first one (`Quality::First`, which becomes the
+    /// keyframe and counts as converged) or one whose stamp does not increase; the
+    /// robot is where `world` (pose and covariance) says, and has not moved.
+    fn unmatched(
+        stamp: Stamp,
+        world: (Pose2<World, Robot>, Mat3),
+        excluded_points: usize,
+        quality: Quality,
+    ) -> Self {
+        let first = quality == Quality::First;
+        Estimate {
+            stamp,
+            robot_from_robot: Pose2::IDENTITY,
+            increment_covariance: diag3(0.0, 0.0, 0.0),
+            world_from_robot: world.0,
+            world_covariance: world.1,
+            matched_points: 0,
+            excluded_points,
+            mean_residual_m: 0.0,
+            min_eigenvalue: 0.0,
+            iterations: 0,
+            converged: first,
+            quality,
+            new_keyframe: first,
+            prior_reset: false,
+        }
+    }
+}
+
 /// Counts of what went wrong over the life of a matcher.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct MatcherCounts {
@@ -458,42 +488,22 @@ impl ScanMatcher {
         let excluded_points = self.keep.iter().filter(|k| !**k).count();
         let Some(state) = self.state.clone() else {
             self.take_keyframe(scan, stamp, Pose2::IDENTITY, diag3(0.0, 0.0, 0.0));
-            return Estimate {
+            return Estimate::unmatched(
                 stamp,
-                robot_from_robot: Pose2::IDENTITY,
-                increment_covariance: diag3(0.0, 0.0, 0.0),
-                world_from_robot: Pose2::IDENTITY,
-                world_covariance: diag3(0.0, 0.0, 0.0),
-                matched_points: 0,
+                (Pose2::IDENTITY, diag3(0.0, 0.0, 0.0)),
                 excluded_points,
-                mean_residual_m: 0.0,
-                min_eigenvalue: 0.0,
-                iterations: 0,
-                converged: true,
-                quality: Quality::First,
-                new_keyframe: true,
-                prior_reset: false,
-            };
+                Quality::First,
+            );
         };
         let world_from_last = state.world_from_keyframe * state.keyframe_from_last;
         if stamp <= state.last_stamp {
             self.counts.stamps_not_increasing += 1;
-            return Estimate {
+            return Estimate::unmatched(
                 stamp,
-                robot_from_robot: Pose2::IDENTITY,
-                increment_covariance: diag3(0.0, 0.0, 0.0),
-                world_from_robot: world_from_last,
-                world_covariance: state.world_from_keyframe_cov,
-                matched_points: 0,
+                (world_from_last, state.world_from_keyframe_cov),
                 excluded_points,
-                mean_residual_m: 0.0,
-                min_eigenvalue: 0.0,
-                iterations: 0,
-                converged: false,
-                quality: Quality::PriorOnly(Failure::StampNotIncreasing),
-                new_keyframe: false,
-                prior_reset: false,
-            };
+                Quality::PriorOnly(Failure::StampNotIncreasing),
+            );
         }
         let dt_s = stamp.secs_since(state.last_stamp);
         let prior_reset =
@@ -507,23 +517,7 @@ impl ScanMatcher {
         let sr = self.config.prior_sigma_rad_per_s * dt_s;
         let prior_cov = diag3(st * st + 1e-6, st * st + 1e-6, sr * sr + 1e-6);
 
-        // The points to match: not excluded, and spaced.
-        self.query.clear();
-        let spacing_sq = self.config.min_point_spacing_m * self.config.min_point_spacing_m;
-        let mut last_kept: Option<Point2<Robot>> = None;
-        for (&p, &k) in scan.points().iter().zip(&self.keep) {
-            if !k {
-                continue;
-            }
-            if let Some(l) = last_kept {
-                let (dx, dy) = (p.x - l.x, p.y - l.y);
-                if dx * dx + dy * dy < spacing_sq {
-                    continue;
-                }
-            }
-            last_kept = Some(p);
-            self.query.push(p);
-        }
+        self.select_query(scan);
 
         let outcome = match_scan(
             &self.keyframe,
@@ -627,6 +621,27 @@ impl ScanMatcher {
             quality,
             new_keyframe,
             prior_reset,
+        }
+    }
+
+    /// The points of `scan` to match, into `self.query`: those `self.keep` keeps (not
+    /// excluded), each at least `min_point_spacing_m` from the last one taken.
+    fn select_query(&mut self, scan: &ScanPoints) {
+        self.query.clear();
+        let spacing_sq = self.config.min_point_spacing_m * self.config.min_point_spacing_m;
+        let mut last_kept: Option<Point2<Robot>> = None;
+        for (&p, &k) in scan.points().iter().zip(&self.keep) {
+            if !k {
+                continue;
+            }
+            if let Some(l) = last_kept {
+                let (dx, dy) = (p.x - l.x, p.y - l.y);
+                if dx * dx + dy * dy < spacing_sq {
+                    continue;
+                }
+            }
+            last_kept = Some(p);
+            self.query.push(p);
         }
     }
 

@@ -113,6 +113,20 @@ pub enum SensorData {
     Timer,
 }
 
+impl SensorData {
+    /// The scan, when this is one of the first laser's (frame `laser`): what a consumer
+    /// that speaks to one scanner takes (a SCIP emulator, a ROS 1 bag of leg_tracker's
+    /// kind); the `extra_lasers`' scans carry their own frames.
+    pub fn first_laser_scan(&self) -> Option<&LaserScan> {
+        match self {
+            SensorData::Scan(scan) if scan.frame_id == <Laser as tether_core::Frame>::NAME => {
+                Some(scan)
+            }
+            _ => None,
+        }
+    }
+}
+
 /// One event of the simulation: a sensor sample and the truth at its instant.
 #[derive(Debug, Clone)]
 pub struct Event {
@@ -124,6 +138,20 @@ pub struct Event {
     pub camera_truth: Option<CameraTruth>,
 }
 
+/// A scanner besides the first (`Scenario::extra_lasers`): its simulated laser, the
+/// frame its scans carry, where it sits, and when its next scan is due (its own period,
+/// offset between the first laser's scans).
+#[derive(Debug)]
+struct ExtraSimLaser {
+    laser: SimLaser,
+    frame_id: String,
+    robot_from_laser: Pose2<Robot, Laser>,
+    height_m: f64,
+    period_ns: i64,
+    offset_ns: i64,
+    next_index: i64,
+}
+
 /// A running simulation.
 #[derive(Debug)]
 pub struct Simulation {
@@ -132,6 +160,7 @@ pub struct Simulation {
     people: Vec<Person>,
     robot: DiffDrive,
     laser: Option<SimLaser>,
+    extra_lasers: Vec<ExtraSimLaser>,
     camera: Option<SimCamera>,
     now: Stamp,
     end: Stamp,
@@ -195,21 +224,56 @@ impl Simulation {
                 Person::from_spec(i as u32, spec, &mut rng)
             })
             .collect();
-        let laser = scenario.laser_sim.enabled.then(|| {
+        // The clutter is in the world: every scanner sees the same pieces.
+        let clutter = scenario.laser_sim.enabled.then(|| {
+            clutter_spots(
+                &scenario.world.rooms,
+                &walkways(scenario),
+                &world,
+                &scenario.laser_sim,
+                &mut SimRng::stream(seed, "laser/clutter"),
+            )
+        });
+        let laser = clutter.clone().map(|clutter| {
             SimLaser::new(
                 scenario.laser.clone(),
                 scenario.laser_sim.clone(),
                 SimRng::stream(seed, "laser"),
             )
             .with_realism_rng(SimRng::stream(seed, "laser/realism"))
-            .with_clutter(clutter_spots(
-                &scenario.world.rooms,
-                &walkways(scenario),
-                &world,
-                &scenario.laser_sim,
-                &mut SimRng::stream(seed, "laser/clutter"),
-            ))
+            .with_clutter(clutter)
         });
+        let n_extra = scenario.extra_lasers.len() as i64;
+        let extra_lasers = clutter
+            .map(|clutter| {
+                scenario
+                    .extra_lasers
+                    .iter()
+                    .enumerate()
+                    .map(|(k, extra)| {
+                        let period_ns = extra.laser.scan_period_ns().max(1);
+                        ExtraSimLaser {
+                            laser: SimLaser::new(
+                                extra.laser.clone(),
+                                scenario.laser_sim.clone(),
+                                SimRng::stream(seed, &format!("laser/{}", extra.frame_id)),
+                            )
+                            .with_realism_rng(SimRng::stream(
+                                seed,
+                                &format!("laser/{}/realism", extra.frame_id),
+                            ))
+                            .with_clutter(clutter.clone()),
+                            frame_id: extra.frame_id.clone(),
+                            robot_from_laser: extra.laser.robot_from_laser(),
+                            height_m: extra.laser.mount.height_m,
+                            period_ns,
+                            offset_ns: period_ns * (k as i64 + 1) / (n_extra + 1),
+                            next_index: 0,
+                        }
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
         let camera = scenario.camera_sim.enabled.then(|| {
             SimCamera::new(
                 scenario.camera,
@@ -224,6 +288,7 @@ impl Simulation {
             people,
             robot: DiffDrive::from_spec(&scenario.robot),
             laser,
+            extra_lasers,
             camera,
             now: Stamp::ZERO,
             end,
@@ -303,14 +368,20 @@ impl Simulation {
 
     /// Advances to the next sensor event and returns it, or `None` at the end.
     pub fn advance(&mut self) -> Option<Event> {
-        // (time, kind): 0 scan, 1 camera, 2 timer; ties in that order.
+        // (time, kind): 0 scan, 1 camera, 2 timer, 3 + k the k-th extra laser's scan;
+        // ties in that order.
         let candidates = [
-            self.next_scan_ns().map(|t| (t, 0u8)),
-            self.next_frame_ns().map(|t| (t, 1u8)),
+            self.next_scan_ns().map(|t| (t, 0usize)),
+            self.next_frame_ns().map(|t| (t, 1)),
             self.control_period_ns
-                .map(|p| (self.next_timer_index * p, 2u8)),
+                .map(|p| (self.next_timer_index * p, 2)),
         ];
-        let Some((at, kind)) = candidates.into_iter().flatten().min() else {
+        let extras = self
+            .extra_lasers
+            .iter()
+            .enumerate()
+            .map(|(k, e)| (e.next_index * e.period_ns + e.offset_ns, 3 + k));
+        let Some((at, kind)) = candidates.into_iter().flatten().chain(extras).min() else {
             self.step_to(self.end);
             return None;
         };
@@ -318,72 +389,96 @@ impl Simulation {
             self.step_to(self.end);
             return None;
         }
-        if kind == 2 {
-            self.next_timer_index += 1;
-            self.step_to(Stamp::from_ns(at));
-            return Some(Event {
-                data: SensorData::Timer,
-                truth: self.truth(),
-                camera_truth: None,
-            });
-        }
-        let is_scan = kind == 0;
         self.step_to(Stamp::from_ns(at));
-        let truth = self.truth();
-        if is_scan {
-            self.next_scan_index += 1;
-            let laser_height = self.scenario.laser.mount.height_m;
-            let legs: Vec<LegCircle> = self
-                .people
-                .iter()
-                .flat_map(|p| {
-                    let [l, r] = p.legs_at(laser_height);
-                    [
-                        LegCircle {
-                            circle: l,
-                            person: p.id,
-                            leg: 0,
-                        },
-                        LegCircle {
-                            circle: r,
-                            person: p.id,
-                            leg: 1,
-                        },
-                    ]
+        match kind {
+            2 => {
+                self.next_timer_index += 1;
+                Some(Event {
+                    data: SensorData::Timer,
+                    truth: self.truth(),
+                    camera_truth: None,
                 })
-                .collect();
-            let laser = self.laser.as_mut()?;
-            let scan = laser.scan(self.now, truth.world_from_laser, &self.world, &legs);
-            let mut truth = truth;
-            for person in &mut truth.people {
-                let beams = laser
-                    .last_hits()
-                    .iter()
-                    .filter(|h| matches!(h, crate::laser::Hit::Leg { person: id, .. } if *id == person.id))
-                    .count();
-                person.laser_beams = Some(beams as u32);
             }
-            match scan {
-                Ok(scan) => Some(Event {
+            1 => {
+                self.next_frame_index += 1;
+                let truth = self.truth();
+                let camera = self.camera.as_mut()?;
+                let (frame, camera_truth) =
+                    camera.frame(self.now, truth.world_from_robot, &self.world, &self.people);
+                Some(Event {
+                    data: SensorData::Camera(frame),
+                    truth,
+                    camera_truth: Some(camera_truth),
+                })
+            }
+            0 => {
+                self.next_scan_index += 1;
+                self.scan_event(None)
+            }
+            k => {
+                self.extra_lasers.get_mut(k - 3)?.next_index += 1;
+                self.scan_event(Some(k - 3))
+            }
+        }
+    }
+
+    /// The scan of the first laser (`None`) or of the extra laser `extra` now, with the
+    /// truth as that laser saw it (its pose, the beams on each person).
+    fn scan_event(&mut self, extra: Option<usize>) -> Option<Event> {
+        let mut truth = self.truth();
+        let (laser, height_m) = match extra {
+            None => (self.laser.as_mut()?, self.scenario.laser.mount.height_m),
+            Some(k) => {
+                let e = self.extra_lasers.get_mut(k)?;
+                truth.world_from_laser = truth.world_from_robot * e.robot_from_laser;
+                (&mut e.laser, e.height_m)
+            }
+        };
+        let legs: Vec<LegCircle> = self
+            .people
+            .iter()
+            .flat_map(|p| {
+                let [l, r] = p.legs_at(height_m);
+                [
+                    LegCircle {
+                        circle: l,
+                        person: p.id,
+                        leg: 0,
+                    },
+                    LegCircle {
+                        circle: r,
+                        person: p.id,
+                        leg: 1,
+                    },
+                ]
+            })
+            .collect();
+        let scan = laser.scan(self.now, truth.world_from_laser, &self.world, &legs);
+        for person in &mut truth.people {
+            let beams = laser
+                .last_hits()
+                .iter()
+                .filter(
+                    |h| matches!(h, crate::laser::Hit::Leg { person: id, .. } if *id == person.id),
+                )
+                .count();
+            person.laser_beams = Some(beams as u32);
+        }
+        match scan {
+            Ok(mut scan) => {
+                if let Some(k) = extra {
+                    scan.frame_id.clone_from(&self.extra_lasers[k].frame_id);
+                }
+                Some(Event {
                     data: SensorData::Scan(scan),
                     truth,
                     camera_truth: None,
-                }),
-                Err(e) => {
-                    tracing::error!("dropping an invalid simulated scan: {e}");
-                    None
-                }
+                })
             }
-        } else {
-            self.next_frame_index += 1;
-            let camera = self.camera.as_mut()?;
-            let (frame, camera_truth) =
-                camera.frame(self.now, truth.world_from_robot, &self.world, &self.people);
-            Some(Event {
-                data: SensorData::Camera(frame),
-                truth,
-                camera_truth: Some(camera_truth),
-            })
+            Err(e) => {
+                tracing::error!("dropping an invalid simulated scan: {e}");
+                None
+            }
         }
     }
 

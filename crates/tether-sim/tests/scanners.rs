@@ -121,7 +121,8 @@ fn run(scenario: &Scenario, seed: u64) -> Tally {
         if let Some(c) = driver.on_event(&event) {
             sim.set_command(c);
         }
-        let SensorData::Scan(scan) = &event.data else {
+        // The first laser's scans (`all_round` has a rear one too, with hits of its own).
+        let Some(scan) = event.data.first_laser_scan() else {
             continue;
         };
         check_geometry(scenario, scan);

@@ -103,29 +103,14 @@ fn predicted(
     Ok(fix.forward_m.hypot(fix.left_m))
 }
 
-/// Fits the tilt (and the margin when `fit_margin`) to the samples. `camera` gives the
-/// intrinsics and mounting height (its tilt is ignored); `params` the head height and the
-/// margin to hold when `fit_margin` is false.
-pub fn calibrate_camera(
+/// The tilt to start the fit from: the mean over the samples of the tilt that puts each
+/// box's reference row at its distance (`atan(a / d) - atan((cy - v) / fy)`, `a` the head
+/// above the camera); each sample is checked on the way.
+fn start_tilt(
     camera: &CameraModel,
     params: &MonocularParams,
     samples: &[CalibrationSample],
-    fit_margin: bool,
-) -> Result<CalibrationResult, CalibrationError> {
-    params.validate()?;
-    let unknowns = if fit_margin { 2 } else { 1 };
-    let need = unknowns + 1;
-    if samples.len() < need {
-        return Err(CalibrationError::TooFewSamples {
-            have: samples.len(),
-            need,
-            what: if fit_margin {
-                "the tilt and the box margin"
-            } else {
-                "the tilt"
-            },
-        });
-    }
+) -> Result<f64, CalibrationError> {
     let i = &camera.intrinsics;
     let a = params.head_height_m - camera.mount.height_m;
     let mut start_tilts = Vec::with_capacity(samples.len());
@@ -152,10 +137,67 @@ pub fn calibrate_camera(
         let (_, v) = b.reference_point(params.margin_frac);
         start_tilts.push((a / s.distance_m).atan() - ((i.cy_px - v) / i.fy_px).atan());
     }
-    let mut theta = [
-        start_tilts.iter().sum::<f64>() / start_tilts.len() as f64,
-        params.margin_frac,
-    ];
+    Ok(start_tilts.iter().sum::<f64>() / start_tilts.len() as f64)
+}
+
+/// The standard errors of the tilt and the margin from the Jacobian `j` at the fit and
+/// the residuals' sum of squares `sse` (`s^2 = sse / (n - unknowns)`, the diagonal of
+/// `s^2 (J^T J)^-1`); [`CalibrationError::Degenerate`] when the margin cannot be told from
+/// the tilt.
+fn standard_errors(
+    j: &[[f64; 2]],
+    sse: f64,
+    unknowns: usize,
+) -> Result<(f64, f64), CalibrationError> {
+    let n = j.len() as f64;
+    let s2 = if j.len() > unknowns {
+        sse / (n - unknowns as f64)
+    } else {
+        0.0
+    };
+    if unknowns == 1 {
+        let jtj: f64 = j.iter().map(|c| c[0] * c[0]).sum();
+        return Ok(((s2 / jtj).sqrt(), 0.0));
+    }
+    let (mut a00, mut a01, mut a11) = (0.0, 0.0, 0.0);
+    for c in j {
+        a00 += c[0] * c[0];
+        a01 += c[0] * c[1];
+        a11 += c[1] * c[1];
+    }
+    let det = a00 * a11 - a01 * a01;
+    // The two columns nearly parallel (correlation above 0.9995): the margin cannot be
+    // told from the tilt.
+    if det.is_nan() || det <= 1e-3 * a00 * a11 {
+        return Err(CalibrationError::Degenerate);
+    }
+    Ok(((s2 * a11 / det).sqrt(), (s2 * a00 / det).sqrt()))
+}
+
+/// Fits the tilt (and the margin when `fit_margin`) to the samples. `camera` gives the
+/// intrinsics and mounting height (its tilt is ignored); `params` the head height and the
+/// margin to hold when `fit_margin` is false.
+pub fn calibrate_camera(
+    camera: &CameraModel,
+    params: &MonocularParams,
+    samples: &[CalibrationSample],
+    fit_margin: bool,
+) -> Result<CalibrationResult, CalibrationError> {
+    params.validate()?;
+    let unknowns = if fit_margin { 2 } else { 1 };
+    let need = unknowns + 1;
+    if samples.len() < need {
+        return Err(CalibrationError::TooFewSamples {
+            have: samples.len(),
+            need,
+            what: if fit_margin {
+                "the tilt and the box margin"
+            } else {
+                "the tilt"
+            },
+        });
+    }
+    let mut theta = [start_tilt(camera, params, samples)?, params.margin_frac];
 
     let residuals = |t: &[f64; 2]| -> Result<Vec<f64>, MonocularError> {
         samples
@@ -239,29 +281,7 @@ pub fn calibrate_camera(
     // Standard errors and the identifiability of the margin.
     let j = jacobian(&theta)?;
     let n = samples.len() as f64;
-    let s2 = if samples.len() > unknowns {
-        cost(&r) / (n - unknowns as f64)
-    } else {
-        0.0
-    };
-    let (tilt_sigma, margin_sigma) = if unknowns == 1 {
-        let jtj: f64 = j.iter().map(|c| c[0] * c[0]).sum();
-        ((s2 / jtj).sqrt(), 0.0)
-    } else {
-        let (mut a00, mut a01, mut a11) = (0.0, 0.0, 0.0);
-        for c in &j {
-            a00 += c[0] * c[0];
-            a01 += c[0] * c[1];
-            a11 += c[1] * c[1];
-        }
-        let det = a00 * a11 - a01 * a01;
-        // The two columns nearly parallel (correlation above 0.9995): the margin cannot
-        // be told from the tilt.
-        if det.is_nan() || det <= 1e-3 * a00 * a11 {
-            return Err(CalibrationError::Degenerate);
-        }
-        ((s2 * a11 / det).sqrt(), (s2 * a00 / det).sqrt())
-    };
+    let (tilt_sigma, margin_sigma) = standard_errors(&j, cost(&r), unknowns)?;
     let rms = (cost(&r) / n).sqrt();
     Ok(CalibrationResult {
         tilt_rad: theta[0],

@@ -8,8 +8,8 @@
 
 #![allow(clippy::unwrap_used, reason = "a diagnostic tool")]
 
-use tether::closed_loop::{self, StepKind};
-use tether::target_metrics::nearest_other;
+use tether_eval::closed_loop::{self, StepKind};
+use tether_eval::target_metrics::nearest_other;
 use tether_fusion::TargetState;
 use tether_pipeline::PipelineConfig;
 use tether_sim::scenario::Scenario;

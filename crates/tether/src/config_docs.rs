@@ -24,7 +24,9 @@ pub fn annotated_defaults() -> Result<(String, usize), toml::ser::Error> {
          # The same layout as a --config file of track, replay and eval-target, and as\n\
          # the [pipeline] tables of a robot's config, which refuses (by name) the keys\n\
          # its own tables hold: laser.mount, camera, and the limits [robot] sets.\n\
-         # Every table and key is optional.\n\n";
+         # Every table and key is optional. More scanners than one: an [[extra_lasers]]\n\
+         # entry each, with the frame_id of its scans and an [extra_lasers.laser] table\n\
+         # of [laser]'s keys (design 5.7).\n\n";
     annotated(header, &PipelineConfig::default(), &|_| None)
 }
 

@@ -56,21 +56,36 @@ impl EgoMotion {
     }
 
     /// [`EgoMotion::resolve`] for a run over a recording, with the scan odometry the run
-    /// keeps when the source is scan matching (default settings, a scanner mounted at
-    /// `robot_from_laser`).
+    /// keeps when the source is scan matching (the settings of the run's configuration,
+    /// `config.scan_matcher`, for its scanner mounted at `config.laser`'s mount).
     pub fn for_recording(
         self,
         have_odometry: bool,
-        robot_from_laser: tether_core::Pose2<tether_core::Robot, tether_core::Laser>,
+        config: &tether_pipeline::PipelineConfig,
     ) -> Result<(PoseSource, Option<tether_live::ego::ScanOdometry>), NoOdometry> {
         let source = self.resolve(have_odometry)?;
         let scan_odometry = (source == PoseSource::Scans).then(|| {
             tether_live::ego::ScanOdometry::new(
-                tether_scanmatch::ScanMatcherConfig::default(),
-                robot_from_laser,
+                config.scan_matcher.clone(),
+                config.laser.robot_from_laser(),
             )
         });
         Ok((source, scan_odometry))
+    }
+}
+
+/// Where a run over a recording takes the robot's pose from
+/// ([`tether_live::recording_run::Poses`]): `source`, with the scan odometry
+/// [`EgoMotion::for_recording`] gave for scan matching.
+pub fn poses(
+    source: PoseSource,
+    scan_odometry: Option<&mut tether_live::ego::ScanOdometry>,
+) -> tether_live::recording_run::Poses<'_> {
+    use tether_live::recording_run::Poses;
+    match (source, scan_odometry) {
+        (PoseSource::Scans, Some(odometry)) => Poses::ScanMatching(odometry),
+        (PoseSource::Odometry, _) => Poses::Odometry,
+        _ => Poses::Still,
     }
 }
 

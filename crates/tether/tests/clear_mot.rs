@@ -16,7 +16,7 @@ use std::ffi::OsStr;
 
 use serde_json::{Value, json};
 use tether_core::{Point2, World};
-use tether_fusion::ClearMot;
+use tether_eval::ClearMot;
 
 const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/motmetrics_reference.py");
 

@@ -32,7 +32,7 @@ fn scenarios_lists_every_builtin_with_one_line() {
     assert!(out.status.success());
     let stdout = text(&out.stdout);
     let lines: Vec<&str> = stdout.lines().collect();
-    assert_eq!(lines.len(), 7, "{stdout}");
+    assert_eq!(lines.len(), 8, "{stdout}");
     // Kept apart from tether-sim's BUILTIN_NAMES: read from it, a lost scenario would pass.
     for name in [
         "corridor",
@@ -42,6 +42,7 @@ fn scenarios_lists_every_builtin_with_one_line() {
         "turns",
         "occlusion",
         "outdoor_follow",
+        "all_round",
     ] {
         assert!(
             lines.iter().any(|l| l.starts_with(name)),
@@ -674,10 +675,7 @@ fn a_file_that_is_no_recording_is_named_for_what_it_is() {
     std::fs::write(&fake, "hello\n").unwrap();
     let image = dir.join("image.bag");
     std::fs::write(&image, b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR").unwrap();
-    for (file, says) in [
-        (&fake, "looks like text"),
-        (&image, "looks like a PNG image"),
-    ] {
+    for (file, says) in [(&fake, "(text;"), (&image, "(a PNG image;")] {
         for args in [
             vec![
                 "track",
@@ -694,10 +692,7 @@ fn a_file_that_is_no_recording_is_named_for_what_it_is() {
             let out = tether(&args);
             let err = text(&out.stderr);
             assert!(!out.status.success());
-            assert!(
-                err.contains("is neither an MCAP file nor a ROS 1 bag"),
-                "{err}"
-            );
+            assert!(err.contains("is not a ROS 1 bag or MCAP file"), "{err}");
             assert!(err.contains(says), "{err}");
         }
     }
@@ -707,7 +702,12 @@ fn a_file_that_is_no_recording_is_named_for_what_it_is() {
         "--out",
         dir.join("r.mcap").to_str().unwrap(),
     ]);
-    assert!(text(&out.stderr).contains("is a folder: a ROS 2 bag folder?"));
+    assert!(
+        text(&out.stderr)
+            .contains("is a folder, not a recording file; it holds fake.mcap, image.bag"),
+        "{}",
+        text(&out.stderr)
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

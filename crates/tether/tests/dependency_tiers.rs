@@ -20,8 +20,8 @@ use serde_json::Value;
 /// crates of lower tiers only.
 const TIERS: &[(&str, &[&str])] = &[
     (
-        "shared types and test support",
-        &["tether-core", "tether-testkit"],
+        "shared types, picture helpers and test support",
+        &["tether-core", "tether-svg", "tether-testkit"],
     ),
     (
         "image decoding and ROS messages",
@@ -46,6 +46,8 @@ const TIERS: &[(&str, &[&str])] = &[
     ("the simulated world", &["tether-sim"]),
     ("ROS 2", &["tether-ros2"]),
     ("the live runtime", &["tether-live"]),
+    ("measures", &["tether-eval"]),
+    ("reports", &["tether-report"]),
     ("the command line", &["tether"]),
 ];
 
@@ -282,5 +284,59 @@ fn test_support_is_a_dev_dependency_of_any_crate_and_a_dependency_of_none() {
                 == &format!("{user} -> tether-testkit: test support, for [dev-dependencies] only")),
             "{problems:#?}"
         );
+    }
+}
+
+/// Every `.rs` file under `dir`, recursively.
+fn rust_files(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+    let entries = std::fs::read_dir(dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// The house rules of issue 33 on the sizes of things (STYLE.md): no file under
+/// `crates/` over 1,000 lines, the command line's crate under 7,000 lines of source,
+/// and no command reaching into another (they share through library crates and the
+/// app's `args` only). Function lengths are clippy's `too_many_lines` (Cargo.toml).
+#[test]
+fn files_stay_short_and_commands_share_nothing() {
+    let crates = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut files = Vec::new();
+    rust_files(&crates, &mut files);
+    assert!(files.len() > 100, "{} files", files.len());
+    let lines = |path: &Path| std::fs::read_to_string(path).unwrap().lines().count();
+    let long: Vec<String> = files
+        .iter()
+        .filter(|f| lines(f) > 1000)
+        .map(|f| format!("{}: {} lines", f.display(), lines(f)))
+        .collect();
+    assert!(long.is_empty(), "files over 1,000 lines: {long:#?}");
+    let app = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut app_files = Vec::new();
+    rust_files(&app, &mut app_files);
+    let app_lines: usize = app_files.iter().map(|f| lines(f)).sum();
+    assert!(
+        app_lines < 7000,
+        "the app crate has {app_lines} lines of source"
+    );
+    let mut commands = Vec::new();
+    rust_files(&app.join("cmd"), &mut commands);
+    for file in commands {
+        let text = std::fs::read_to_string(&file).unwrap();
+        for (n, line) in text.lines().enumerate() {
+            let code = line.split("//").next().unwrap_or_default();
+            // `super::X` inside a command's own folder (train_legs/) is its own.
+            let reaches = code.contains("crate::cmd::")
+                || (code.contains("super::")
+                    && !code.contains("super::*")
+                    && !file.parent().is_some_and(|p| p.ends_with("train_legs")));
+            assert!(!reaches, "{}:{}: {line}", file.display(), n + 1);
+        }
     }
 }

@@ -293,3 +293,72 @@ fn leg_tracker_test_split() {
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
+
+/// The robot's pose on each of `track`'s lines, with the poses from `ego_motion`.
+fn track_poses(bag: &Path, out: &Path, ego_motion: &str) -> Vec<[f64; 3]> {
+    track_poses_with(bag, out, ego_motion, &[])
+}
+
+/// [`track_poses`] with more options.
+fn track_poses_with(bag: &Path, out: &Path, ego_motion: &str, extra: &[&str]) -> Vec<[f64; 3]> {
+    let mut args = vec![
+        "track",
+        bag.to_str().unwrap(),
+        "--scan-topic",
+        "/scan",
+        "--odom-topic",
+        "/odom",
+        "--ego-motion",
+        ego_motion,
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    run_ok(&args);
+    std::fs::read_to_string(out)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let v: Value = serde_json::from_str(l).unwrap();
+            let p = &v["robot_pose"];
+            ["x", "y", "yaw"].map(|k| p[k].as_f64().unwrap())
+        })
+        .collect()
+}
+
+/// `--ego-motion` decides where `track` takes the robot's pose from, even when an
+/// odometry topic is given (as `replay` does: the loop over a recording is one).
+#[test]
+fn track_takes_the_robot_s_pose_from_where_ego_motion_says() {
+    let dir = scratch("track-ego-motion");
+    let bag = sim_bag(&dir, "corridor", "3", &["--ideal-laser", "--duration", "8"]);
+    let odom = track_poses(&bag, &dir.join("odom.jsonl"), "odom");
+    let scans = track_poses(&bag, &dir.join("scans.jsonl"), "scans");
+    let none = track_poses(&bag, &dir.join("none.jsonl"), "none");
+    assert_eq!(odom.len(), scans.len());
+    assert_eq!(odom.len(), none.len());
+    // The robot drives: odometry moves it.
+    let moved = |p: &[f64; 3]| p[0].hypot(p[1]) > 0.5;
+    assert!(moved(odom.last().unwrap()), "{:?}", odom.last());
+    // Scan matching starts at the first scan's frame and moves it too, but not by
+    // exactly the odometry's numbers.
+    assert_eq!(scans[0], [0.0, 0.0, 0.0]);
+    assert!(moved(scans.last().unwrap()), "{:?}", scans.last());
+    assert_ne!(odom, scans);
+    // None: the robot stands at the origin.
+    assert!(none.iter().all(|p| *p == [0.0, 0.0, 0.0]), "{none:?}");
+    // The scan matcher takes its settings from the configuration: told that the robot
+    // cannot move faster than 1 mm/s, it refuses every match that moves it, and the
+    // robot stays where it started.
+    let config = dir.join("slow.toml");
+    std::fs::write(&config, "[scan_matcher.robot]\nmax_speed_mps = 0.001\n").unwrap();
+    let slow = track_poses_with(
+        &bag,
+        &dir.join("slow.jsonl"),
+        "scans",
+        &["--config", config.to_str().unwrap()],
+    );
+    let last = slow.last().unwrap();
+    assert!(last[0].hypot(last[1]) < 0.1, "{last:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

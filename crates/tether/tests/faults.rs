@@ -5,7 +5,7 @@
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
 
-use tether::closed_loop::{Fault, RunLog, StepKind, config_for, run};
+use tether_eval::closed_loop::{Fault, RunLog, StepKind, config_for, run};
 use tether_fusion::{LossReason, TargetState};
 use tether_pipeline::PipelineConfig;
 use tether_sim::Scenario;
@@ -113,7 +113,7 @@ fn stamp_jump_does_not_break_the_loop() {
     assert!(after.iter().any(|v| *v > 0.5), "moving again: {after:?}");
     assert!(locked_at(&log, 11.0));
     // Nothing the robot did came close to the person.
-    let m = tether::metrics::measure(&log);
+    let m = tether_eval::metrics::measure(&log);
     assert!(m.min_distance_m > 0.5, "{}", m.min_distance_m);
 }
 

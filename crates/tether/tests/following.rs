@@ -2,8 +2,8 @@
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
 
-use tether::closed_loop::{RunLog, StepKind, config_for, run};
-use tether::metrics::{RunMetrics, measure};
+use tether_eval::closed_loop::{RunLog, StepKind, config_for, run};
+use tether_eval::metrics::{RunMetrics, measure};
 use tether_fusion::TargetState;
 use tether_pipeline::PipelineConfig;
 use tether_sim::Scenario;
@@ -85,7 +85,7 @@ fn waits_behind_the_pillar_and_reacquires_the_target() {
             .iter()
             .filter(|s| s.kind == StepKind::Scan)
             .collect();
-        let hidden = |s: &&tether::closed_loop::StepRecord| {
+        let hidden = |s: &&tether_eval::closed_loop::StepRecord| {
             s.truth.target().and_then(|t| t.laser_beams) == Some(0)
         };
         // The target disappears behind the pillar, then reappears.
@@ -103,7 +103,7 @@ fn waits_behind_the_pillar_and_reacquires_the_target() {
         // that loss and does not drive off after anyone (it may turn on the spot to
         // look). Checked from the disappearance until the robot is locked again after the
         // target came back.
-        let is_locked = |s: &&tether::closed_loop::StepRecord| {
+        let is_locked = |s: &&tether_eval::closed_loop::StepRecord| {
             s.tick
                 .as_ref()
                 .is_some_and(|t| matches!(t.target.state, TargetState::Locked { .. }))

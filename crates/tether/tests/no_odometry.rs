@@ -5,8 +5,8 @@
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
 
-use tether::closed_loop::{StepKind, config_for, run};
-use tether::metrics::measure;
+use tether_eval::closed_loop::{StepKind, config_for, run};
+use tether_eval::metrics::measure;
 use tether_pipeline::PipelineConfig;
 use tether_sim::Scenario;
 

@@ -5,8 +5,8 @@
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
 
-use tether::closed_loop::{config_for, run};
 use tether_control::StopReason;
+use tether_eval::closed_loop::{config_for, run};
 use tether_pipeline::PipelineConfig;
 use tether_sim::{BUILTIN_NAMES, Scenario};
 

@@ -8,8 +8,8 @@
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly")]
 
-use tether::closed_loop::{config_for, run};
-use tether::target_metrics::{TargetLockMetrics, measure_target_lock};
+use tether_eval::closed_loop::{config_for, run};
+use tether_eval::target_metrics::{TargetLockMetrics, measure_target_lock};
 use tether_pipeline::PipelineConfig;
 use tether_sim::Scenario;
 

@@ -33,8 +33,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
-use tether::closed_loop;
 use tether::results::TargetStateLine;
+use tether_eval::closed_loop;
 use tether_pipeline::PipelineConfig;
 use tether_sim::{BUILTIN_NAMES, Scenario};
 

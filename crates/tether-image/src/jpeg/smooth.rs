@@ -89,6 +89,130 @@ fn predict(num: i64, q: i64, al: i32) -> i16 {
     pred as i16
 }
 
+/// Estimates the missing low coefficients of one block in `ws` (and, when `change_dc`,
+/// its DC) from the DC values `dc` of its 5x5 neighbourhood (rows top to bottom, columns
+/// left to right), with the precision `bits` known of each coefficient and the
+/// component's quantisation table `qt`: libjpeg-turbo's integer formulas, as they are.
+fn estimate_block(
+    ws: &mut [i16; 64],
+    dc: &[[i64; 5]; 5],
+    bits: &[i32; SAVED_COEFS],
+    change_dc: bool,
+    qt: &[u16; 64],
+) {
+    // libjpeg-turbo's DC01..DC25, row by row.
+    let d = |n: usize| dc[(n - 1) / 5][(n - 1) % 5];
+    let q = |p: usize| i64::from(qt[p]);
+    let q00 = q(Q00);
+    let estimate = |ws: &mut [i16; 64], pos: usize, k: usize, num: i64| {
+        let al = bits[k];
+        if al != 0 && ws[pos] == 0 {
+            ws[pos] = predict(q00 * num, q(pos), al);
+        }
+    };
+    // AC01
+    let num = if change_dc {
+        -d(1) - d(2) + d(4) + d(5) - 3 * d(6) + 13 * d(7) - 13 * d(9) + 3 * d(10) - 3 * d(11)
+            + 38 * d(12)
+            - 38 * d(14)
+            + 3 * d(15)
+            - 3 * d(16)
+            + 13 * d(17)
+            - 13 * d(19)
+            + 3 * d(20)
+            - d(21)
+            - d(22)
+            + d(24)
+            + d(25)
+    } else {
+        -7 * d(11) + 50 * d(12) - 50 * d(14) + 7 * d(15)
+    };
+    estimate(ws, Q01, 1, num);
+    // AC10
+    let num = if change_dc {
+        -d(1) - 3 * d(2) - 3 * d(3) - 3 * d(4) - d(5) - d(6) + 13 * d(7) + 38 * d(8) + 13 * d(9)
+            - d(10)
+            + d(16)
+            - 13 * d(17)
+            - 38 * d(18)
+            - 13 * d(19)
+            + d(20)
+            + d(21)
+            + 3 * d(22)
+            + 3 * d(23)
+            + 3 * d(24)
+            + d(25)
+    } else {
+        -7 * d(3) + 50 * d(8) - 50 * d(18) + 7 * d(23)
+    };
+    estimate(ws, Q10, 2, num);
+    // AC20
+    let num = if change_dc {
+        d(3) + 2 * d(7) + 7 * d(8) + 2 * d(9) - 5 * d(12) - 14 * d(13) - 5 * d(14)
+            + 2 * d(17)
+            + 7 * d(18)
+            + 2 * d(19)
+            + d(23)
+    } else {
+        -d(3) + 13 * d(8) - 24 * d(13) + 13 * d(18) - d(23)
+    };
+    estimate(ws, Q20, 3, num);
+    // AC11
+    let num = if change_dc {
+        -d(1) + d(5) + 9 * d(7) - 9 * d(9) - 9 * d(17) + 9 * d(19) + d(21) - d(25)
+    } else {
+        d(10) + d(16) - 10 * d(17) + 10 * d(19) - d(2) - d(20) + d(22) - d(24) + d(4) - d(6)
+            + 10 * d(7)
+            - 10 * d(9)
+    };
+    estimate(ws, Q11, 4, num);
+    // AC02
+    let num = if change_dc {
+        2 * d(7) - 5 * d(8) + 2 * d(9) + d(11) + 7 * d(12) - 14 * d(13)
+            + 7 * d(14)
+            + d(15)
+            + 2 * d(17)
+            - 5 * d(18)
+            + 2 * d(19)
+    } else {
+        -d(11) + 13 * d(12) - 24 * d(13) + 13 * d(14) - d(15)
+    };
+    estimate(ws, Q02, 5, num);
+    if change_dc {
+        // AC03, AC12, AC21, AC30
+        let num = d(7) - d(9) + 2 * d(12) - 2 * d(14) + d(17) - d(19);
+        estimate(ws, Q03, 6, num);
+        let num = d(7) - 3 * d(8) + d(9) - d(17) + 3 * d(18) - d(19);
+        estimate(ws, Q12, 7, num);
+        let num = d(7) - d(9) - 3 * d(12) + 3 * d(14) + d(17) - d(19);
+        estimate(ws, Q21, 8, num);
+        let num = d(7) + 2 * d(8) + d(9) - d(17) - 2 * d(18) - d(19);
+        estimate(ws, Q30, 9, num);
+        // The DC itself, from a Gaussian-like kernel.
+        let num = -2 * d(1) - 6 * d(2) - 8 * d(3) - 6 * d(4) - 2 * d(5) - 6 * d(6)
+            + 6 * d(7)
+            + 42 * d(8)
+            + 6 * d(9)
+            - 6 * d(10)
+            - 8 * d(11)
+            + 42 * d(12)
+            + 152 * d(13)
+            + 42 * d(14)
+            - 8 * d(15)
+            - 6 * d(16)
+            + 6 * d(17)
+            + 42 * d(18)
+            + 6 * d(19)
+            - 6 * d(20)
+            - 2 * d(21)
+            - 6 * d(22)
+            - 8 * d(23)
+            - 6 * d(24)
+            - 2 * d(25);
+        ws[0] = predict(q00 * num, q00, 0);
+    }
+}
+
 /// The IDCT of one component with block smoothing, into its sample plane.
 pub(crate) fn smooth_component(
     c: &mut Component,
@@ -98,7 +222,6 @@ pub(crate) fn smooth_component(
 ) {
     let quant = c.idct_quant();
     let Some(qt) = c.quant else { return };
-    let q = |p: usize| i64::from(qt[p]);
     let stride = c.plane_stride();
     let wib = c.width_in_blocks;
     let last_col = wib.saturating_sub(1);
@@ -160,121 +283,7 @@ pub(crate) fn smooth_component(
                         dc[r][4] = dc_at(&c.coefs, rr, col + 2);
                     }
                 }
-                // libjpeg-turbo's DC01..DC25, row by row.
-                let d = |n: usize| dc[(n - 1) / 5][(n - 1) % 5];
-                let q00 = q(Q00);
-                let estimate = |ws: &mut [i16; 64], pos: usize, k: usize, num: i64| {
-                    let al = bits[k];
-                    if al != 0 && ws[pos] == 0 {
-                        ws[pos] = predict(q00 * num, q(pos), al);
-                    }
-                };
-                // AC01
-                let num = if change_dc {
-                    -d(1) - d(2) + d(4) + d(5) - 3 * d(6) + 13 * d(7) - 13 * d(9) + 3 * d(10)
-                        - 3 * d(11)
-                        + 38 * d(12)
-                        - 38 * d(14)
-                        + 3 * d(15)
-                        - 3 * d(16)
-                        + 13 * d(17)
-                        - 13 * d(19)
-                        + 3 * d(20)
-                        - d(21)
-                        - d(22)
-                        + d(24)
-                        + d(25)
-                } else {
-                    -7 * d(11) + 50 * d(12) - 50 * d(14) + 7 * d(15)
-                };
-                estimate(&mut ws, Q01, 1, num);
-                // AC10
-                let num = if change_dc {
-                    -d(1) - 3 * d(2) - 3 * d(3) - 3 * d(4) - d(5) - d(6)
-                        + 13 * d(7)
-                        + 38 * d(8)
-                        + 13 * d(9)
-                        - d(10)
-                        + d(16)
-                        - 13 * d(17)
-                        - 38 * d(18)
-                        - 13 * d(19)
-                        + d(20)
-                        + d(21)
-                        + 3 * d(22)
-                        + 3 * d(23)
-                        + 3 * d(24)
-                        + d(25)
-                } else {
-                    -7 * d(3) + 50 * d(8) - 50 * d(18) + 7 * d(23)
-                };
-                estimate(&mut ws, Q10, 2, num);
-                // AC20
-                let num = if change_dc {
-                    d(3) + 2 * d(7) + 7 * d(8) + 2 * d(9) - 5 * d(12) - 14 * d(13) - 5 * d(14)
-                        + 2 * d(17)
-                        + 7 * d(18)
-                        + 2 * d(19)
-                        + d(23)
-                } else {
-                    -d(3) + 13 * d(8) - 24 * d(13) + 13 * d(18) - d(23)
-                };
-                estimate(&mut ws, Q20, 3, num);
-                // AC11
-                let num = if change_dc {
-                    -d(1) + d(5) + 9 * d(7) - 9 * d(9) - 9 * d(17) + 9 * d(19) + d(21) - d(25)
-                } else {
-                    d(10) + d(16) - 10 * d(17) + 10 * d(19) - d(2) - d(20) + d(22) - d(24) + d(4)
-                        - d(6)
-                        + 10 * d(7)
-                        - 10 * d(9)
-                };
-                estimate(&mut ws, Q11, 4, num);
-                // AC02
-                let num = if change_dc {
-                    2 * d(7) - 5 * d(8) + 2 * d(9) + d(11) + 7 * d(12) - 14 * d(13)
-                        + 7 * d(14)
-                        + d(15)
-                        + 2 * d(17)
-                        - 5 * d(18)
-                        + 2 * d(19)
-                } else {
-                    -d(11) + 13 * d(12) - 24 * d(13) + 13 * d(14) - d(15)
-                };
-                estimate(&mut ws, Q02, 5, num);
-                if change_dc {
-                    // AC03, AC12, AC21, AC30
-                    let num = d(7) - d(9) + 2 * d(12) - 2 * d(14) + d(17) - d(19);
-                    estimate(&mut ws, Q03, 6, num);
-                    let num = d(7) - 3 * d(8) + d(9) - d(17) + 3 * d(18) - d(19);
-                    estimate(&mut ws, Q12, 7, num);
-                    let num = d(7) - d(9) - 3 * d(12) + 3 * d(14) + d(17) - d(19);
-                    estimate(&mut ws, Q21, 8, num);
-                    let num = d(7) + 2 * d(8) + d(9) - d(17) - 2 * d(18) - d(19);
-                    estimate(&mut ws, Q30, 9, num);
-                    // The DC itself, from a Gaussian-like kernel.
-                    let num = -2 * d(1) - 6 * d(2) - 8 * d(3) - 6 * d(4) - 2 * d(5) - 6 * d(6)
-                        + 6 * d(7)
-                        + 42 * d(8)
-                        + 6 * d(9)
-                        - 6 * d(10)
-                        - 8 * d(11)
-                        + 42 * d(12)
-                        + 152 * d(13)
-                        + 42 * d(14)
-                        - 8 * d(15)
-                        - 6 * d(16)
-                        + 6 * d(17)
-                        + 42 * d(18)
-                        + 6 * d(19)
-                        - 6 * d(20)
-                        - 2 * d(21)
-                        - 6 * d(22)
-                        - 8 * d(23)
-                        - 6 * d(24)
-                        - 2 * d(25);
-                    ws[0] = predict(q00 * num, q00, 0);
-                }
+                estimate_block(&mut ws, &dc, bits, change_dc, &qt);
                 idct_block(
                     &ws,
                     &quant,

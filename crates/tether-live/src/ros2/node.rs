@@ -41,7 +41,7 @@ use crate::clock::{LiveClock, MonotonicClock, SimClock};
 use crate::config::CameraSection;
 use crate::guard::Guard;
 use crate::recorder::Recorder;
-use crate::results::TickMessages;
+use crate::results::ros_outputs;
 use crate::run_loop::{self, LoopConfig, RunSummary};
 use crate::sources::camera::{BoxDetector, DetectorError};
 use crate::sources::{CHANNEL_DEPTH, Input};
@@ -212,15 +212,9 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         target_pose: topic("tether/target_pose"),
         tf: tf_topic.clone(),
         target_frame,
-        results: [
-            TickMessages::PEOPLE,
-            TickMessages::LASER_PEOPLE,
-            TickMessages::VISION_PEOPLE,
-            TickMessages::TARGET,
-            TickMessages::TARGET_STATE,
-            TickMessages::MARKERS,
-        ]
-        .map(|t| topic(t.trim_start_matches('/'))),
+        results: ros_outputs()
+            .map(|o| topic(o.topic.trim_start_matches('/')))
+            .collect(),
     };
     let intrinsics = pipeline.camera.intrinsics;
 
@@ -466,7 +460,7 @@ fn announce(
 ) {
     tracing::info!(
         "node {}{}{} on ROS 2 domain {} ({} graph ids): scans from {scan_topic}, commands to \
-         {}, results in {fixed_frame}{}",
+         {}, results in {fixed_frame} on {}, the target on {} and as frame `{}` on {}{}",
         identity.namespace,
         if identity.namespace.ends_with('/') {
             ""
@@ -480,6 +474,10 @@ fn announce(
             .cmd_vel
             .as_deref()
             .unwrap_or("nothing (publish_cmd_vel is false: Nav2 drives)"),
+        outputs.results.join(", "),
+        outputs.target_pose,
+        outputs.target_frame,
+        outputs.tf,
         if guarded {
             ", guarded by a cmd_vel guard"
         } else {

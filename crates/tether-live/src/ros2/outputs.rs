@@ -17,7 +17,7 @@ use tether_pipeline::Tick;
 use tether_ros2::{Ros2Error, RosNode, Wire, qos};
 
 use crate::base::{CommandLine, CommandSink};
-use crate::results::TickMessages;
+use crate::results::{Output, OutputKind, ResultMessage, ros_outputs};
 
 /// A publisher of `M`.
 fn publisher<M: Ros2Message>(
@@ -35,16 +35,61 @@ pub struct RosOutputs {
     frame: String,
     /// `None`: no `cmd_vel` publisher at all (Nav2 drives).
     cmd_vel: Option<CmdVel>,
-    people: Publisher<Wire<PoseArrayMsg>>,
-    laser_people: Publisher<Wire<PoseArrayMsg>>,
-    vision_people: Publisher<Wire<PoseArrayMsg>>,
-    target: Publisher<Wire<PoseWithCovarianceStampedMsg>>,
-    target_state: Publisher<Wire<StringMsg>>,
-    markers: Publisher<Wire<MarkerArrayMsg>>,
+    /// The results ([`crate::results::ros_outputs`]), in their order.
+    results: Vec<(&'static Output, ResultPublisher)>,
     target_pose: Publisher<Wire<PoseStampedMsg>>,
     tf: Publisher<Wire<TfMessage>>,
     target_frame: String,
     heading: WalkingHeading,
+}
+
+/// The publisher of one [`Output`], of its message type.
+enum ResultPublisher {
+    Poses(Publisher<Wire<PoseArrayMsg>>),
+    PoseWithCovariance(Publisher<Wire<PoseWithCovarianceStampedMsg>>),
+    Text(Publisher<Wire<StringMsg>>),
+    Markers(Publisher<Wire<MarkerArrayMsg>>),
+    Twist(Publisher<Wire<TwistMsg>>),
+}
+
+impl ResultPublisher {
+    /// A publisher on `topic` of `kind`'s messages.
+    fn new(node: &mut RosNode, topic: &str, kind: OutputKind) -> Result<Self, Ros2Error> {
+        Ok(match kind {
+            OutputKind::Poses => ResultPublisher::Poses(publisher(node, topic, 10)?),
+            OutputKind::PoseWithCovariance => {
+                ResultPublisher::PoseWithCovariance(publisher(node, topic, 10)?)
+            }
+            OutputKind::Text => ResultPublisher::Text(publisher(node, topic, 10)?),
+            OutputKind::Markers => ResultPublisher::Markers(publisher(node, topic, 10)?),
+            OutputKind::Twist => ResultPublisher::Twist(publisher(node, topic, 10)?),
+        })
+    }
+
+    /// Publishes `message` (of this publisher's type; another type is an error).
+    fn publish(&self, topic: &str, message: ResultMessage) -> io::Result<()> {
+        match (self, message) {
+            (ResultPublisher::Poses(p), ResultMessage::Poses(m)) => {
+                published(topic, p.publish(Wire(m)))
+            }
+            (ResultPublisher::PoseWithCovariance(p), ResultMessage::PoseWithCovariance(m)) => {
+                published(topic, p.publish(Wire(*m)))
+            }
+            (ResultPublisher::Text(p), ResultMessage::Text(m)) => {
+                published(topic, p.publish(Wire(m)))
+            }
+            (ResultPublisher::Markers(p), ResultMessage::Markers(m)) => {
+                published(topic, p.publish(Wire(m)))
+            }
+            (ResultPublisher::Twist(p), ResultMessage::Twist(m)) => {
+                published(topic, p.publish(Wire(m)))
+            }
+            (_, m) => Err(io::Error::other(format!(
+                "publishing on {topic}: a {} message on a publisher of another type",
+                m.kind().type_name()
+            ))),
+        }
+    }
 }
 
 /// The commands' publisher: `Twist`, or `TwistStamped` in the base's frame.
@@ -65,9 +110,9 @@ pub struct OutputTopics {
     /// `Some(base_frame)`: the commands as `geometry_msgs/msg/TwistStamped` in that frame,
     /// stamped with the time of the data that made them; `None`: `Twist`.
     pub cmd_vel_stamped: Option<String>,
-    /// `/tether/people` and the others, in the order of [`TickMessages`]'s constants:
-    /// people, laser people, vision people, target, target state, markers.
-    pub results: [String; 6],
+    /// The topics of [`crate::results::ros_outputs`], in their order (`tether/people`
+    /// and the others, resolved).
+    pub results: Vec<String>,
     /// `tether/target_pose`: the target as `geometry_msgs/msg/PoseStamped`.
     pub target_pose: String,
     /// `/tf`, where the target's frame goes.
@@ -79,7 +124,10 @@ pub struct OutputTopics {
 impl RosOutputs {
     /// The publishers; positions are stamped in `frame` (the fixed frame).
     pub fn new(node: &mut RosNode, topics: &OutputTopics, frame: &str) -> Result<Self, Ros2Error> {
-        let [people, laser, vision, target, state, markers] = &topics.results;
+        let mut results = Vec::new();
+        for (output, topic) in ros_outputs().zip(&topics.results) {
+            results.push((output, ResultPublisher::new(node, topic, output.kind)?));
+        }
         Ok(RosOutputs {
             name: topics
                 .cmd_vel
@@ -94,12 +142,7 @@ impl RosOutputs {
                     base_frame: base_frame.clone(),
                 }),
             },
-            people: publisher(node, people, 10)?,
-            laser_people: publisher(node, laser, 10)?,
-            vision_people: publisher(node, vision, 10)?,
-            target: publisher(node, target, 10)?,
-            target_state: publisher(node, state, 10)?,
-            markers: publisher(node, markers, 10)?,
+            results,
             target_pose: publisher(node, &topics.target_pose, 10)?,
             // `/tf`'s depth, as tf2's broadcasters use (design 12).
             tf: publisher(node, &topics.tf, 100)?,
@@ -185,25 +228,12 @@ impl CommandSink for RosOutputs {
     }
 
     fn tick(&mut self, tick: &Tick) -> io::Result<()> {
-        let m = TickMessages::of(tick, &self.frame);
-        published("people", self.people.publish(Wire(m.people)))?;
-        if let Some((topic, observed)) = m.observed {
-            let publisher = if topic == TickMessages::VISION_PEOPLE {
-                &self.vision_people
-            } else {
-                &self.laser_people
-            };
-            published(topic, publisher.publish(Wire(observed)))?;
+        for (output, publisher) in &self.results {
+            if let Some(message) = (output.message)(tick, &self.frame) {
+                publisher.publish(output.topic, message)?;
+            }
         }
-        if let Some(target) = m.target {
-            published("target", self.target.publish(Wire(target)))?;
-        }
-        self.publish_target(tick)?;
-        published(
-            "target_state",
-            self.target_state.publish(Wire(m.target_state)),
-        )?;
-        published("markers", self.markers.publish(Wire(m.markers)))
+        self.publish_target(tick)
     }
 
     fn send(&mut self, command: &CommandLine) -> io::Result<()> {

@@ -57,15 +57,20 @@ impl Scenario {
     /// Puts `scanner` on the robot: its geometry, range limits, scan period, the
     /// estimator's noise and mount height into `laser` (the mount's position and yaw
     /// stay), its true noise and no-returns into `laser_sim`, and its name into
-    /// `laser_sim.scanner`. Every other field stays as it was.
+    /// `laser_sim.scanner`; the `extra_lasers` become that scanner too, each on its own
+    /// mount. Every other field stays as it was.
     pub fn apply_scanner(&mut self, scanner: &Scanner) {
         let laser = &scanner.laser;
-        self.laser.geometry = laser.geometry;
-        self.laser.range_min_m = laser.range_min_m;
-        self.laser.range_max_m = laser.range_max_m;
-        self.laser.scan_period_s = laser.scan_period_s;
-        self.laser.noise = laser.noise.clone();
-        self.laser.mount.height_m = laser.mount.height_m;
+        let lasers = std::iter::once(&mut self.laser)
+            .chain(self.extra_lasers.iter_mut().map(|e| &mut e.laser));
+        for model in lasers {
+            model.geometry = laser.geometry;
+            model.range_min_m = laser.range_min_m;
+            model.range_max_m = laser.range_max_m;
+            model.scan_period_s = laser.scan_period_s;
+            model.noise = laser.noise.clone();
+            model.mount.height_m = laser.mount.height_m;
+        }
         let sim = &scanner.sim;
         let ls = &mut self.laser_sim;
         ls.dropout_prob = sim.dropout_prob;
@@ -118,6 +123,7 @@ impl Scenario {
             world: Default::default(),
             robot: Default::default(),
             laser: LaserModel::default(),
+            extra_lasers: Vec::new(),
             laser_sim: LaserSimSpec::default(),
             camera: Default::default(),
             camera_sim: Default::default(),
@@ -150,13 +156,26 @@ mod tests {
 
     #[test]
     fn the_urg_04lx_changes_nothing_but_the_name() {
+        let mut compared = 0;
         for name in crate::BUILTIN_NAMES {
             let plain = Scenario::builtin(name).unwrap();
             let mut with = plain.clone().with_scanner("urg_04lx").unwrap();
             assert_eq!(with.laser_sim.scanner.as_deref(), Some("urg_04lx"));
+            // `all_round`'s scanners see 180 of the URG-04LX's 240 degrees (behind a
+            // bumper): the scanner named puts back its own field of view.
+            if plain.laser.geometry != LaserModel::default().geometry {
+                assert_eq!(
+                    with.laser.geometry,
+                    LaserModel::default().geometry,
+                    "{name}"
+                );
+                continue;
+            }
             with.laser_sim.scanner = None;
             assert_eq!(with, plain, "{name}");
+            compared += 1;
         }
+        assert_eq!(compared, crate::BUILTIN_NAMES.len() - 1);
     }
 
     #[test]

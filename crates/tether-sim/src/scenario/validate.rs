@@ -254,6 +254,27 @@ impl Scenario {
         if let Err(e) = self.laser.validate() {
             problems.bad(dotted("laser", laser_error_field(&e)), e.to_string());
         }
+        for (i, extra) in self.extra_lasers.iter().enumerate() {
+            if let Err(e) = extra.laser.validate() {
+                let mut field = path!["extra_lasers", i, "laser"];
+                field.extend(dotted("x", laser_error_field(&e)).into_iter().skip(1));
+                problems.bad(field, e.to_string());
+            }
+            let first = <tether_core::Laser as tether_core::Frame>::NAME;
+            let taken = self.extra_lasers[..i]
+                .iter()
+                .any(|other| other.frame_id == extra.frame_id);
+            if extra.frame_id.is_empty() || extra.frame_id == first || taken {
+                problems.bad(
+                    path!["extra_lasers", i, "frame_id"],
+                    format!(
+                        "{:?} must name this laser's scans alone: not empty, not the first \
+                         laser's `{first}` and not another's",
+                        extra.frame_id
+                    ),
+                );
+            }
+        }
         if let Err(e) = self.camera.validate() {
             problems.bad(
                 dotted("camera", e.field.split('/').next().unwrap_or(e.field)),

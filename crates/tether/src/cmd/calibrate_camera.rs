@@ -21,7 +21,7 @@ use tether_vision::calibrate::{CalibrationSample, calibrate_camera};
 use tether_vision::monocular::MonocularParams;
 use tether_vision::{Cascade, Detector};
 
-use super::detect::resolve_cascade;
+use tether::args::resolve_cascade;
 
 /// Options of `tether calibrate camera`.
 #[derive(Debug, clap::Args)]
@@ -44,7 +44,7 @@ pub struct Args {
     pub cascade: Option<PathBuf>,
     /// The cascade's search settings for image samples.
     #[command(flatten)]
-    pub search: super::detect::DetectOptions,
+    pub search: tether::args::DetectOptions,
 }
 
 /// One CSV row before detection.

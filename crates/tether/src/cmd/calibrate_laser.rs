@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use tether_laser::{CalibrationConfig, CalibrationSample, fit_range_noise};
 
-use super::legs::laser_model;
+use tether::args::laser_model;
 
 /// Options of `tether calibrate laser`.
 #[derive(Debug, clap::Args)]

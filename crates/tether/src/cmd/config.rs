@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 use tether_live::config::OWNED_ELSEWHERE;
+use tether_live::node_params;
 use tether_live::pipeline_file;
 use tether_pipeline::PipelineConfig;
 
@@ -24,6 +25,11 @@ pub enum ConfigCommand {
         /// pipeline's (every table optional). Without it: the defaults.
         #[arg(long, value_name = "FILE")]
         config: Option<PathBuf>,
+        /// A parameter of `tether ros2` that sets the pipeline, as the node takes it
+        /// (`-p follow_distance:=1.0`; `docs/ros2.md` lists them): applied over the file,
+        /// as the node applies it. Repeatable.
+        #[arg(short = 'p', value_name = "NAME:=VALUE")]
+        params: Vec<String>,
     },
 }
 
@@ -34,22 +40,53 @@ pub fn run(command: ConfigCommand) -> anyhow::Result<()> {
             let (text, _) = tether::config_docs::annotated_defaults()?;
             tether::outln!("{}", text.trim_end())?;
         }
-        ConfigCommand::Show { config } => {
-            tether::outln!("{}", show(config.as_ref())?.trim_end())?;
+        ConfigCommand::Show { config, params } => {
+            tether::outln!("{}", show(config.as_ref(), &params)?.trim_end())?;
         }
     }
     Ok(())
 }
 
-/// The annotated configuration of `tether config show`.
-fn show(path: Option<&PathBuf>) -> anyhow::Result<String> {
-    let config = pipeline_file::load(path.map(PathBuf::as_path))?;
+/// `-p NAME:=VALUE` applied to `config`, as `tether ros2` applies it
+/// ([`tether_live::node_params`]): the keys it set, each with the `-p` that set it.
+fn apply_params(
+    config: &mut PipelineConfig,
+    params: &[String],
+) -> anyhow::Result<Vec<(String, String)>> {
+    let mut set = Vec::new();
+    for p in params {
+        let Some((name, value)) = p.split_once(":=") else {
+            anyhow::bail!("-p {p}: expected NAME:=VALUE, e.g. -p follow_distance:=1.0");
+        };
+        let key = node_params::set_pipeline(config, name, value.trim().parse::<f64>().ok())
+            .map_err(|e| anyhow::anyhow!("-p {p}: {e}"))?;
+        set.retain(|(k, _): &(String, String)| k != key);
+        set.push((key.to_owned(), format!("-p {name}")));
+    }
+    Ok(set)
+}
+
+/// The annotated configuration of `tether config show`, with `-p` parameters `params`.
+fn show(path: Option<&PathBuf>, params: &[String]) -> anyhow::Result<String> {
+    let mut config = pipeline_file::load(path.map(PathBuf::as_path))?;
+    let by_param = apply_params(&mut config, params)?;
+    let from_param = |key: &str| {
+        by_param
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, p)| p.clone())
+    };
     let defaults = toml::Table::try_from(PipelineConfig::default())?;
     let effective = toml::Table::try_from(&config)?;
     let Some(path) = path else {
         let header = "# The pipeline configuration of a run without --config (`tether config show`):\n\
-                      # every value is the default.\n\n";
-        let (text, _) = tether::config_docs::annotated(header, &config, &|_| None)?;
+                      # every value is the default but for the -p parameters named.\n\n";
+        // Sources are said only when a -p makes one value differ from the defaults.
+        let source = |key: &str| match by_param.is_empty() {
+            true => None,
+            false => from_param(key).or_else(|| Some("default".to_owned())),
+        };
+        let (text, _) = tether::config_docs::annotated(header, &config, &source)?;
         return Ok(text);
     };
     let name = path.display().to_string();
@@ -71,7 +108,7 @@ fn show(path: Option<&PathBuf>) -> anyhow::Result<String> {
         defaults: &defaults,
         effective: &effective,
     };
-    let source = |key: &str| Some(source_of(key, &tables));
+    let source = |key: &str| from_param(key).or_else(|| Some(source_of(key, &tables)));
     let header = format!(
         "# The pipeline configuration a run given --config {name} uses (`tether config show`):\n\
          # every key with its meaning and, at the end of its line, where its value came from.\n{}\n",
@@ -157,7 +194,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join(file);
         std::fs::write(&path, text).unwrap();
-        show(Some(&path)).unwrap()
+        show(Some(&path), &[]).unwrap()
     }
 
     /// The line of `key` in `[table]` of an annotated configuration.
@@ -192,7 +229,7 @@ mod tests {
     fn a_robot_file_names_the_table_each_value_came_from() {
         let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../../configs/robot.example.toml");
-        let text = show(Some(&example)).unwrap();
+        let text = show(Some(&example), &[]).unwrap();
         let name = example.display().to_string();
         assert!(
             line(&text, "limits", "max_speed_mps")
@@ -217,5 +254,27 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("[base] and [output]"), "{text}");
+    }
+
+    #[test]
+    fn a_parameter_of_the_node_overrides_the_file_and_says_so() {
+        let text = show(None, &["follow_distance:=1.3".to_owned()]).unwrap();
+        let from = line(&text, "follower", "follow_distance_m");
+        assert!(from.starts_with("follow_distance_m = 1.3  # "), "{from}");
+        assert!(from.ends_with("# -p follow_distance"), "{from}");
+        assert!(
+            line(&text, "follower", "attach_ahead_m").ends_with("# default"),
+            "{text}"
+        );
+        let back: PipelineConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back.follower.follow_distance_m, 1.3);
+        for bad in [
+            "follow_distance=1",
+            "fixed_frame:=map",
+            "follow_distance:=-2",
+            "nope:=1",
+        ] {
+            assert!(show(None, &[bad.to_owned()]).is_err(), "{bad}");
+        }
     }
 }

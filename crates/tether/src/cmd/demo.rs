@@ -5,11 +5,11 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use tether::closed_loop::{self, RunLog, laser_only, laser_only_variants, variants};
-use tether::metrics::{RunMetrics, measure};
-use tether::report::{self, Driver, ScenarioRun};
 use tether_control::SpringVariant;
+use tether_eval::closed_loop::{self, RunLog, laser_only, laser_only_variants, variants};
+use tether_eval::metrics::{RunMetrics, measure};
 use tether_pipeline::PipelineConfig;
+use tether_report::sim_report::{self, Driver, ScenarioRun};
 use tether_sim::{BUILTIN_NAMES, Scenario};
 
 /// The id of the report's section on the controller as printed in the paper.
@@ -33,7 +33,7 @@ pub struct Args {
     pub scanner: Option<String>,
     /// The leg model (`--leg-model`).
     #[command(flatten)]
-    pub leg_model: super::leg_model::LegModelArg,
+    pub leg_model: tether::args::LegModelArg,
 }
 
 /// Runs the demo.
@@ -161,7 +161,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
          every scenario again, driven by the laser alone (<code>-laser-only</code>).</p>",
         args.seed
     );
-    let html = report::html(
+    let html = sim_report::html(
         "tether demo",
         &intro,
         &runs,
@@ -176,24 +176,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// The report's section on the controller as printed in the paper: why it cannot
 /// follow anyone, its distance to the target, and its row of measures (in the
 /// section and in the summary).
-fn printed_section<'a>(log: &RunLog, metrics: &'a RunMetrics) -> report::Extra<'a> {
+fn printed_section<'a>(log: &RunLog, metrics: &'a RunMetrics) -> sim_report::Extra<'a> {
     let mut body = String::from(
         "<p>As printed, the paper's spring has no free length (its equilibrium is at d = 0, inside the person) \
          and its forces point the wrong way (a person ahead pushes the robot backwards: positive feedback). \
          Here it runs in the corridor with every safety limit on: it never approaches the target, it backs \
          away (reverse is not allowed, so it stands still) while the person walks off.</p>",
     );
-    for plot in report::run_plots(log).into_iter().take(1) {
+    for plot in sim_report::run_plots(log).into_iter().take(1) {
         body.push_str(&format!("<div class=\"figure\">{}</div>", plot.svg()));
     }
-    let row = report::Row {
+    let row = sim_report::Row {
         name: "corridor, controller as printed".to_owned(),
         anchor: Some(PRINTED_ID.to_owned()),
         driver: Driver::Fused,
         metrics,
     };
-    body.push_str(&report::metrics_table(std::slice::from_ref(&row)));
-    report::Extra {
+    body.push_str(&sim_report::metrics_table(std::slice::from_ref(&row)));
+    sim_report::Extra {
         id: PRINTED_ID.to_owned(),
         title: "The controller as printed in the paper".to_owned(),
         body,

@@ -2,13 +2,14 @@
 //! `CascadeClassifier::detectMultiScale` does, and print the boxes as JSON in the layout
 //! of `opencv_reference.py` (`images[].boxes` as sorted `[x, y, w, h]`).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
 use serde_json::json;
+use tether::args::{DetectOptions, resolve_cascade};
 use tether_image::imread::imread_gray_warned;
-use tether_vision::{Cascade, DetectParams, Detector};
+use tether_vision::{Cascade, Detector};
 
 /// Options of `tether detect`.
 #[derive(Debug, clap::Args)]
@@ -37,56 +38,6 @@ pub struct Args {
     /// PNG or JPEG images, read as 8-bit grey like cv2.imread(path, IMREAD_GRAYSCALE).
     #[arg(required = true, value_name = "IMAGE")]
     pub images: Vec<PathBuf>,
-}
-
-/// The cascade to use: the given file, or Debian's upper-body cascade
-/// (`tether_live::sources::camera::DEFAULT_CASCADE` in `DEBIAN_CASCADE_DIR`).
-pub fn resolve_cascade(cascade: Option<&Path>) -> anyhow::Result<PathBuf> {
-    Ok(tether_live::sources::camera::resolve_cascade(cascade)?)
-}
-
-/// `[W, H]` from a two-value option.
-fn size(option: Option<&Vec<u32>>, name: &str) -> anyhow::Result<[u32; 2]> {
-    match option.map(Vec::as_slice) {
-        None => Ok([0, 0]),
-        Some([w, h]) => Ok([*w, *h]),
-        Some(other) => anyhow::bail!("--{name} takes two numbers, W and H; got {other:?}"),
-    }
-}
-
-/// The search settings of `detectMultiScale`, taken by every command that runs a
-/// cascade (`detect`, `eval-cascade`, `track`, `replay`, `calibrate camera`).
-#[derive(Debug, Clone, clap::Args)]
-pub struct DetectOptions {
-    /// Ratio between consecutive pyramid scales (> 1).
-    #[arg(long, default_value_t = 1.1, value_name = "F")]
-    pub scale_factor: f64,
-    /// Neighbours a group of windows needs to be kept; 0 keeps the raw windows.
-    #[arg(long, default_value_t = 3, value_name = "N")]
-    pub min_neighbors: u32,
-    /// Smallest box, px.
-    #[arg(long, num_args = 2, value_names = ["W", "H"])]
-    pub min_size: Option<Vec<u32>>,
-    /// Largest box, px (default: the image size).
-    #[arg(long, num_args = 2, value_names = ["W", "H"])]
-    pub max_size: Option<Vec<u32>>,
-}
-
-impl DetectOptions {
-    /// The detector's parameters, checked.
-    pub fn params(&self) -> anyhow::Result<DetectParams> {
-        let scale_factor = self.scale_factor;
-        anyhow::ensure!(
-            scale_factor.is_finite() && scale_factor > 1.0,
-            "--scale-factor must be a number above 1 (OpenCV's default is 1.1), got {scale_factor}"
-        );
-        Ok(DetectParams {
-            scale_factor,
-            min_neighbors: self.min_neighbors,
-            min_size_px: size(self.min_size.as_ref(), "min-size")?,
-            max_size_px: size(self.max_size.as_ref(), "max-size")?,
-        })
-    }
 }
 
 /// `image` in RGB with each box outlined in red, 2 px wide, as PNG bytes.

@@ -26,7 +26,7 @@ pub struct Args {
     pub upper: Option<f64>,
     /// The cascade's search settings.
     #[command(flatten)]
-    pub search: super::detect::DetectOptions,
+    pub search: tether::args::DetectOptions,
     /// Threads (0: one per core); images are shared among them.
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub threads: usize,

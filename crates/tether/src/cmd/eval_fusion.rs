@@ -5,8 +5,8 @@
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use tether::closed_loop::{self, StepKind};
-use tether::metrics::{measure, per_frame_fused};
+use tether_eval::closed_loop::{self, StepKind};
+use tether_eval::metrics::{measure, per_frame_fused};
 use tether_fusion::FusionRule;
 use tether_sim::Scenario;
 

@@ -1,5 +1,5 @@
 //! `tether eval-legs`: precision and recall of the leg detectors, overall and by range
-//! from the scanner (`tether::leg_eval`).
+//! from the scanner (`tether_eval::leg_eval`).
 //!
 //! Without a recording: the arc test and the learned classifier on the test split of
 //! leg_tracker's recordings (issue 3), never used for training or tuning. With one:
@@ -9,17 +9,17 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use serde::Serialize;
-use tether::leg_eval::{BinReport, EVAL_MATCH_RADIUS_M, RangeCounts, pair_labels};
-use tether::recording::{self, LabelMessage, LabelSource, Sample, Topics};
-use tether::track_eval::Pairing;
-use tether_core::{Laser, Point2, Stamp};
+use tether_eval::leg_eval::{
+    BinReport, EVAL_MATCH_RADIUS_M, LabelChoice, RangeCounts, score_recording, test_split_counts,
+};
+use tether_eval::track_eval::Pairing;
+use tether_laser::DetectorKind;
 use tether_laser::training::{
     LabelledRegion, NEGATIVE_BAG, TEST_NEGATIVE_TOPICS, TEST_POSITIVE_BAGS,
 };
-use tether_laser::{Detection, DetectorKind, LegDetector};
 
-use super::legs::{Detector, detector, detector_config, laser_model};
-use super::train_legs::{labelled_scans, negative_scans};
+use tether::args::{Detector, detector, detector_config, laser_model};
+use tether_eval::leg_data::{check_data_folder, labelled_scans, negative_scans};
 
 /// Options of `tether eval-legs`.
 #[derive(Debug, clap::Args)]
@@ -62,7 +62,7 @@ pub struct Args {
     pub detector: Detector,
     /// Write the figures as JSON: one object for a recording, an array of two (arc,
     /// learned) for the test split; each object's fields are documented on
-    /// `cmd::eval_legs::Report`, its `bins` on `tether::leg_eval::BinReport`.
+    /// `cmd::eval_legs::Report`, its `bins` on `tether_eval::leg_eval::BinReport`.
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<PathBuf>,
     /// Folder with leg_tracker's bags (`positive_{6,7}_extracted.bag`,
@@ -166,7 +166,7 @@ pub struct Report {
     pub precision: f64,
     /// `tp / (tp + fn)`.
     pub recall: f64,
-    /// By range from the scanner (see `tether::leg_eval`).
+    /// By range from the scanner (see `tether_eval::leg_eval`).
     pub bins: Vec<BinReport>,
 }
 
@@ -235,58 +235,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 }
 
-/// One detector's counts on the test split.
-struct SplitCounts {
-    /// Labelled scans, every unmatched detection false (issue 30's measure).
-    labelled: RangeCounts,
-    /// Labelled scans, unmatched detections false only inside the labeller's window
-    /// (issue 3's table).
-    labelled_in_window: RangeCounts,
-    /// Scans without people.
-    negative: RangeCounts,
-}
-
-/// Runs one detector over the test split.
-fn test_split_counts(
-    d: &mut LegDetector,
-    positives: &[(tether_core::LaserScan, Vec<Point2<Laser>>)],
-    negatives: &[tether_core::LaserScan],
-    region: &LabelledRegion,
-) -> SplitCounts {
-    let mut c = SplitCounts {
-        labelled: RangeCounts::default(),
-        labelled_in_window: RangeCounts::default(),
-        negative: RangeCounts::default(),
-    };
-    let mut detection = Detection::default();
-    for (scan, legs) in positives {
-        d.detect_into(scan, &mut detection);
-        let centres: Vec<Point2<Laser>> =
-            detection.legs.iter().map(|l| l.centre_in_laser).collect();
-        let centroids: Vec<Point2<Laser>> =
-            detection.legs.iter().map(|l| l.centroid_in_laser).collect();
-        c.labelled
-            .score_scan(&centres, &centroids, legs, EVAL_MATCH_RADIUS_M, None);
-        c.labelled_in_window.score_scan(
-            &centres,
-            &centroids,
-            legs,
-            EVAL_MATCH_RADIUS_M,
-            Some(region),
-        );
-    }
-    for scan in negatives {
-        d.detect_into(scan, &mut detection);
-        let centres: Vec<Point2<Laser>> =
-            detection.legs.iter().map(|l| l.centre_in_laser).collect();
-        c.negative.score_empty_scan(&centres);
-    }
-    c
-}
-
 /// Both detectors on leg_tracker's test split, with the range-binned table.
 fn run_test_split(args: &Args) -> anyhow::Result<()> {
-    super::train_legs::check_data_folder(&args.data)?;
+    check_data_folder(&args.data)?;
     let laser = laser_model(args.laser.as_ref())?;
     let config = detector_config(args.detector_config.as_ref())?;
     let positives = labelled_scans(&args.data, &TEST_POSITIVE_BAGS)?;
@@ -362,14 +313,7 @@ fn run_test_split(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// What a scan's detection leaves to score, kept until the labels are paired.
-struct ScanDetections {
-    legs: Vec<Point2<Laser>>,
-    leg_centroids: Vec<Point2<Laser>>,
-    people: Vec<Point2<Laser>>,
-}
-
-/// One detector on a labelled recording.
+/// One detector on a labelled recording ([`score_recording`]).
 fn run_recording(path: &Path, args: &Args) -> anyhow::Result<()> {
     let (Some(scan_topic), Some(labels_topic)) = (&args.scan_topic, &args.labels_topic) else {
         anyhow::bail!("a recording needs --scan-topic and --labels-topic");
@@ -381,83 +325,42 @@ fn run_recording(path: &Path, args: &Args) -> anyhow::Result<()> {
         Detector::Learned => (DetectorKind::Learned, "learned"),
     };
     let mut d = detector(kind, args.model.as_ref(), &laser, config)?;
-    let topics = Topics {
-        scan: scan_topic.clone(),
-        image: None,
-        odom: None,
+    let people = match args.labels {
+        LabelKind::Legs => Some(false),
+        LabelKind::People => Some(true),
+        LabelKind::Auto => None,
     };
-    let mut stamps: Vec<Stamp> = Vec::new();
-    let mut detections: Vec<ScanDetections> = Vec::new();
-    let mut labels: Vec<(usize, LabelMessage)> = Vec::new();
-    let mut malformed = 0usize;
-    let mut detection = Detection::default();
-    // Scans read so far, for the label callback (the scan callback holds `stamps`).
-    let scans_read = std::cell::Cell::new(0usize);
-    let stats = recording::read_with_labels(
+    let score = score_recording(
         path,
-        &topics,
+        scan_topic,
         labels_topic,
-        &mut |sample| {
-            if let Sample::Scan(scan) = sample {
-                malformed += scan.malformed_beams();
-                d.detect_into(&scan, &mut detection);
-                stamps.push(scan.stamp);
-                scans_read.set(stamps.len());
-                detections.push(ScanDetections {
-                    legs: detection.legs.iter().map(|l| l.centre_in_laser).collect(),
-                    leg_centroids: detection.legs.iter().map(|l| l.centroid_in_laser).collect(),
-                    people: detection.people.iter().map(|p| p.estimate.mean).collect(),
-                });
-            }
-            Ok(())
-        },
-        &mut |message| {
-            labels.push((scans_read.get(), message));
-            Ok(())
+        &mut d,
+        &LabelChoice {
+            people,
+            match_m: args.match_m,
+            people_match_m: PEOPLE_MATCH_M,
+            pairing: args.pairing,
+            region: args.region,
         },
     )?;
-    let people = match args.labels {
-        LabelKind::Legs => false,
-        LabelKind::People => true,
-        LabelKind::Auto => labels
-            .first()
-            .is_some_and(|(_, m)| m.source != LabelSource::PoseArray),
-    };
-    let match_m = args.match_m.unwrap_or(if people {
-        PEOPLE_MATCH_M
-    } else {
-        EVAL_MATCH_RADIUS_M
-    });
-    let paired = pair_labels(&stamps, &labels, args.pairing);
-    let mut counts = RangeCounts::default();
-    let mut report = Report::new(name, args, if people { "people" } else { "legs" }, match_m);
-    for (scan, truth) in detections.iter().zip(&paired.per_scan) {
-        let Some(truth) = truth else {
-            report.unlabelled_scans += 1;
-            continue;
-        };
-        report.labelled_scans += 1;
-        let (detected, test) = if people {
-            (&scan.people, &scan.people)
-        } else {
-            (&scan.legs, &scan.leg_centroids)
-        };
-        counts.score_scan(detected, test, truth, match_m, args.region.as_ref());
-    }
-    report.scans = stamps.len();
-    report.label_messages = labels.len();
-    report.unpaired_label_messages = paired.unpaired;
-    report.doubly_labelled_scans = paired.doubly_labelled;
-    report.skipped_messages = stats.bad_messages + stats.unattributed;
-    report.malformed_beams = malformed;
-    report.set_counts(&counts);
+    let labels = if score.people { "people" } else { "legs" };
+    let mut report = Report::new(name, args, labels, score.match_m);
+    report.scans = score.scans;
+    report.labelled_scans = score.labelled_scans;
+    report.unlabelled_scans = score.unlabelled_scans;
+    report.label_messages = score.label_messages;
+    report.unpaired_label_messages = score.unpaired_label_messages;
+    report.doubly_labelled_scans = score.doubly_labelled_scans;
+    report.skipped_messages = score.skipped_messages;
+    report.malformed_beams = score.malformed_beams;
+    report.set_counts(&score.counts);
     anyhow::ensure!(
         report.labelled_scans > 0,
         "no scan of {scan_topic} got a label from {labels_topic} ({} label messages): check \
          the topics and --pairing",
-        labels.len()
+        score.label_messages
     );
-    print_recording(path, scan_topic, labels_topic, args, &report, &counts)?;
+    print_recording(path, scan_topic, labels_topic, args, &report, &score.counts)?;
     if let Some(json) = &args.json {
         write_json(json, &report)?;
     }

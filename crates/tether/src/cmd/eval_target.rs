@@ -5,9 +5,9 @@
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use tether::closed_loop;
-use tether::metrics::measure;
-use tether::target_metrics::measure_target_lock;
+use tether_eval::closed_loop;
+use tether_eval::metrics::measure;
+use tether_eval::target_metrics::measure_target_lock;
 use tether_live::pipeline_file;
 use tether_pipeline::PipelineConfig;
 use tether_sim::{BUILTIN_NAMES, Scenario};
@@ -58,7 +58,7 @@ pub struct Args {
     pub config: Option<std::path::PathBuf>,
     /// The leg model (`--leg-model`).
     #[command(flatten)]
-    pub leg_model: super::leg_model::LegModelArg,
+    pub leg_model: tether::args::LegModelArg,
     /// The ideal laser (`[laser_sim] realistic = false`): no phantoms, weak legs or dark
     /// spells, to compare with.
     #[arg(long)]

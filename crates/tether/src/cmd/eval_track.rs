@@ -1,13 +1,13 @@
 //! `tether eval-track`: the pipeline over an annotated recording, measured against its
-//! labels (CLEAR MOT and the target measures; see `tether::track_eval`).
+//! labels (CLEAR MOT and the target measures; see `tether_eval::track_eval`).
 
 use std::path::PathBuf;
 
 use anyhow::Context;
-use tether::recording::Topics;
-use tether::track_eval::{EvalOptions, LabelsFrame, Pairing, PoseLabels, TrackEval};
-use tether::tracking::{Step, run_recording};
+use tether_eval::track_eval::{EvalOptions, LabelsFrame, Pairing, PoseLabels, TrackEval};
 use tether_live::pipeline_file;
+use tether_live::recording_run::{Step, run_recording};
+use tether_recording::samples::Topics;
 
 /// Options of `tether eval-track`.
 #[derive(Debug, clap::Args)]
@@ -58,7 +58,7 @@ pub struct Args {
     pub config: Option<PathBuf>,
     /// The leg model (`--leg-model`).
     #[command(flatten)]
-    pub leg_model: super::leg_model::LegModelArg,
+    pub leg_model: tether::args::LegModelArg,
     /// Also write the figures as JSON.
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<PathBuf>,
@@ -75,9 +75,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         pipeline_file::load_for_recording(args.config.as_deref(), args.odom_topic.is_some())?;
     config.fusion.use_vision = false;
     args.leg_model.apply(&mut config);
-    let (_, mut scan_odometry) = args
+    let (source, mut scan_odometry) = args
         .ego_motion
-        .for_recording(args.odom_topic.is_some(), config.laser.robot_from_laser())
+        .for_recording(args.odom_topic.is_some(), &config)
         .map_err(anyhow::Error::msg)?;
     let mut pipeline = tether_live::leg_model::pipeline(config)?;
     let topics = Topics {
@@ -98,11 +98,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(&args.labels_topic),
         &mut pipeline,
         None,
-        scan_odometry.as_mut(),
+        tether::ego_motion::poses(source, scan_odometry.as_mut()),
         &mut |step| {
             match step {
                 Step::Scan(s) => eval.on_scan(&s),
                 Step::Labels(l) => eval.on_labels(l),
+                Step::Camera(_) => {}
             }
             Ok(())
         },

@@ -1,7 +1,7 @@
 //! `tether legs`: detect legs and people in every scan of a recording (ROS 1 bag or
 //! MCAP) and write them as JSON lines.
 //!
-//! The recording is read by [`tether::recording`]: a topic that holds no scans, or whose
+//! The recording is read by [`tether_recording::samples`]: a topic that holds no scans, or whose
 //! every scan fails to decode, is an error before the output is replaced; a recording
 //! cut short is read up to the cut, with a warning.
 
@@ -10,9 +10,9 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use serde::Serialize;
-use tether::recording::{self, Sample, Topics};
-use tether_core::LaserModel;
-use tether_laser::{DetectorConfig, DetectorKind, LegClassifier, LegDetector};
+use tether::args::{Detector, detector, detector_config, laser_model};
+use tether_laser::DetectorKind;
+use tether_recording::samples::{self, Sample, Topics};
 
 /// Options of `tether legs`.
 #[derive(Debug, clap::Args)]
@@ -42,15 +42,6 @@ pub struct Args {
     pub out: PathBuf,
 }
 
-/// The leg test.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Detector {
-    /// The paper's arc test (bisectors of chords, delta = 40 mm).
-    Arc,
-    /// The learned classifier (AdaBoost on segment features).
-    Learned,
-}
-
 #[derive(Serialize)]
 struct LegLine {
     x: f64,
@@ -76,74 +67,6 @@ struct ScanLine {
     people: Vec<PersonLine>,
 }
 
-/// Reads the laser config, if any.
-pub(crate) fn laser_model(path: Option<&PathBuf>) -> anyhow::Result<LaserModel> {
-    let Some(path) = path else {
-        return Ok(LaserModel::urg_04lx());
-    };
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read laser config {}", path.display()))?;
-    let model: LaserModel = toml::from_str(&text)
-        .with_context(|| format!("laser config {} is not a valid laser model", path.display()))?;
-    model
-        .validate()
-        .with_context(|| format!("laser config {}", path.display()))?;
-    Ok(model)
-}
-
-/// Reads a detector config: JSON when the file's first non-blank character is `{`,
-/// TOML otherwise; the default config without a file.
-pub(crate) fn detector_config(path: Option<&PathBuf>) -> anyhow::Result<DetectorConfig> {
-    let Some(path) = path else {
-        return Ok(DetectorConfig::default());
-    };
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read detector config {}", path.display()))?;
-    let config: DetectorConfig = if text.trim_start().starts_with('{') {
-        serde_json::from_str(&text).with_context(|| {
-            format!(
-                "detector config {} is not a valid JSON DetectorConfig",
-                path.display()
-            )
-        })?
-    } else {
-        toml::from_str(&text).with_context(|| {
-            format!(
-                "detector config {} is not a valid TOML DetectorConfig",
-                path.display()
-            )
-        })?
-    };
-    config
-        .validate()
-        .with_context(|| format!("detector config {}", path.display()))?;
-    Ok(config)
-}
-
-/// Builds the detector the options ask for.
-pub(crate) fn detector(
-    kind: DetectorKind,
-    model: Option<&PathBuf>,
-    laser: &LaserModel,
-    config: DetectorConfig,
-) -> anyhow::Result<LegDetector> {
-    let noise = laser.noise.clone();
-    Ok(match kind {
-        DetectorKind::Arc => LegDetector::arc(config, noise)?,
-        DetectorKind::Learned => match model {
-            Some(path) => {
-                let text = std::fs::read_to_string(path)
-                    .with_context(|| format!("cannot read leg model {}", path.display()))?;
-                let classifier = LegClassifier::from_json(&text)
-                    .with_context(|| format!("leg model {}", path.display()))?;
-                LegDetector::learned(config, noise, classifier)?
-            }
-            // The built-in models: the coarse-scan one for beams 0.45 deg apart or more.
-            None => LegDetector::builtin(config, noise)?,
-        },
-    })
-}
-
 /// Writes one line per scan message of the topic, in bag order, including scans in
 /// which nothing was found.
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -166,7 +89,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         image: None,
         odom: None,
     };
-    let stats = recording::read(&args.bag, &topics, &mut |sample| {
+    let stats = samples::read(&args.bag, &topics, &mut |sample| {
         let Sample::Scan(scan) = sample else {
             return Ok(());
         };

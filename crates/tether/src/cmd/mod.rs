@@ -14,7 +14,6 @@ pub mod eval_legs;
 pub mod eval_target;
 pub mod eval_track;
 pub mod info;
-pub mod leg_model;
 pub mod legs;
 pub mod replay;
 #[cfg(feature = "ros2")]
@@ -23,8 +22,6 @@ pub mod run;
 pub mod scanners;
 pub mod scenarios;
 pub mod sim;
-#[cfg(feature = "ros2")]
-pub mod sim_ros2;
 pub mod track;
 pub mod train_cascade;
 pub mod train_legs;

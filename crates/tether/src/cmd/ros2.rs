@@ -44,10 +44,10 @@ use tether::ego_motion::EgoMotion;
 use tether_live::Ending;
 use tether_live::clock::LiveClock;
 use tether_live::config::RobotConfig;
+use tether_live::node_params::{self, Sets};
 use tether_live::ros2::{NodeCamera, NodeSettings, run_node};
 use tether_pipeline::PipelineConfig;
 use tether_ros2::{NodeIdentity, ParamValue, RosArgs};
-use tether_scanmatch::ScanMatcherConfig;
 use tether_scip::Clock;
 
 /// Options of `tether ros2`.
@@ -61,7 +61,7 @@ pub struct Args {
     pub config: Option<PathBuf>,
     /// The leg model (`--leg-model`).
     #[command(flatten)]
-    pub leg_model: super::leg_model::LegModelArg,
+    pub leg_model: tether::args::LegModelArg,
     /// The robot of a built-in simulated scenario (its laser mount, follow distance and
     /// base limits), to follow `tether sim --scenario NAME --ros2`.
     #[arg(long, value_name = "NAME", conflicts_with = "config")]
@@ -84,47 +84,6 @@ pub struct Args {
     #[arg(skip)]
     pub ros: RosArgs,
 }
-
-/// The parameters `tether ros2` reads.
-const PARAMETERS: [&str; 14] = [
-    "fixed_frame",
-    "base_frame",
-    "cmd_vel_stamped",
-    "publish_cmd_vel",
-    "cmd_vel_guard",
-    "target_frame",
-    "image_transport",
-    "camera_input",
-    "detection_class",
-    "follow_distance",
-    "attach_ahead",
-    "distance_omega",
-    "bearing_omega",
-    "use_sim_time",
-];
-
-/// Where a numeric parameter goes in the pipeline's settings.
-type Field = fn(&mut PipelineConfig) -> &mut f64;
-
-/// The follower's numeric parameters: name, what it sets, its unit.
-const FOLLOWER_PARAMETERS: [(&str, Field, &str); 4] = [
-    (
-        "follow_distance",
-        |p| &mut p.follower.follow_distance_m,
-        "m",
-    ),
-    ("attach_ahead", |p| &mut p.follower.attach_ahead_m, "m"),
-    (
-        "distance_omega",
-        |p| &mut p.follower.distance_omega_radps,
-        "rad/s",
-    ),
-    (
-        "bearing_omega",
-        |p| &mut p.follower.bearing_omega_radps,
-        "rad/s",
-    ),
-];
 
 /// Where the camera's people come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -195,10 +154,10 @@ fn bool_parameter(ros: &RosArgs, name: &str, default: bool) -> anyhow::Result<bo
 
 fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<NodeParameters> {
     for name in ros.params.keys() {
-        if !PARAMETERS.contains(&name.as_str()) {
+        if node_params::param(name).is_none() {
             tracing::warn!(
                 "parameter {name} is not one of tether's ({}); ignored",
-                PARAMETERS.join(", ")
+                node_params::names()
             );
         }
     }
@@ -216,14 +175,15 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
     );
     // The spring: its free length, where it is attached, and its gains as the natural
     // frequencies of the distance and bearing loops (design 6).
-    for (name, field, unit) in FOLLOWER_PARAMETERS {
-        if let Some(v) = ros.params.get(name) {
-            match v.as_f64() {
-                Some(x) if x.is_finite() && x > 0.0 => *field(pipeline) = x,
-                _ => {
-                    anyhow::bail!("parameter {name} must be a positive number in {unit}, got {v:?}")
-                }
-            }
+    for p in node_params::NODE_PARAMS {
+        if let (Sets::Pipeline { .. }, Some(v)) = (p.sets, ros.params.get(p.name)) {
+            anyhow::ensure!(
+                v.as_f64().is_some(),
+                "parameter {} must be a positive number in {}, got {v:?}",
+                p.name,
+                p.unit
+            );
+            node_params::set_pipeline(pipeline, p.name, v.as_f64()).map_err(anyhow::Error::msg)?;
         }
     }
     let use_sim_time = match ros.params.get("use_sim_time") {
@@ -279,10 +239,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     // Until odometry arrives (and with `scans` throughout), the dead reckoning of the
     // commands corrected by scan matching.
-    let (scan_odometry, odometry_input) = match args.ego_motion {
-        EgoMotion::Auto => (Some(ScanMatcherConfig::default()), true),
-        EgoMotion::Scans => (Some(ScanMatcherConfig::default()), false),
-        EgoMotion::Odom => (None, true),
+    let (with_scans, odometry_input) = match args.ego_motion {
+        EgoMotion::Auto => (true, true),
+        EgoMotion::Scans => (true, false),
+        EgoMotion::Odom => (false, true),
         EgoMotion::None => anyhow::bail!(
             "--ego-motion none: a robot that drives cannot be taken to stand still; use \
              scans (the default) or odom (dead reckoning of the commands)"
@@ -301,11 +261,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .pipeline_config()
             .map_err(|e| anyhow::anyhow!("config {}: {e}", path.display()))?,
         (_, _, Some(scenario)) => {
-            tether::closed_loop::config_for(scenario, &PipelineConfig::default())
+            let mut config =
+                tether_eval::closed_loop::config_for(scenario, &PipelineConfig::default());
+            // The node reads one scan topic (and the simulator publishes the first
+            // laser's scans alone): an extra laser would never be heard.
+            if !config.extra_lasers.is_empty() {
+                tracing::warn!(
+                    "the scenario's robot has {} extra lasers; the node reads `scan` alone",
+                    config.extra_lasers.len()
+                );
+                config.extra_lasers.clear();
+            }
+            config
         }
         _ => turtlebot_pipeline(),
     };
     args.leg_model.apply(&mut pipeline_config);
+    // The scan matcher's settings are the configuration's (`[pipeline.scan_matcher]`).
+    let scan_odometry = with_scans.then(|| pipeline_config.scan_matcher.clone());
     let NodeParameters {
         fixed_frame,
         base_frame,
@@ -448,6 +421,7 @@ fn summarize(
         "{}",
         summary.target.one_line(report.pipeline.selector().stats())
     );
+    tracing::info!("{}", summary.holds.one_line());
     if report.graph_problems > 0 {
         tracing::warn!(
             "{} mismatches with the graph's topics were reported above (types \

@@ -18,7 +18,6 @@ use tether::ego_motion::EgoMotion;
 use tether_live::Ending;
 use tether_live::config::RobotConfig;
 use tether_live::robot::{self, RobotReport, RobotSettings};
-use tether_scanmatch::ScanMatcherConfig;
 
 /// Options of `tether run`.
 #[derive(Debug, clap::Args)]
@@ -28,7 +27,7 @@ pub struct Args {
     pub config: PathBuf,
     /// The leg model (`--leg-model`).
     #[command(flatten)]
-    pub leg_model: super::leg_model::LegModelArg,
+    pub leg_model: tether::args::LegModelArg,
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long, value_name = "S")]
     pub duration: Option<f64>,
@@ -50,9 +49,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     // The base reports no odometry: the commands' dead reckoning, corrected by the scans
     // unless asked not to be.
-    let scan_odometry = match args.ego_motion {
-        EgoMotion::Auto | EgoMotion::Scans => Some(ScanMatcherConfig::default()),
-        EgoMotion::Odom => None,
+    let with_scans = match args.ego_motion {
+        EgoMotion::Auto | EgoMotion::Scans => true,
+        EgoMotion::Odom => false,
         EgoMotion::None => anyhow::bail!(
             "--ego-motion none: a robot that drives cannot be taken to stand still; use \
              scans (the default) or odom (dead reckoning of the commands)"
@@ -62,6 +61,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .pipeline_config()
         .map_err(|e| anyhow::anyhow!("config {}: {e}", args.config.display()))?;
     args.leg_model.apply(&mut pipeline_config);
+    // The scan matcher's settings are the configuration's (`[pipeline.scan_matcher]`).
+    let scan_odometry = with_scans.then(|| pipeline_config.scan_matcher.clone());
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
@@ -112,6 +113,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     tracing::info!("{}", summary.target.one_line(pipeline.selector().stats()));
+    tracing::info!("{}", summary.holds.one_line());
     if summary.cannot_keep_up > 0 {
         tracing::warn!(
             "the robot could not keep up with the target {} times (at its speed limit, {:.2} \

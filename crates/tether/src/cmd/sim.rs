@@ -5,16 +5,18 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use tether::closed_loop::{self, RunError};
-use tether::metrics::measure;
 use tether_core::Stamp;
+use tether_eval::closed_loop::{self, RunError};
+use tether_eval::metrics::measure;
+#[cfg(feature = "ros2")]
+use tether_eval::ros2_sim::SimTime;
 use tether_live::pipeline_file;
 use tether_live::results::ResultWriter;
 use tether_msgs::{Header, LaserScanMsg, OdometryMsg, PersonArrayMsg, PersonMsg, Pose3};
 use tether_pipeline::Tick;
 use tether_recording::mcap::McapError;
 use tether_recording::rosbag::{BagWriteError, BagWriter, ConnectionId};
-use tether_sim::record::RunRecorder;
+use tether_sim::record::{RunRecorder, RunSummary};
 use tether_sim::{Event, Scenario, SensorData, Simulation, StaticWorld, run_to_dir};
 
 /// Who drives the simulated robot.
@@ -73,7 +75,7 @@ pub struct Args {
     pub config: Option<PathBuf>,
     /// The leg model (`--leg-model`).
     #[command(flatten)]
-    pub leg_model: super::leg_model::LegModelArg,
+    pub leg_model: tether::args::LegModelArg,
     /// Also write the run as a ROS 1 bag in leg_tracker's annotation format, for
     /// `tether eval-track` and any other tracker: `/scan` (sensor_msgs/LaserScan, frame
     /// `laser`), `/odom` (nav_msgs/Odometry, perfect; see `--bag-without-odom`) and
@@ -159,7 +161,8 @@ impl BagRecorder {
     /// the people it sees in the laser frame, `p_laser = laser_from_world * p_world`,
     /// heading less the laser's yaw, recorded 1 us after the scan.
     fn try_record(&mut self, event: &Event) -> Result<(), BagWriteError> {
-        let SensorData::Scan(scan) = &event.data else {
+        // leg_tracker's bags hold one scanner: the first laser's scans.
+        let Some(scan) = event.data.first_laser_scan() else {
             return Ok(());
         };
         let truth = &event.truth;
@@ -248,9 +251,14 @@ fn record_event(
         out.mcap().write("/truth/people", stamp, &people)?;
     }
     if let SensorData::Scan(scan) = &event.data {
-        // URG-04LX timing: 100 ms a turn of 1,024 steps.
+        // URG-04LX timing: 100 ms a turn of 1,024 steps. The first laser on `/scan`,
+        // an extra one on `/FRAME/scan`.
         let msg = LaserScanMsg::new(scan.clone(), 0.1 / 1024.0, 0.1);
-        out.mcap().write("/scan", stamp, &msg)?;
+        let topic = match event.data.first_laser_scan() {
+            Some(_) => "/scan".to_owned(),
+            None => format!("/{}/scan", scan.frame_id),
+        };
+        out.mcap().write(&topic, stamp, &msg)?;
     }
     if let Some(tick) = tick {
         out.write_tick(tick)?;
@@ -267,6 +275,92 @@ fn progress_bar(name: &str) -> ProgressBar {
     );
     bar.set_message(format!("simulating {name}"));
     bar
+}
+
+/// `--driver tether`: tether's pipeline drives the simulated robot (the closed loop of
+/// [`closed_loop::run_observed`]); the run's files, `metrics.json`, `report.html` and,
+/// when asked, its MCAP recording, and every event to the bag.
+fn run_tether(
+    args: &Args,
+    scenario: &Scenario,
+    source: &str,
+    base: &tether_pipeline::PipelineConfig,
+    bag: &mut Option<BagRecorder>,
+    show: &dyn Fn(i64),
+) -> anyhow::Result<RunSummary> {
+    let context = || format!("simulating `{}` into {}", scenario.name, args.out.display());
+    let (mut driver, mut passengers) = if args.laser_only {
+        closed_loop::laser_only_variants_from(scenario, base)
+    } else {
+        closed_loop::variants_from(scenario, base)
+    };
+    args.leg_model
+        .apply_all(std::iter::once(&mut driver).chain(&mut passengers));
+    // A configuration the pipeline refuses is refused before anything is written.
+    for config in std::iter::once(&driver).chain(&passengers) {
+        tether_live::leg_model::pipeline(config.clone())
+            .context("tether's pipeline refuses this configuration")?;
+    }
+    let with_odometry = scenario.odometry_available();
+    let mut recorder = RunRecorder::create(&args.out, scenario, args.seed).with_context(context)?;
+    let mut mcap = match &args.record {
+        Some(path) => Some(
+            ResultWriter::create(path, "odom")
+                .with_context(|| format!("cannot create {}", path.display()))?,
+        ),
+        None => None,
+    };
+    let log = closed_loop::run_observed(
+        scenario,
+        args.seed,
+        &driver,
+        &passengers,
+        &[],
+        &mut |event, tick| {
+            show(event.truth.stamp.ns());
+            if let Some(out) = mcap.as_mut() {
+                record_event(out, event, tick, with_odometry)?;
+            }
+            if let Some(bag) = bag.as_mut() {
+                bag.record(event);
+            }
+            recorder.record(event).map_err(RunError::from)
+        },
+    )
+    .with_context(context)?;
+    if let (Some(out), Some(path)) = (mcap, &args.record) {
+        out.finish()
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    let world = StaticWorld::from_scenario(scenario);
+    let summary = recorder
+        .finish(scenario, &world, log.collisions, source)
+        .with_context(context)?;
+    let metrics = measure(&log);
+    let path = args.out.join("metrics.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&metrics)? + "\n")
+        .with_context(|| format!("writing {}", path.display()))?;
+    // The demo's report, for this one run.
+    let runs = [tether_report::sim_report::ScenarioRun {
+        scenario,
+        log: &log,
+        metrics: &metrics,
+    }];
+    let intro = format!(
+        "<p><code>tether sim --scenario {}</code>, seed {}: tether's pipeline drives \
+         the simulated robot.</p>",
+        tether_sim::svg::xml_escape(&scenario.name),
+        args.seed
+    );
+    let html = tether_report::sim_report::html(
+        &format!("tether sim: {}", scenario.name),
+        &intro,
+        &runs,
+        &[],
+    );
+    let path = args.out.join("report.html");
+    std::fs::write(&path, html).with_context(|| format!("writing {}", path.display()))?;
+    Ok(summary)
 }
 
 /// Runs the simulation.
@@ -308,11 +402,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.rate
         );
         let time = if args.use_sim_time {
-            super::sim_ros2::SimTime::Published { rate: args.rate }
+            SimTime::Published { rate: args.rate }
         } else {
-            super::sim_ros2::SimTime::Wall
+            SimTime::Wall
         };
-        return super::sim_ros2::run(&scenario, args.seed, time, args.cmd_vel_stamped, &args.out);
+        return run_on_graph(&scenario, args.seed, time, args.cmd_vel_stamped, &args.out);
     }
     let bar = progress_bar(&scenario.name);
     let end_ns = (scenario.duration_s * 1e9) as i64;
@@ -352,81 +446,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             show(now.ns())
         })
         .with_context(context)?,
-        DriverChoice::Tether => {
-            let (mut driver, mut passengers) = if args.laser_only {
-                closed_loop::laser_only_variants_from(&scenario, &base)
-            } else {
-                closed_loop::variants_from(&scenario, &base)
-            };
-            args.leg_model
-                .apply_all(std::iter::once(&mut driver).chain(&mut passengers));
-            // A configuration the pipeline refuses is refused before anything is written.
-            for config in std::iter::once(&driver).chain(&passengers) {
-                tether_live::leg_model::pipeline(config.clone())
-                    .context("tether's pipeline refuses this configuration")?;
-            }
-            let with_odometry = scenario.odometry_available();
-            let mut recorder =
-                RunRecorder::create(&args.out, &scenario, args.seed).with_context(context)?;
-            let mut mcap = match &args.record {
-                Some(path) => Some(
-                    ResultWriter::create(path, "odom")
-                        .with_context(|| format!("cannot create {}", path.display()))?,
-                ),
-                None => None,
-            };
-            let log = closed_loop::run_observed(
-                &scenario,
-                args.seed,
-                &driver,
-                &passengers,
-                &[],
-                &mut |event, tick| {
-                    show(event.truth.stamp.ns());
-                    if let Some(out) = mcap.as_mut() {
-                        record_event(out, event, tick, with_odometry)?;
-                    }
-                    if let Some(bag) = bag.as_mut() {
-                        bag.record(event);
-                    }
-                    recorder.record(event).map_err(RunError::from)
-                },
-            )
-            .with_context(context)?;
-            if let (Some(out), Some(path)) = (mcap, &args.record) {
-                out.finish()
-                    .with_context(|| format!("writing {}", path.display()))?;
-            }
-            let world = StaticWorld::from_scenario(&scenario);
-            let summary = recorder
-                .finish(&scenario, &world, log.collisions, &source)
-                .with_context(context)?;
-            let metrics = measure(&log);
-            let path = args.out.join("metrics.json");
-            std::fs::write(&path, serde_json::to_string_pretty(&metrics)? + "\n")
-                .with_context(|| format!("writing {}", path.display()))?;
-            // The demo's report, for this one run.
-            let runs = [tether::report::ScenarioRun {
-                scenario: &scenario,
-                log: &log,
-                metrics: &metrics,
-            }];
-            let intro = format!(
-                "<p><code>tether sim --scenario {}</code>, seed {}: tether's pipeline drives \
-                 the simulated robot.</p>",
-                tether_sim::svg::xml_escape(&scenario.name),
-                args.seed
-            );
-            let html = tether::report::html(
-                &format!("tether sim: {}", scenario.name),
-                &intro,
-                &runs,
-                &[],
-            );
-            let path = args.out.join("report.html");
-            std::fs::write(&path, html).with_context(|| format!("writing {}", path.display()))?;
-            summary
-        }
+        DriverChoice::Tether => run_tether(&args, &scenario, &source, &base, &mut bag, &show)?,
     };
     bar.finish_and_clear();
     if let (Some(bag), Some(path)) = (bag, &args.record_bag) {
@@ -452,6 +472,56 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.camera_boxes,
         summary.collisions,
         args.out.display()
+    )?;
+    Ok(())
+}
+
+/// `--ros2`: the simulated robot on the graph until the scenario's end or Ctrl-C
+/// ([`tether_eval::ros2_sim`]), then what it measured, printed and written to
+/// `OUT/ros2_run.json`.
+#[cfg(feature = "ros2")]
+fn run_on_graph(
+    scenario: &Scenario,
+    seed: u64,
+    time: SimTime,
+    cmd_vel_stamped: bool,
+    out: &std::path::Path,
+) -> anyhow::Result<()> {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
+        .context("cannot catch Ctrl-C")?;
+    let summary = tether_eval::ros2_sim::run(scenario, seed, time, cmd_vel_stamped, &stop)?;
+    let d0 = summary.follow_distance_m;
+    let path = out.join("ros2_run.json");
+    let json = serde_json::to_string_pretty(&summary)?;
+    std::fs::write(&path, json + "\n").with_context(|| format!("writing {}", path.display()))?;
+    tether::outln!(
+        "{}: {:.1} s simulated {}, {} scans, {} odometry messages and {} camera frames \
+         published, {} commands received, first motion at {}, mean |d - d0| {} (d0 = {d0} m), {} collisions, \
+         {:.1} m driven -> {}",
+        scenario.name,
+        summary.simulated_s,
+        match time {
+            SimTime::Wall => "in real time".to_owned(),
+            SimTime::Published { rate } => format!("on /clock at {rate} x real time"),
+        },
+        summary.scans_published,
+        summary.odometry_published,
+        summary.camera_frames_published,
+        summary.commands_received,
+        summary
+            .first_motion_s
+            .map_or("never".into(), |s| format!("{s:.1} s")),
+        summary
+            .mean_abs_distance_error_m
+            .map_or("n/a".into(), |e| format!("{e:.3} m")),
+        summary.collisions,
+        summary.distance_driven_m,
+        path.display()
     )?;
     Ok(())
 }

@@ -6,13 +6,13 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use serde::Serialize;
-use tether::recording::Topics;
-use tether::tracking::{CameraBoxes, ScanStep, Step, run_recording};
+use tether::args::{CameraArgs, camera};
 use tether_core::GrayImage;
 use tether_live::pipeline_file;
+use tether_live::recording_run::{CameraBoxes, ScanStep, Step, run_recording};
 use tether_live::results::TargetStateLine;
 use tether_live::target_log::TargetLog;
-use tether_vision::Cascade;
+use tether_recording::samples::Topics;
 
 /// Options of `tether track`.
 #[derive(Debug, clap::Args)]
@@ -39,7 +39,7 @@ pub struct Args {
     pub config: Option<PathBuf>,
     /// The leg model (`--leg-model`).
     #[command(flatten)]
-    pub leg_model: super::leg_model::LegModelArg,
+    pub leg_model: tether::args::LegModelArg,
     /// A `nav_msgs/Odometry` topic: the robot's motion (the laser mount of `--config`
     /// then places the scans on the robot). Without it, `--ego-motion` says where the
     /// motion comes from.
@@ -53,22 +53,6 @@ pub struct Args {
     /// Where to write one JSON line per scan message (`-`: standard output).
     #[arg(long, value_name = "FILE.jsonl")]
     pub out: PathBuf,
-}
-
-/// How camera frames of a recording are searched for people (shared by `track` and
-/// `replay`).
-#[derive(Debug, Clone, clap::Args)]
-pub struct CameraArgs {
-    /// Cascade XML for the camera frames (default: Debian's
-    /// /usr/share/opencv4/haarcascades/haarcascade_upperbody.xml).
-    #[arg(long, value_name = "FILE")]
-    pub cascade: Option<PathBuf>,
-    /// The cascade's search settings.
-    #[command(flatten)]
-    pub search: super::detect::DetectOptions,
-    /// Detection threads (0: one per core); results do not depend on it.
-    #[arg(long, default_value_t = 1, value_name = "N")]
-    pub threads: usize,
 }
 
 #[derive(Serialize)]
@@ -101,19 +85,8 @@ struct PoseLine {
     yaw: f64,
 }
 
-/// The camera side of a run: the detector and what it saw.
-pub use tether_live::sources::camera::BoxDetector as Camera;
-
-/// The detector the options ask for.
-pub fn camera(args: &CameraArgs) -> anyhow::Result<Camera> {
-    let cascade_path = super::detect::resolve_cascade(args.cascade.as_deref())?;
-    let cascade = Cascade::load(&cascade_path)?;
-    let params = args.search.params()?;
-    Ok(Camera::new(cascade, params, args.threads)?)
-}
-
 /// Runs the pipeline over the recording's scans (and camera frames, with
-/// `--image-topic`), in log order ([`tether::tracking::run_recording`]), with the
+/// `--image-topic`), in log order ([`tether_live::recording_run::run_recording`]), with the
 /// robot's motion from `--odom-topic`, scan matching or none (`--ego-motion`).
 /// Positions and velocities come out in the scan's frame.
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -126,9 +99,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     config.fusion.use_vision = camera.is_some();
     let intrinsics = config.camera.intrinsics;
-    let (_, mut scan_odometry) = args
+    let (source, mut scan_odometry) = args
         .ego_motion
-        .for_recording(args.odom_topic.is_some(), config.laser.robot_from_laser())
+        .for_recording(args.odom_topic.is_some(), &config)
         .map_err(anyhow::Error::msg)?;
     let laser_from_robot = config.laser.robot_from_laser().inverse();
     let mut pipeline = tether_live::leg_model::pipeline(config)?;
@@ -153,7 +126,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None,
         &mut pipeline,
         boxes.as_mut().map(|b| b as &mut CameraBoxes<'_>),
-        scan_odometry.as_mut(),
+        tether::ego_motion::poses(source, scan_odometry.as_mut()),
         &mut |step| {
             let Step::Scan(ScanStep {
                 scan,

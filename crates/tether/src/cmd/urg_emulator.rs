@@ -2,8 +2,8 @@
 //! pseudo-terminal or a TCP port, serving the scans of a simulated scene, so that a
 //! driver (tether's own, `urg_node`, ...) can be run without the hardware.
 //!
-//! The scans come from a [`ScanSource`]. [`simulated_scans`] makes one from a
-//! scenario of `tether_sim`. Its robot stands still, or, with `--commands-stdin`,
+//! The scans come from a [`ScanSource`]. [`simulated_scans`]
+//! (`tether_eval::scip_sim`) makes one from a scenario of `tether_sim`. Its robot stands still, or, with `--commands-stdin`,
 //! drives the velocity commands read from stdin as JSON lines (`{"v_mps":..,
 //! "w_radps":..}`, other keys ignored: the lines `tether run` prints), so that `tether
 //! run | tether urg-emulator --commands-stdin` closes the loop without hardware. The
@@ -11,14 +11,13 @@
 //! `command_timeout_s`, and stops when stdin ends. `--truth FILE` writes the ground
 //! truth of every scan as a JSON line.
 
-use std::io::{BufRead, Write};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 use anyhow::Context;
-use serde::{Deserialize, Serialize};
+use tether_eval::scip_sim::{CommandInbox, read_command_file, read_commands, simulated_scans};
 use tether_scip::emulator::{Emulator, EmulatorConfig, EmulatorServer, Faults, ScanSource, Stall};
-use tether_sim::{Command, Scenario, SensorData, Simulation, Truth};
+use tether_sim::{Command, Scenario};
 
 /// Options of `tether urg-emulator`.
 #[derive(Debug, clap::Args)]
@@ -77,284 +76,6 @@ pub struct Args {
     /// `y`).
     #[arg(long, value_name = "FILE")]
     pub truth: Option<PathBuf>,
-}
-
-/// The newest command received and how many came so far.
-pub type CommandInbox = Arc<Mutex<(u64, Command)>>;
-
-#[derive(Deserialize)]
-#[serde(untagged)]
-enum CommandIn {
-    Velocity { v_mps: f64, w_radps: f64 },
-    Wheels { left_mps: f64, right_mps: f64 },
-}
-
-/// The velocity of a command line: tether's JSON (`v_mps`, `w_radps`), a wheels JSON
-/// line (`left_mps`, `right_mps`) or a text line `LEFT RIGHT`, the wheel speeds turned
-/// into `v = (l + r) / 2`, `w = (r - l) / b` for the track width `b`.
-fn parse_command(line: &str, track_width_m: f64) -> Option<Command> {
-    let (v_mps, w_radps) = match serde_json::from_str::<CommandIn>(line) {
-        Ok(CommandIn::Velocity { v_mps, w_radps }) => (v_mps, w_radps),
-        Ok(CommandIn::Wheels {
-            left_mps,
-            right_mps,
-        }) => (
-            0.5 * (left_mps + right_mps),
-            (right_mps - left_mps) / track_width_m,
-        ),
-        Err(_) => {
-            let mut words = line.split_whitespace();
-            let left: f64 = words.next()?.parse().ok()?;
-            let right: f64 = words.next()?.parse().ok()?;
-            if words.next().is_some() {
-                return None;
-            }
-            (0.5 * (left + right), (right - left) / track_width_m)
-        }
-    };
-    (v_mps.is_finite() && w_radps.is_finite()).then_some(Command { v_mps, w_radps })
-}
-
-/// Reads command lines from `input` into `inbox` until it ends, then posts a stop.
-/// Lines that are not commands are skipped (the first is reported). `track_width_m`
-/// turns wheel speeds into a velocity ([`parse_command`]). Returns how many commands
-/// came and the last of them (a robot's last word before its commands ended).
-pub fn read_commands(
-    input: impl BufRead,
-    inbox: &CommandInbox,
-    track_width_m: f64,
-) -> (u64, Option<Command>) {
-    let mut count = 0_u64;
-    let mut last = None;
-    let post = |command: Command| {
-        if let Ok(mut slot) = inbox.lock() {
-            slot.0 += 1;
-            slot.1 = command;
-        }
-    };
-    let mut warned = false;
-    for line in input.lines() {
-        let Ok(line) = line else { break };
-        let line = line.trim();
-        if line.is_empty() {
-            continue;
-        }
-        match parse_command(line, track_width_m) {
-            Some(command) => {
-                count += 1;
-                last = Some(command);
-                post(command);
-            }
-            None if !warned => {
-                warned = true;
-                tracing::warn!("ignoring input lines that are not commands, like: {line}");
-            }
-            _ => {}
-        }
-    }
-    post(Command {
-        v_mps: 0.0,
-        w_radps: 0.0,
-    });
-    (count, last)
-}
-
-/// Reads commands from the FIFO at `path`, again after each time its writers close it
-/// (one `tether run` after another).
-fn read_command_file(path: &std::path::Path, inbox: &CommandInbox, track_width_m: f64) {
-    use std::os::unix::fs::FileTypeExt;
-    loop {
-        // Opening a FIFO waits for a writer.
-        let file = match std::fs::File::open(path) {
-            Ok(file) => file,
-            Err(e) => {
-                tracing::error!("--commands {}: {e}; the robot stands", path.display());
-                return;
-            }
-        };
-        let fifo = file.metadata().is_ok_and(|m| m.file_type().is_fifo());
-        let (count, last) = read_commands(std::io::BufReader::new(file), inbox, track_width_m);
-        let last = last.map_or_else(
-            || "none".to_string(),
-            |c| format!("v {:.3} m/s, w {:.3} rad/s", c.v_mps, c.w_radps),
-        );
-        tracing::info!(
-            "the commands' writers closed {} after {count} commands (the last: {last}): the \
-             robot stops{}",
-            path.display(),
-            if fifo {
-                "; waiting for the next writer"
-            } else {
-                ""
-            }
-        );
-        if !fifo {
-            return;
-        }
-    }
-}
-
-#[derive(Serialize)]
-struct PoseOut {
-    x: f64,
-    y: f64,
-    yaw: f64,
-}
-
-#[derive(Serialize)]
-struct PersonOut<'a> {
-    id: u32,
-    name: &'a str,
-    target: bool,
-    x: f64,
-    y: f64,
-}
-
-#[derive(Serialize)]
-struct TruthOut<'a> {
-    t_s: f64,
-    robot: PoseOut,
-    v_mps: f64,
-    w_radps: f64,
-    collisions: u32,
-    people: Vec<PersonOut<'a>>,
-}
-
-fn write_truth(out: &mut dyn Write, truth: &Truth) -> std::io::Result<()> {
-    let p = truth.world_from_robot;
-    let line = TruthOut {
-        t_s: truth.stamp.secs_f64(),
-        robot: PoseOut {
-            x: p.x,
-            y: p.y,
-            yaw: p.yaw,
-        },
-        v_mps: truth.robot_velocity.v_mps,
-        w_radps: truth.robot_velocity.w_radps,
-        collisions: truth.collisions,
-        people: truth
-            .people
-            .iter()
-            .map(|q| PersonOut {
-                id: q.id,
-                name: &q.name,
-                target: q.target,
-                x: q.position.x,
-                y: q.position.y,
-            })
-            .collect(),
-    };
-    serde_json::to_writer(&mut *out, &line)?;
-    out.write_all(b"\n")?;
-    out.flush()
-}
-
-/// Laser scans of a scenario, in millimetres for the emulator; the robot stands still
-/// or drives the commands of a [`CommandInbox`].
-pub struct SimulatedScans {
-    scenario: Scenario,
-    seed: u64,
-    sim: Simulation,
-    beams: usize,
-    commands: Option<(CommandInbox, u64)>,
-    truth: Option<Box<dyn Write + Send>>,
-}
-
-impl SimulatedScans {
-    /// The robot drives the newest command of `inbox` (each new one is given to the
-    /// simulated base before the next scan).
-    pub fn with_commands(mut self, inbox: CommandInbox) -> Self {
-        self.commands = Some((inbox, 0));
-        self
-    }
-
-    /// Writes the ground truth of every scan to `out` (a JSON line each, flushed).
-    pub fn with_truth(mut self, out: Box<dyn Write + Send>) -> Self {
-        self.truth = Some(out);
-        self
-    }
-}
-
-/// What the emulator sends for a beam without return: an error code (below `DMIN`).
-const NO_ECHO_CODE_MM: u32 = 1;
-
-impl ScanSource for SimulatedScans {
-    fn scan(&mut self, _scan_index: u64, ranges_mm: &mut Vec<u32>) {
-        if let Some((inbox, seen)) = &mut self.commands
-            && let Ok(slot) = inbox.lock()
-            && slot.0 != *seen
-        {
-            *seen = slot.0;
-            self.sim.set_command(slot.1);
-        }
-        // At most two passes: the scenario may end and start over once.
-        for _ in 0..2 {
-            while let Some(event) = self.sim.advance() {
-                if let SensorData::Scan(scan) = event.data {
-                    if let Some(out) = self.truth.as_mut()
-                        && let Err(e) = write_truth(out.as_mut(), &event.truth)
-                    {
-                        tracing::error!("writing the ground truth failed ({e}); no more of it");
-                        self.truth = None;
-                    }
-                    ranges_mm.extend(scan.ranges_m().iter().map(|&r| {
-                        if r.is_finite() {
-                            (f64::from(r) * 1000.0).round().max(0.0) as u32
-                        } else {
-                            NO_ECHO_CODE_MM
-                        }
-                    }));
-                    ranges_mm.resize(self.beams, NO_ECHO_CODE_MM);
-                    return;
-                }
-            }
-            tracing::warn!(
-                "scenario `{}` ended after {:.1} s of scans: it starts over (the people and \
-                 the robot go back to their start; a run still reading sees them jump)",
-                self.scenario.name,
-                self.scenario.duration_s
-            );
-            match Simulation::new(&self.scenario, self.seed) {
-                Ok(sim) => self.sim = sim,
-                Err(_) => break,
-            }
-        }
-        ranges_mm.resize(self.beams, NO_ECHO_CODE_MM);
-    }
-}
-
-/// The scans of `scenario` (robot still) and the emulator configuration of its laser
-/// (step geometry, range limits, scan rate).
-pub fn simulated_scans(
-    scenario: &Scenario,
-    seed: u64,
-) -> anyhow::Result<(SimulatedScans, EmulatorConfig)> {
-    anyhow::ensure!(
-        scenario.laser_sim.enabled,
-        "scenario `{}` has no simulated laser (laser_sim.enabled = false)",
-        scenario.name
-    );
-    let sim = Simulation::new(scenario, seed)
-        .with_context(|| format!("building scenario `{}`", scenario.name))?;
-    let laser = &scenario.laser;
-    let config = EmulatorConfig {
-        geometry: laser.geometry,
-        // A URG-04LX accepts steps up to 768, 43 past its last measured one.
-        max_step: (laser.geometry.last_step + 43).min(9999) as u16,
-        range_min_mm: (laser.range_min_m * 1000.0).round() as u32,
-        range_max_mm: (laser.range_max_m * 1000.0).round() as u32,
-        scan_rpm: (60.0 / laser.scan_period_s).round().max(1.0) as u32,
-        ..EmulatorConfig::default()
-    };
-    let scans = SimulatedScans {
-        scenario: scenario.clone(),
-        seed,
-        sim,
-        beams: laser.geometry.beam_count(),
-        commands: None,
-        truth: None,
-    };
-    Ok((scans, config))
 }
 
 /// Serves `source` on the endpoint the arguments name until the process is stopped.
@@ -446,32 +167,4 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         // The emulator serves on whether or not anybody reads where it listens.
         tether::outln!("URG-04LX emulator (SCIP 2.0, scenario `{name}`) on {endpoint}").ok();
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn commands_come_as_velocities_or_wheel_speeds() {
-        let v = |line: &str| parse_command(line, 0.3).map(|c| (c.v_mps, c.w_radps));
-        assert_eq!(
-            v(r#"{"v_mps":0.5,"w_radps":0.1,"stop":null}"#),
-            Some((0.5, 0.1))
-        );
-        let (speed, turn) = v(r#"{"stamp_ns":1,"left_mps":0.4,"right_mps":0.6}"#).unwrap();
-        assert!((speed - 0.5).abs() < 1e-12 && (turn - 0.2 / 0.3).abs() < 1e-12);
-        let (speed, turn) = v("0.400 0.600").unwrap();
-        assert!((speed - 0.5).abs() < 1e-12 && (turn - 0.2 / 0.3).abs() < 1e-12);
-        for bad in [
-            "",
-            "0.4",
-            "0.4 0.6 0.8",
-            "nan 0.1",
-            r#"{"v_mps":1e999,"w_radps":0}"#,
-            "x y",
-        ] {
-            assert_eq!(v(bad), None, "{bad}");
-        }
-    }
 }

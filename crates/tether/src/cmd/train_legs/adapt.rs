@@ -8,16 +8,16 @@
 use std::path::Path;
 
 use anyhow::Context;
-use tether::leg_eval::pair_labels;
-use tether::recording::{self, LabelMessage, Sample, Topics};
-use tether::track_eval::Pairing;
 use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
+use tether_eval::leg_eval::pair_labels;
+use tether_eval::track_eval::Pairing;
 use tether_laser::adapt::{
     measure_on_candidates, split_held_back, time_folds, train_on_candidates,
 };
 use tether_laser::self_label::{EVERYWHERE, SelfLabelConfig, empty_scene, self_label};
 use tether_laser::training::{MatchCounts, evaluate};
 use tether_laser::{AdaBoostConfig, DetectorConfig, LegClassifier, LegDetector};
+use tether_recording::samples::{self, LabelMessage, Sample, Topics};
 
 use super::Args;
 
@@ -48,11 +48,11 @@ fn read_scans(
         Ok(())
     };
     let stats = match labels_topic {
-        Some(t) => recording::read_with_labels(path, &topics, t, &mut on_sample, &mut |m| {
+        Some(t) => samples::read_with_labels(path, &topics, t, &mut on_sample, &mut |m| {
             labels.push((scans.borrow().len(), m));
             Ok(())
         }),
-        None => recording::read(path, &topics, &mut on_sample),
+        None => samples::read(path, &topics, &mut on_sample),
     }
     .with_context(|| format!("reading {}", path.display()))?;
     let scans = scans.into_inner();

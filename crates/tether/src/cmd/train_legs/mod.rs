@@ -4,17 +4,16 @@
 
 mod adapt;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context;
-use tether_core::{Laser, LaserScan, Point2, RangeNoiseModel};
+use tether_core::RangeNoiseModel;
+use tether_eval::leg_data::{check_data_folder, labelled_scans, negative_scans};
 use tether_laser::training::{
-    NEGATIVE_BAG, POSITIVE_LABEL_TOPIC, POSITIVE_SCAN_TOPIC, TRAIN_NEGATIVE_TOPICS,
-    TRAIN_POSITIVE_BAGS, TrainingViews, default_adaboost_config, folds_from_scans,
-    train_with_cross_validation,
+    TRAIN_NEGATIVE_TOPICS, TRAIN_POSITIVE_BAGS, TrainingViews, default_adaboost_config,
+    folds_from_scans, train_with_cross_validation,
 };
 use tether_laser::{AdaBoostConfig, DetectorConfig, LegClassifier, LegDetector};
-use tether_recording::rosbag::{read_labelled_scans, read_scans};
 
 /// Options of `tether train-legs`. The defaults reproduce the built-in model.
 #[derive(Debug, clap::Args)]
@@ -80,71 +79,6 @@ pub struct Args {
     /// part is then also measured against them. Never used for training.
     #[arg(long, value_name = "TOPIC", requires = "from_recording")]
     pub truth_topic: Option<String>,
-}
-
-/// The labelled scans of the given positive bags, as (scan, leg centres) pairs.
-pub(crate) fn labelled_scans(
-    data: &Path,
-    bags: &[&str],
-) -> anyhow::Result<Vec<(LaserScan, Vec<Point2<Laser>>)>> {
-    let mut out = Vec::new();
-    for bag in bags {
-        let path = data.join(bag);
-        let read = read_labelled_scans(&path, POSITIVE_SCAN_TOPIC, POSITIVE_LABEL_TOPIC)
-            .with_context(|| format!("reading {}", path.display()))?;
-        if read.bad_count > 0 || read.unlabelled > 0 {
-            tracing::warn!(
-                "{}: skipped {} bad messages and {} scans without labels",
-                path.display(),
-                read.bad_count,
-                read.unlabelled
-            );
-        }
-        tracing::info!("{}: {} labelled scans", path.display(), read.scans.len());
-        out.extend(
-            read.scans
-                .into_iter()
-                .map(|s| (s.scan.scan, s.legs_in_laser)),
-        );
-    }
-    Ok(out)
-}
-
-/// The scans of the given topics of the bag without people.
-/// Refuses a `--data` that is not a folder, saying where it looked (a relative default
-/// is relative to the current folder, not to the checkout).
-pub(crate) fn check_data_folder(data: &Path) -> anyhow::Result<()> {
-    if data.is_dir() {
-        return Ok(());
-    }
-    let looked = std::path::absolute(data).unwrap_or_else(|_| data.to_path_buf());
-    anyhow::bail!(
-        "{} is not a folder (looked for {}); pass --data with the folder of leg_tracker's \
-         bags (their test split: {}; training: {})",
-        data.display(),
-        looked.display(),
-        tether_laser::training::TEST_POSITIVE_BAGS.join(", "),
-        TRAIN_POSITIVE_BAGS.join(", ")
-    )
-}
-
-pub(crate) fn negative_scans(data: &Path, topics: &[&str]) -> anyhow::Result<Vec<LaserScan>> {
-    let path = data.join(NEGATIVE_BAG);
-    let mut out = Vec::new();
-    for topic in topics {
-        let read =
-            read_scans(&path, topic).with_context(|| format!("reading {}", path.display()))?;
-        if read.bad_count > 0 {
-            tracing::warn!(
-                "{} {topic}: skipped {} bad messages",
-                path.display(),
-                read.bad_count
-            );
-        }
-        tracing::info!("{} {topic}: {} scans", path.display(), read.scans.len());
-        out.extend(read.scans.into_iter().map(|m| m.scan));
-    }
-    Ok(out)
 }
 
 /// Trains on the training split and writes the model.
