@@ -1,6 +1,7 @@
 //! The simulated robot on a ROS 2 graph (`tether sim --scenario NAME --ros2`), in real
 //! time. It publishes the simulated laser on `/scan` (best effort, keep last 5, frame
-//! `laser`), its mount on `/tf_static` (`base_link` -> `laser`, reliable and transient
+//! `laser`), each extra laser's scans on `/FRAME/scan` (frame `FRAME`, design 5.7), their
+//! mounts on `/tf_static` (`base_link` -> `laser`, -> `FRAME`, reliable and transient
 //! local) and, when the scenario's robot has odometry, its pose on `/odom` and `/tf`
 //! (`odom` -> `base_link`, 20 Hz), and drives from `/cmd_vel` (`Twist`, or `TwistStamped`
 //! with `--cmd-vel-stamped`). Like a real
@@ -65,7 +66,7 @@ pub struct Ros2RunSummary {
     pub sim_time_rate: Option<f64>,
     /// Simulated time, s.
     pub simulated_s: f64,
-    /// Scans published on `/scan`.
+    /// Scans published (`/scan` and the extra lasers').
     pub scans_published: u64,
     /// Odometry messages published on `/odom`.
     pub odometry_published: u64,
@@ -92,6 +93,8 @@ pub struct Ros2RunSummary {
 /// What the simulated robot publishes on.
 struct Publishers {
     scans: Publisher<Wire<LaserScanMsg>>,
+    /// `/FRAME/scan` of each extra laser, by frame.
+    extra_scans: Vec<(String, Publisher<Wire<LaserScanMsg>>)>,
     odom: Publisher<Wire<OdometryMsg>>,
     tf: Publisher<Wire<TfMessage>>,
     tf_static: Publisher<Wire<TfMessage>>,
@@ -105,8 +108,17 @@ struct Publishers {
 
 impl Publishers {
     /// The publishers of a run on `time`, with the camera's when `camera`.
-    fn new(node: &mut RosNode, time: SimTime, camera: bool) -> anyhow::Result<Self> {
+    fn new(node: &mut RosNode, time: SimTime, scenario: &Scenario) -> anyhow::Result<Self> {
+        let camera = scenario.camera_sim.enabled;
         let scans = node.publisher::<LaserScanMsg>("/scan", qos::sensor_data())?;
+        let mut extra_scans = Vec::new();
+        for l in &scenario.extra_lasers {
+            let topic = format!("/{}/scan", l.frame_id);
+            extra_scans.push((
+                l.frame_id.clone(),
+                node.publisher::<LaserScanMsg>(&topic, qos::sensor_data())?,
+            ));
+        }
         let odom = node.publisher::<OdometryMsg>("/odom", qos::sensor_data())?;
         let tf = node.publisher::<TfMessage>("/tf", qos::reliable(100))?;
         let tf_static = node.publisher::<TfMessage>("/tf_static", qos::latched(1))?;
@@ -129,6 +141,7 @@ impl Publishers {
         };
         Ok(Publishers {
             scans,
+            extra_scans,
             odom,
             tf,
             tf_static,
@@ -140,19 +153,29 @@ impl Publishers {
 
     /// The robot's pose on `/odom` (with the commanded velocity) and on `/tf`
     /// (`odom` -> `base_link`).
-    /// Publishes a scan on `/scan`, stamped `stamp`, its beams spread over `period_s`.
+    /// Publishes a scan on `/scan` (an extra laser's on `/FRAME/scan`), stamped
+    /// `stamp`, its beams spread over `period_s`.
     fn scan(
         &self,
         mut scan: tether_core::LaserScan,
         stamp: Stamp,
         period_s: f64,
     ) -> anyhow::Result<()> {
+        let publisher = if scan.frame_id == LASER_FRAME {
+            &self.scans
+        } else {
+            match self.extra_scans.iter().find(|(f, _)| *f == scan.frame_id) {
+                Some((_, p)) => p,
+                None => anyhow::bail!("a scan of frame {} that no laser has", scan.frame_id),
+            }
+        };
         scan.stamp = stamp;
         let beams = scan.len().max(1) as f64;
+        let frame = scan.frame_id.clone();
         let msg = LaserScanMsg::new(scan, period_s / beams, period_s);
-        self.scans
+        publisher
             .publish(Wire(msg))
-            .map_err(|e| anyhow::anyhow!("/scan: {e:?}"))
+            .map_err(|e| anyhow::anyhow!("the scan of {frame}: {e:?}"))
     }
 
     fn odometry(
@@ -251,6 +274,16 @@ fn static_transforms(scenario: &Scenario, stamp: Stamp) -> TfMessage {
         child_frame_id: "laser".into(),
         transform: mount,
     }];
+    for l in &scenario.extra_lasers {
+        let m = l.laser.mount;
+        let mut mount = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
+        mount.position_m[2] = m.height_m;
+        transforms.push(TransformStampedMsg {
+            header: Header::new(stamp, "base_link"),
+            child_frame_id: l.frame_id.clone(),
+            transform: mount,
+        });
+    }
     if scenario.camera_sim.enabled {
         transforms.push(TransformStampedMsg {
             header: Header::new(stamp, "base_link"),
@@ -270,15 +303,13 @@ fn announce(
     odometry: bool,
     clock: bool,
 ) {
-    if !scenario.extra_lasers.is_empty() {
-        tracing::warn!(
-            "the scenario's {} extra lasers are not published: only the first laser's \
-             scans go out, on /scan",
-            scenario.extra_lasers.len()
-        );
-    }
+    let extra: String = scenario
+        .extra_lasers
+        .iter()
+        .map(|l| format!(", /{}/scan", l.frame_id))
+        .collect();
     tracing::info!(
-        "simulating `{}` (seed {seed}) on ROS 2 domain {domain_id} {}: /scan{}{}{}, driving \
+        "simulating `{}` (seed {seed}) on ROS 2 domain {domain_id} {}: /scan{extra}{}{}{}, driving \
          from /cmd_vel; follow with `tether ros2 --scenario {}{}{}`",
         scenario.name,
         match time {
@@ -358,7 +389,7 @@ pub fn run(
         namespace: "/".into(),
         domain_id,
     })?;
-    let out = Publishers::new(&mut node, time, scenario.camera_sim.enabled)?;
+    let out = Publishers::new(&mut node, time, scenario)?;
     // The simulated time now, ns, for the reader to stamp the commands with.
     let sim_now = Arc::new(AtomicI64::new(0));
     let latest: Latest = Arc::new(Mutex::new(None));
@@ -450,11 +481,10 @@ pub fn run(
             summary.first_motion_s = Some(t_ns as f64 * 1e-9);
         }
         match event.data {
-            SensorData::Scan(scan) if scan.frame_id == LASER_FRAME => {
+            SensorData::Scan(scan) => {
                 out.scan(scan, stamp, scan_period_s)?;
                 summary.scans_published += 1;
             }
-            SensorData::Scan(_) => {} // an extra laser's: not published (`announce`)
             SensorData::Timer => {
                 let truth = &event.truth;
                 timer_events += 1;

@@ -11,7 +11,7 @@ use std::sync::{Arc, Mutex};
 use anyhow::Context;
 use serde::{Deserialize, Serialize};
 use tether_scip::emulator::{EmulatorConfig, ScanSource};
-use tether_sim::{Command, Scenario, Simulation, Truth};
+use tether_sim::{Command, Scenario, SensorData, Simulation, Truth};
 
 /// The newest command received and how many came so far.
 pub type CommandInbox = Arc<Mutex<(u64, Command)>>;
@@ -190,6 +190,8 @@ pub struct SimulatedScans {
     seed: u64,
     sim: Simulation,
     beams: usize,
+    /// The extra laser served (`None`: the first).
+    frame: Option<String>,
     commands: Option<(CommandInbox, u64)>,
     truth: Option<Box<dyn Write + Send>>,
 }
@@ -224,8 +226,13 @@ impl ScanSource for SimulatedScans {
         // At most two passes: the scenario may end and start over once.
         for _ in 0..2 {
             while let Some(event) = self.sim.advance() {
-                // The emulated Hokuyo is the first laser; extra lasers are not served.
-                if let Some(scan) = event.data.first_laser_scan() {
+                // The emulated Hokuyo is one laser: the first, or the extra one asked for.
+                let scan = match (&self.frame, &event.data) {
+                    (None, data) => data.first_laser_scan(),
+                    (Some(f), SensorData::Scan(scan)) if scan.frame_id == *f => Some(scan),
+                    _ => None,
+                };
+                if let Some(scan) = scan {
                     if let Some(out) = self.truth.as_mut()
                         && let Err(e) = write_truth(out.as_mut(), &event.truth)
                     {
@@ -259,10 +266,12 @@ impl ScanSource for SimulatedScans {
 }
 
 /// The scans of `scenario` (robot still) and the emulator configuration of its laser
-/// (step geometry, range limits, scan rate).
+/// (step geometry, range limits, scan rate): the first laser's, or with `frame` the
+/// extra laser's of that frame.
 pub fn simulated_scans(
     scenario: &Scenario,
     seed: u64,
+    frame: Option<&str>,
 ) -> anyhow::Result<(SimulatedScans, EmulatorConfig)> {
     anyhow::ensure!(
         scenario.laser_sim.enabled,
@@ -271,7 +280,26 @@ pub fn simulated_scans(
     );
     let sim = Simulation::new(scenario, seed)
         .with_context(|| format!("building scenario `{}`", scenario.name))?;
-    let laser = &scenario.laser;
+    let laser = match frame {
+        None => &scenario.laser,
+        Some(f) => match scenario.extra_lasers.iter().find(|l| l.frame_id == f) {
+            Some(extra) => &extra.laser,
+            None => anyhow::bail!(
+                "scenario `{}` has no extra laser of frame {f:?} (it has: {})",
+                scenario.name,
+                if scenario.extra_lasers.is_empty() {
+                    "none".to_owned()
+                } else {
+                    scenario
+                        .extra_lasers
+                        .iter()
+                        .map(|l| l.frame_id.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                }
+            ),
+        },
+    };
     let config = EmulatorConfig {
         geometry: laser.geometry,
         // A URG-04LX accepts steps up to 768, 43 past its last measured one.
@@ -286,6 +314,7 @@ pub fn simulated_scans(
         seed,
         sim,
         beams: laser.geometry.beam_count(),
+        frame: frame.map(str::to_owned),
         commands: None,
         truth: None,
     };

@@ -40,7 +40,8 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use tether_control::{LimitsError, SafetyConfigError, SpringConfigError, SpringGains};
 use tether_core::{
-    CameraIntrinsics, CameraModel, CameraModelError, CameraMount, LaserModelError, LaserMount,
+    CameraIntrinsics, CameraModel, CameraModelError, CameraMount, ExtraLaser, LaserModelError,
+    LaserMount,
 };
 use tether_pipeline::PipelineConfig;
 
@@ -112,8 +113,9 @@ impl ConfigError {
 pub struct RobotConfig {
     /// The base: footprint, wheel geometry and limits.
     pub robot: RobotSection,
-    /// The laser scanner: where it is plugged in and where it sits.
-    pub laser: LaserSection,
+    /// The laser scanner: where it is plugged in and where it sits (`[laser]`), or the
+    /// scanners (`[[laser]]` each; design 5.7).
+    pub laser: Lasers,
     /// The camera, if the robot has one.
     pub camera: Option<CameraSection>,
     /// How the robot follows.
@@ -155,6 +157,10 @@ pub struct LaserSection {
     pub tcp: Option<String>,
     /// Where the scanner sits on the robot.
     pub mount: MountSection,
+    /// The `frame_id` of its scans: `laser` for the first when left out; each further
+    /// `[[laser]]` names its own (e.g. `rear_laser`).
+    #[serde(default)]
+    pub frame_id: Option<String>,
     /// How long a laser that stops answering (a cable pulled and plugged back, a sensor
     /// restarting) is tried again before the run ends, s; `0` ends the run at once.
     /// The robot stands meanwhile (`[pipeline.safety] laser_timeout_s`). Optional,
@@ -428,52 +434,82 @@ fn finite(field: &str, value: f64) -> Result<(), (String, String)> {
 }
 
 impl LaserSection {
-    /// Checks `[laser]`; `laser_link`: the run reads the laser itself (`tether run`),
-    /// so it needs `serial` or `tcp`.
-    fn validate(&self, laser_link: bool) -> Result<(), (String, String)> {
+    /// Checks one scanner's table, named `key` in errors (`laser`, `laser[1]`);
+    /// `laser_link`: the run reads the laser itself (`tether run`), so it needs
+    /// `serial` or `tcp`.
+    fn validate(&self, laser_link: bool, key: &str) -> Result<(), (String, String)> {
         let l = self;
+        let field = |name: &str| format!("{key}.{name}");
         match (&l.serial, &l.tcp) {
             (Some(_), Some(_)) => {
                 return Err((
-                    "laser".into(),
+                    key.into(),
                     "has both `serial` and `tcp`: the laser is on one of them".into(),
                 ));
             }
             (None, None) if laser_link => {
                 return Err((
-                    "laser".into(),
+                    key.into(),
                     "needs `serial = \"/dev/ttyACM0\"` or `tcp = \"host:port\"`".into(),
                 ));
             }
             (Some(path), None) if path.is_empty() => {
-                return Err(("laser.serial".into(), "is empty".into()));
+                return Err((field("serial"), "is empty".into()));
             }
             (None, Some(addr)) if addr.is_empty() => {
-                return Err(("laser.tcp".into(), "is empty".into()));
+                return Err((field("tcp"), "is empty".into()));
             }
             _ => {}
         }
         if l.tcp.is_some() && l.baud.is_some() {
             return Err((
-                "laser.baud".into(),
+                field("baud"),
                 "only applies to `serial`, not to `tcp`".into(),
             ));
         }
         if l.baud == Some(0) {
-            return Err(("laser.baud".into(), "= 0: must be a baud rate".into()));
+            return Err((field("baud"), "= 0: must be a baud rate".into()));
         }
         if !(l.reconnect_s.is_finite() && (0.0..=3600.0).contains(&l.reconnect_s)) {
             return Err((
-                "laser.reconnect_s".into(),
+                field("reconnect_s"),
                 format!("= {:?}: must be in [0, 3600] s", l.reconnect_s),
             ));
         }
         let m = &l.mount;
-        finite("laser.mount.x_m", m.x_m)?;
-        finite("laser.mount.y_m", m.y_m)?;
-        finite("laser.mount.yaw_rad", m.yaw_rad)?;
-        positive("laser.mount.height_m", m.height_m)?;
+        finite(&field("mount.x_m"), m.x_m)?;
+        finite(&field("mount.y_m"), m.y_m)?;
+        finite(&field("mount.yaw_rad"), m.yaw_rad)?;
+        positive(&field("mount.height_m"), m.height_m)?;
         Ok(())
+    }
+
+    /// Where this scanner is plugged in.
+    pub fn link(&self) -> LaserLink {
+        match (&self.serial, &self.tcp) {
+            (Some(path), _) => LaserLink::Serial {
+                path: path.clone(),
+                baud: self.baud.unwrap_or(tether_scip::DEFAULT_BAUD_RATE),
+            },
+            (None, Some(address)) => LaserLink::Tcp {
+                address: address.clone(),
+            },
+            // `validate` refuses a laser without either.
+            (None, None) => LaserLink::Tcp {
+                address: String::new(),
+            },
+        }
+    }
+
+    /// Its mount, as the pipeline's laser model takes it.
+    pub fn laser_mount(&self) -> LaserMount {
+        let m = &self.mount;
+        LaserMount {
+            x_m: m.x_m,
+            y_m: m.y_m,
+            yaw_rad: m.yaw_rad,
+            height_m: m.height_m,
+        }
     }
 }
 
@@ -659,19 +695,21 @@ impl RobotConfig {
                 });
             }
         }
-        // A live robot reads one scanner, `[laser]`, today (design 5.7): extra ones
+        // `tether run` reads the scanners of `[[laser]]` (design 5.7): extra ones here
         // would never be heard, and the laser watchdog would hold the robot for good.
-        if table
-            .get("pipeline")
-            .and_then(|p| p.get("extra_lasers"))
-            .is_some()
+        // `tether ros2` reads each from a topic of its own.
+        if laser_link
+            && table
+                .get("pipeline")
+                .and_then(|p| p.get("extra_lasers"))
+                .is_some()
         {
             return Err(ConfigError::Invalid {
                 path: path.to_path_buf(),
                 field: "pipeline.extra_lasers".into(),
-                message: "is not read by `tether run` or `tether ros2` yet (one scanner, \
-                          `[laser]`); several scanners are for the simulator and \
-                          `tether track`'s --config (design 5.7): remove it here"
+                message: "is not read by `tether run`, which reads its scanners from \
+                          `[[laser]]` (one table each, with `frame_id` and where it is plugged \
+                          in; design 5.7): move it there"
                     .into(),
             });
         }
@@ -720,21 +758,9 @@ impl RobotConfig {
         Ok(())
     }
 
-    /// Where the laser is.
+    /// Where the (first) laser is.
     pub fn laser_link(&self) -> LaserLink {
-        match (&self.laser.serial, &self.laser.tcp) {
-            (Some(path), _) => LaserLink::Serial {
-                path: path.clone(),
-                baud: self.laser.baud.unwrap_or(tether_scip::DEFAULT_BAUD_RATE),
-            },
-            (None, Some(address)) => LaserLink::Tcp {
-                address: address.clone(),
-            },
-            // `validate` refuses a laser without either.
-            (None, None) => LaserLink::Tcp {
-                address: String::new(),
-            },
-        }
+        self.laser.link()
     }
 
     /// Where the camera frames come from, if there is a camera.
@@ -764,13 +790,17 @@ impl RobotConfig {
         p.limits.max_wheel_speed_mps = r.max_wheel_speed_mps;
         p.limits.max_accel_mps2 = r.max_accel_mps2;
         p.safety.robot_radius_m = r.radius_m;
-        let m = &self.laser.mount;
-        p.laser.mount = LaserMount {
-            x_m: m.x_m,
-            y_m: m.y_m,
-            yaw_rad: m.yaw_rad,
-            height_m: m.height_m,
-        };
+        p.laser.mount = self.laser.laser_mount();
+        // Each further scanner: the first's model at its own mount (a SCIP sensor's
+        // geometry replaces it at the start), its scans told apart by their frame.
+        for extra in self.laser.extra() {
+            let mut laser = p.laser.clone();
+            laser.mount = extra.laser_mount();
+            p.extra_lasers.push(ExtraLaser {
+                frame_id: extra.frame_id.clone().unwrap_or_default(),
+                laser,
+            });
+        }
         let f = &self.follow;
         p.follower.follow_distance_m = f.follow_distance_m;
         p.follower.attach_ahead_m = f.attach_ahead_m;
@@ -812,5 +842,8 @@ impl RobotConfig {
     }
 }
 
+mod lasers;
 #[cfg(test)]
 mod tests;
+
+pub use lasers::{FIRST_LASER_FRAME, Lasers};

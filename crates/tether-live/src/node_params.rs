@@ -89,6 +89,12 @@ pub const NODE_PARAMS: &[NodeParam] = &[
         "the camera's people from tether's cascade on the frames, or another node's boxes",
     ),
     node(
+        "extra_scan_topics",
+        "[]",
+        "list of topics",
+        "the scans of more scanners, each a laser of its own (its mount from /tf_static or the configuration)",
+    ),
+    node(
         "detection_class",
         "person",
         "class name",

@@ -5,9 +5,10 @@
 //!
 //! Per scan and per camera frame the caller gets the pipeline's tick, the
 //! `world_from_robot` used for it and the tracker's tracks after it; per scan also the
-//! scan and `robot_from_laser` of the configuration, so that it can put the tracks (in
-//! the world frame) and the scan's labels (in the laser frame) in one frame:
-//! `world_from_laser = world_from_robot * robot_from_laser`.
+//! scan and the configured `robot_from_laser` of its laser, so that it can put the
+//! tracks (in the world frame) and the scan's labels (in the laser frame) in one frame:
+//! `world_from_laser = world_from_robot * robot_from_laser`. With scan matching, the
+//! first laser's scans are matched; another scanner's take the pose of the last match.
 
 use crate::ego::ScanOdometry;
 use std::cell::RefCell;
@@ -41,7 +42,7 @@ pub struct ScanStep<'a> {
     pub tick: &'a Tick,
     /// The robot's pose the scan was processed with.
     pub world_from_robot: Pose2<World, Robot>,
-    /// Where the laser sits on the robot.
+    /// Where the scan's laser sits on the robot.
     pub robot_from_laser: Pose2<Robot, Laser>,
     /// The tracker's tracks after the tick.
     pub tracks: &'a [Track],
@@ -110,7 +111,6 @@ pub fn run_recording(
     mut poses: Poses<'_>,
     on_step: &mut dyn FnMut(Step<'_>) -> anyhow::Result<()>,
 ) -> anyhow::Result<RunCounts> {
-    let robot_from_laser = pipeline.config().laser.robot_from_laser();
     let mut pose: Option<Pose2<World, Robot>> =
         (!matches!(poses, Poses::Odometry)).then_some(Pose2::IDENTITY);
     let mut counts = RunCounts::default();
@@ -148,7 +148,11 @@ pub fn run_recording(
             }
             Sample::Scan(scan) => {
                 counts.scans_read += 1;
-                if let Poses::ScanMatching(odometry) = &mut poses {
+                // The matcher aligns the first laser's scans (at its mount); another
+                // scanner's take the pose of the last one (design 5.7).
+                if let Poses::ScanMatching(odometry) = &mut poses
+                    && pipeline.is_first_lasers(&scan.frame_id)
+                {
                     let people = crate::ego::moving_people(pipeline.tracker().tracks());
                     pose = Some(odometry.update(&scan, MotionPrior::ConstantVelocity, people));
                 }
@@ -162,7 +166,7 @@ pub fn run_recording(
                     scan: &scan,
                     tick: &tick,
                     world_from_robot,
-                    robot_from_laser,
+                    robot_from_laser: pipeline.robot_from_laser_of(&scan.frame_id),
                     tracks: pipeline.tracker().tracks(),
                 }))?;
             }

@@ -272,15 +272,34 @@ fn start(
     let (tx, rx) = mpsc::sync_channel(CHANNEL_DEPTH);
     // The leg model is read once, before the laser spins: a wrong path is found now.
     let leg_model = crate::leg_model::classifier(&pipeline_config.legs)?;
+    let spec = |l: &crate::config::LaserSection, frame: &str| scip::LaserSpec {
+        link: l.link(),
+        reconnect_s: l.reconnect_s,
+        frame_id: frame.to_owned(),
+    };
     let laser = scip::start(
-        &config.laser_link(),
-        config.laser.reconnect_s,
+        &spec(&config.laser, config.laser.first_frame()),
         clock,
-        &mut pipeline_config,
-        tx.clone(),
-        Arc::clone(stop),
+        &mut pipeline_config.laser,
+        (tx.clone(), Arc::clone(stop)),
     )?;
     let mut threads = vec![("laser", laser.thread)];
+    // Each further scanner streams on a thread of its own into the same channel; its
+    // geometry goes into its extra laser (`pipeline_config` made one per `[[laser]]`).
+    for (section, extra) in config
+        .laser
+        .extra()
+        .iter()
+        .zip(pipeline_config.extra_lasers.iter_mut())
+    {
+        let started = scip::start(
+            &spec(section, &extra.frame_id),
+            clock,
+            &mut extra.laser,
+            (tx.clone(), Arc::clone(stop)),
+        )?;
+        threads.push(("laser", started.thread));
+    }
     if let Some(camera) = camera {
         let record = config.output.record.is_some();
         threads.push(("camera", camera.spawn(clock, tx, Arc::clone(stop), record)?));

@@ -236,7 +236,11 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
             return self.emit(&tick, pose);
         }
         let dead_reckoned = self.odometry.pose_at(scan.stamp);
+        // The matcher aligns the first laser's scans (at that laser's mount); another
+        // scanner's scans take the pose between them.
+        let first = self.pipeline.is_first_lasers(&scan.frame_id);
         let pose = match self.scan_odometry.as_mut() {
+            Some(_) if !first => self.correction * dead_reckoned,
             Some(matcher) => {
                 let increment = self
                     .dead_reckoned_at_last_scan

@@ -164,6 +164,17 @@ impl Pipeline {
         tick
     }
 
+    /// Where the laser that takes the scans of `frame_id` sits on the robot.
+    pub fn robot_from_laser_of(&self, frame_id: &str) -> Pose2<Robot, Laser> {
+        self.lasers[self.laser_of(frame_id)].robot_from_laser()
+    }
+
+    /// Whether the scans of `frame_id` are the first laser's (no `[[extra_lasers]]`
+    /// entry takes them): the ones the scan matcher aligns, at the first laser's mount.
+    pub fn is_first_lasers(&self, frame_id: &str) -> bool {
+        self.laser_of(frame_id) == 0
+    }
+
     /// Which laser a scan of `frame_id` is from: the extra laser of that frame, else
     /// the first.
     fn laser_of(&self, frame_id: &str) -> usize {

@@ -18,8 +18,9 @@ use std::time::{Duration, Instant};
 
 use common::live::{Proc, announced_endpoint};
 use common::run::{
-    assert_final_stop, config, emulator, emulator_reading, following, following_with, json, run,
-    spawn, wait_for_lines, wait_until, wait_until_driving,
+    assert_final_stop, config, emulator, emulator_reading, emulator_truth, following,
+    following_with, free_loopback_address, gap_to_target, json, run, spawn, wait_for_lines,
+    wait_until, wait_until_driving, xy,
 };
 use common::{scratch, tether, text};
 use tether_testkit::{opencv_cascade, or_skip};
@@ -61,24 +62,9 @@ fn run_follows_the_emulators_person() {
     );
 
     // The emulator's truth: the robot drove after the person and kept its distance.
-    let truth: Vec<serde_json::Value> = std::fs::read_to_string(dir.join("truth.jsonl"))
-        .unwrap()
-        .lines()
-        .map(json)
-        .collect();
+    let truth = emulator_truth(&dir.join("truth.jsonl"));
     assert!(truth.len() > 60, "only {} scans served", truth.len());
-    let xy = |v: &serde_json::Value| (v["x"].as_f64().unwrap(), v["y"].as_f64().unwrap());
-    let gap = |t: &serde_json::Value| {
-        let (rx, ry) = xy(&t["robot"]);
-        let target = t["people"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|p| p["target"] == true)
-            .unwrap();
-        let (px, py) = xy(target);
-        (px - rx).hypot(py - ry)
-    };
+    let gap = gap_to_target;
     let (x0, _) = xy(&truth[0]["robot"]);
     let last = truth.last().unwrap();
     let (x1, y1) = xy(&last["robot"]);
@@ -260,12 +246,6 @@ fn a_vanished_laser_stops_the_robot_and_fails_clearly() {
     );
     assert!(stderr.contains("the laser failed"), "{stderr}");
     assert_final_stop(&lines, "laser_failed", &stderr);
-}
-
-/// A free TCP port on loopback (bound, then let go).
-fn free_loopback_address() -> String {
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-    listener.local_addr().unwrap().to_string()
 }
 
 /// The emulator serving `corridor` on `address` (TCP), its robot driven by its stdin.

@@ -215,11 +215,17 @@ fn pipeline_may_not_repeat_what_the_robot_tables_own() {
 }
 
 #[test]
-fn a_live_robot_s_config_refuses_extra_lasers_it_would_never_hear() {
+fn tether_run_refuses_extra_lasers_it_would_never_hear_and_ros2_reads_them() {
     let text = format!("{MINIMAL}\n[[pipeline.extra_lasers]]\nframe_id = \"rear_laser\"\n");
     let e = parse(&text).unwrap_err();
     assert_eq!(e.field(), Some("pipeline.extra_lasers"));
-    assert!(e.to_string().contains("one scanner"), "{e}");
+    assert!(e.to_string().contains("[[laser]]"), "{e}");
+    // `tether ros2` reads each extra laser from a topic of its own.
+    let c = RobotConfig::parse_checked(&text, Path::new("robot.toml"), false).unwrap();
+    assert_eq!(
+        c.pipeline_config().unwrap().extra_lasers[0].frame_id,
+        "rear_laser"
+    );
 }
 
 #[test]
@@ -355,4 +361,81 @@ proptest::proptest! {
     fn arbitrary_text_never_panics(text in "[\\[\\]a-z_=.0-9\"\n {}-]{0,200}") {
         let _ = parse(&text);
     }
+}
+
+/// `MINIMAL` with its `[laser]` as the first `[[laser]]` and `rear` (the keys of a
+/// second one) after it.
+fn two_lasers(rear: &str) -> String {
+    MINIMAL
+        .replace("[laser]", "[[laser]]")
+        .replace("\n[follow]", &format!("\n[[laser]]\n{rear}\n\n[follow]"))
+}
+
+#[test]
+fn each_laser_table_is_a_scanner_its_scans_told_apart_by_their_frame() {
+    let rear = "tcp = \"192.168.0.11:10940\"\nframe_id = \"rear_laser\"\n\
+                mount = { x_m = -0.1, y_m = 0.0, yaw_rad = 3.0, height_m = 0.3 }";
+    let c = parse(&two_lasers(rear)).unwrap();
+    assert_eq!(c.laser.extra().len(), 1);
+    assert_eq!(c.laser.first_frame(), "laser");
+    assert_eq!(c.laser_link(), parse(MINIMAL).unwrap().laser_link());
+    assert_eq!(
+        c.laser.extra()[0].link(),
+        LaserLink::Tcp {
+            address: "192.168.0.11:10940".into()
+        }
+    );
+    let p = c.pipeline_config().unwrap();
+    assert_eq!(p.laser.mount.x_m, 0.1);
+    assert_eq!(p.extra_lasers.len(), 1);
+    assert_eq!(p.extra_lasers[0].frame_id, "rear_laser");
+    assert_eq!(p.extra_lasers[0].laser.mount.x_m, -0.1);
+    assert_eq!(p.extra_lasers[0].laser.mount.yaw_rad, 3.0);
+    // One `[[laser]]` is the same as `[laser]`.
+    assert_eq!(
+        parse(&MINIMAL.replace("[laser]", "[[laser]]")).unwrap(),
+        parse(MINIMAL).unwrap()
+    );
+}
+
+#[test]
+fn a_second_laser_without_a_frame_of_its_own_or_with_a_mistake_is_named() {
+    let mount = "mount = { x_m = -0.1, y_m = 0.0, yaw_rad = 3.1, height_m = 0.3 }";
+    for (rear, field) in [
+        (format!("tcp = \"10.0.0.2\"\n{mount}"), "laser[1].frame_id"),
+        (
+            format!("tcp = \"10.0.0.2\"\nframe_id = \"laser\"\n{mount}"),
+            "laser[1].frame_id",
+        ),
+        (format!("frame_id = \"rear\"\n{mount}"), "laser[1]"),
+        (
+            format!("tcp = \"10.0.0.2\"\nbaud = 9600\nframe_id = \"rear\"\n{mount}"),
+            "laser[1].baud",
+        ),
+        (
+            "tcp = \"10.0.0.2\"\nframe_id = \"rear\"\n\
+             mount = { x_m = -0.1, y_m = 0.0, yaw_rad = 3.1, height_m = -0.3 }"
+                .to_owned(),
+            "laser[1].mount.height_m",
+        ),
+    ] {
+        let e = parse(&two_lasers(&rear)).unwrap_err();
+        assert_eq!(e.field(), Some(field), "{rear}: {e}");
+    }
+    let e = parse(&two_lasers(&format!(
+        "tcp = \"10.0.0.2\"\nframe = \"rear\"\n{mount}"
+    )))
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("unknown field `frame`"), "{e}");
+    // No scanner at all: `laser = []` (before the first table, to be a top-level key).
+    let without = MINIMAL.replace(
+        "[laser]\nserial = \"/dev/ttyACM0\"\n\
+         mount = { x_m = 0.1, y_m = 0.0, yaw_rad = 0.0, height_m = 0.3 }\n",
+        "",
+    );
+    let e = parse(&format!("laser = []\n{without}"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("needs a scanner"), "{e}");
 }

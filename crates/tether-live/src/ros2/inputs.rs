@@ -24,6 +24,7 @@ use tether_ros2::{Received, Ros2Error, RosNode, offer, qos, spawn_reader};
 use tether_scip::Clock;
 use tether_vision::DetectError;
 
+use super::extra_scans::{ExtraScanTopic, Pass};
 use crate::clock::{LiveClock, SimClock};
 use crate::sources::{Input, LaserFault};
 
@@ -113,14 +114,15 @@ fn not_started(domain: u16, thread: &'static str) -> impl FnOnce(std::io::Error)
 }
 
 /// Subscribes to `topic` and sends its scans to the loop until `stop` fires or the
-/// loop goes away. Never blocks DDS: a full queue drops the scan (counted).
+/// loop goes away. Never blocks DDS: a full queue drops the scan (counted). An extra
+/// scan topic's scans pass its `gate` first ([`ExtraScanTopic::pass`]).
 pub fn start_scan_reader(
     node: &mut RosNode,
     topic: &str,
     clock: LiveClock,
-    tx: SyncSender<Input>,
-    stop: Receiver<()>,
+    (tx, stop): (SyncSender<Input>, Receiver<()>),
     counters: Arc<ScanCounters>,
+    gate: Option<Arc<ExtraScanTopic>>,
 ) -> Result<JoinHandle<()>, Ros2Error> {
     let domain = node.identity().domain_id;
     let subscription = node.subscribe::<LaserScanMsg>(topic, qos::sensor_data())?;
@@ -130,6 +132,12 @@ pub fn start_scan_reader(
         let input = match received {
             Received::Message { message, .. } => {
                 let mut scan = message.scan;
+                if gate
+                    .as_ref()
+                    .is_some_and(|g| g.pass(&scan.frame_id) != Pass::Take)
+                {
+                    return true;
+                }
                 let now = clock.now_ns();
                 match loop_stamp(scan.stamp.ns(), now) {
                     Some(_) => {}

@@ -7,6 +7,7 @@
 //! | topic | type | QoS |
 //! |---|---|---|
 //! | `scan` (in) | `sensor_msgs/msg/LaserScan` | best effort, keep last 5 (matches reliable and best-effort publishers) |
+//! | each of `extra_scan_topics` (in) | `sensor_msgs/msg/LaserScan` of another scanner, told apart by its `frame_id` ([`extra_scans`]) | as `scan` |
 //! | `odom` (in) | `nav_msgs/msg/Odometry` (the pose of `child_frame_id` in `header.frame_id`) | best effort, keep last 5 |
 //! | `tf` (in) | `tf2_msgs/msg/TFMessage`: `fixed_frame` -> `base_frame`, the base's pose while `odom` is silent | best effort, keep last 5 |
 //! | `clock` (in, with `use_sim_time`) | `rosgraph_msgs/msg/Clock` | best effort, keep last 1 |
@@ -25,6 +26,7 @@
 //! it is free (frames it had no time for are counted as superseded, never queued).
 
 pub mod camera_mount;
+pub mod extra_scans;
 pub mod guard;
 pub mod inputs;
 pub mod node;

@@ -30,6 +30,7 @@ use tether_scanmatch::ScanMatcherConfig;
 use tether_scip::Clock;
 
 use super::camera_mount::{camera_mount_from_tf, camera_pose, is_optical_frame};
+use super::extra_scans::{self, ExtraScanTopic};
 use super::guard::CmdVelGuardSpec;
 use super::inputs::{
     CameraCounters, FrameError, LatestFrame, ScanCounters, start_camera_reader, start_clock_reader,
@@ -110,6 +111,9 @@ pub struct NodeSettings {
     /// Take the `odom` topic (and `/tf`) as the robot's pose once it publishes (see
     /// [`LoopConfig::odometry_input`]).
     pub odometry_input: bool,
+    /// The scan topics of more scanners (names as `scan`'s, resolved alike), each
+    /// given a laser of its own at the start ([`super::extra_scans`]).
+    pub extra_scan_topics: Vec<String>,
 }
 
 /// What a node's run did, for its summary.
@@ -130,6 +134,8 @@ pub struct NodeReport {
     pub tf_topic: String,
     /// The topic the scans were read from.
     pub scan_topic: String,
+    /// The extra scan topics, with the frames they were taken for and their counts.
+    pub extra_scans: Vec<Arc<ExtraScanTopic>>,
 }
 
 /// Why the node could not start.
@@ -200,11 +206,16 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         duration,
         scan_odometry,
         odometry_input,
+        extra_scan_topics,
     } = settings;
     // Checked now, so a bad config fails before the node joins the graph.
     crate::leg_model::pipeline(pipeline.clone())?;
     let topic = |name: &str| ros.topic(name, &identity.name, &identity.namespace);
     let scan_topic = topic("scan");
+    let extra_scans: Vec<Arc<ExtraScanTopic>> = extra_scan_topics
+        .iter()
+        .map(|t| Arc::new(ExtraScanTopic::new(&topic(t))))
+        .collect();
     let tf_topic = topic("tf");
     let outputs = OutputTopics {
         cmd_vel: publish_cmd_vel.then(|| topic("cmd_vel")),
@@ -242,15 +253,18 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         tx,
         use_sim_time,
         (&fixed_frame, &base_frame),
-        camera.as_ref(),
-        intrinsics,
+        (camera.as_ref(), intrinsics),
+        &extra_scans,
     )?;
     let tf_static_topic = topic("tf_static");
     let (stop_graph, graph_stops) = mpsc::channel::<()>();
     let graph_thread = watch_graph(node.graph_watcher(), graph_stops)?;
     announce(
         &identity,
-        &scan_topic,
+        &std::iter::once(scan_topic.as_str())
+            .chain(extra_scans.iter().map(|t| t.topic.as_str()))
+            .collect::<Vec<_>>()
+            .join(", "),
         &outputs,
         &fixed_frame,
         guard.is_some(),
@@ -262,6 +276,7 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         camera_counters: &camera_counters,
         base_frame: &base_frame,
         scan_topic: &scan_topic,
+        extra_scans: &extra_scans,
         tf_static_topic: &tf_static_topic,
         mount_given,
         camera: camera.is_some(),
@@ -321,6 +336,7 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         clock,
         tf_topic,
         scan_topic,
+        extra_scans,
     })
 }
 
@@ -349,8 +365,8 @@ fn start_inputs(
     tx: mpsc::SyncSender<Input>,
     use_sim_time: bool,
     (fixed_frame, base_frame): (&str, &str),
-    camera: Option<&NodeCamera>,
-    intrinsics: tether_core::CameraIntrinsics,
+    (camera, intrinsics): (Option<&NodeCamera>, tether_core::CameraIntrinsics),
+    extra_scans: &[Arc<ExtraScanTopic>],
 ) -> Result<Inputs, NodeError> {
     let mut threads: Vec<(&'static str, StoppableThread)> = Vec::new();
     let clock = if use_sim_time {
@@ -406,14 +422,26 @@ fn start_inputs(
         "tf_static",
         start_tf_static_reader(node, &topic("tf_static"), &transforms)?,
     ));
+    for extra in extra_scans {
+        let (stop_reader, reader_stops) = mpsc::channel();
+        let reader = start_scan_reader(
+            node,
+            &extra.topic,
+            clock.clone(),
+            (tx.clone(), reader_stops),
+            Arc::clone(&counters),
+            Some(Arc::clone(extra)),
+        )?;
+        threads.push(("extra scan", (stop_reader, reader)));
+    }
     let (stop_reader, reader_stops) = mpsc::channel();
     let reader = start_scan_reader(
         node,
         &topic("scan"),
         clock.clone(),
-        tx,
-        reader_stops,
+        (tx, reader_stops),
         Arc::clone(&counters),
+        None,
     )?;
     threads.push(("scan", (stop_reader, reader)));
     Ok(Inputs {
@@ -519,6 +547,7 @@ struct StartMounts<'a> {
     camera_counters: &'a CameraCounters,
     base_frame: &'a str,
     scan_topic: &'a str,
+    extra_scans: &'a [Arc<ExtraScanTopic>],
     tf_static_topic: &'a str,
     mount_given: bool,
     camera: bool,
@@ -536,7 +565,7 @@ impl StartMounts<'_> {
         stamp_ns: i64,
     ) -> Result<Option<Publisher<Wire<TfMessage>>>, NodeError> {
         let mounts_by = std::time::Instant::now() + TF_WAIT;
-        let unmounted_frame = mount_from_tf(
+        let (first_frame, unmounted_frame) = mount_from_tf(
             self.rx,
             self.transforms,
             self.base_frame,
@@ -544,6 +573,7 @@ impl StartMounts<'_> {
             self.mount_given,
             pipeline,
         );
+        let extra_unmounted = self.extra_mounts(first_frame.as_deref(), mounts_by, pipeline);
         let unmounted_camera = if self.camera {
             camera_mount_from_tf(
                 self.rx,
@@ -564,6 +594,11 @@ impl StartMounts<'_> {
                 pose.position_m[2] = m.height_m;
                 unmounted.push(("laser", frame, pose));
             }
+            for (frame, m) in extra_unmounted {
+                let mut pose = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
+                pose.position_m[2] = m.height_m;
+                unmounted.push(("laser", frame, pose));
+            }
             if let Some(frame) = unmounted_camera {
                 let pose = camera_pose(&pipeline.camera.mount, is_optical_frame(&frame));
                 unmounted.push(("camera", frame, pose));
@@ -580,6 +615,42 @@ impl StartMounts<'_> {
             stamp_ns,
         )
         .map(Some)
+    }
+}
+
+impl StartMounts<'_> {
+    /// Waits until `mounts_by` for each extra scan topic's first scan and its mount on
+    /// `/tf_static` (the loop's inputs meanwhile are dropped, as they are while the
+    /// first laser's mount is awaited), then gives each its laser
+    /// ([`extra_scans::give_lasers`]). Returns the mounts taken from the configuration.
+    fn extra_mounts(
+        &self,
+        first_frame: Option<&str>,
+        mounts_by: std::time::Instant,
+        pipeline: &mut PipelineConfig,
+    ) -> Vec<(String, LaserMount)> {
+        if self.extra_scans.is_empty() {
+            return Vec::new();
+        }
+        let all_known = || {
+            let tree = self.transforms.lock().unwrap_or_else(|e| e.into_inner());
+            self.extra_scans.iter().all(|t| {
+                t.heard()
+                    .is_some_and(|f| tree.lookup(self.base_frame, &f).is_some())
+            })
+        };
+        while std::time::Instant::now() < mounts_by && !all_known() {
+            let _ = self.rx.recv_timeout(Duration::from_millis(50));
+        }
+        let tree = self.transforms.lock().unwrap_or_else(|e| e.into_inner());
+        extra_scans::give_lasers(
+            self.extra_scans,
+            &tree,
+            self.base_frame,
+            first_frame,
+            self.mount_given,
+            pipeline,
+        )
     }
 }
 
@@ -741,7 +812,7 @@ const TF_WAIT: Duration = Duration::from_secs(5);
 /// is published within [`TF_WAIT`] of the start: the robot's description is what a ROS
 /// robot says about itself. Otherwise the config's (or the default) mount stays, with a
 /// warning naming the frames. The scans that arrive meanwhile are dropped. Returns the
-/// scans' frame when a scan came but no transform to it.
+/// scans' frame when one came, and again when no transform to it did.
 fn mount_from_tf(
     rx: &mpsc::Receiver<Input>,
     transforms: &Mutex<StaticTransforms>,
@@ -749,7 +820,7 @@ fn mount_from_tf(
     scan_topic: &str,
     mount_given: bool,
     pipeline: &mut PipelineConfig,
-) -> Option<String> {
+) -> (Option<String>, Option<String>) {
     let started = std::time::Instant::now();
     let mut scan_frame = None;
     while started.elapsed() < TF_WAIT {
@@ -789,7 +860,7 @@ fn mount_from_tf(
                 mount.height_m
             );
             pipeline.laser.mount = mount;
-            return None;
+            return (scan_frame, None);
         }
     }
     let m = pipeline.laser.mount;
@@ -823,7 +894,7 @@ fn mount_from_tf(
             TF_WAIT.as_secs()
         ),
     }
-    scan_frame
+    (scan_frame.clone(), scan_frame)
 }
 
 /// The sensors' mounts as the robot's description: `base_frame` -> each sensor's frame

@@ -18,8 +18,7 @@ use std::sync::mpsc::SyncSender;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use tether_core::{LaserModelError, UrgGeometry};
-use tether_pipeline::PipelineConfig;
+use tether_core::{LaserModel, LaserModelError, UrgGeometry};
 use tether_scip::{
     DriverConfig, DriverEvent, Link, ScipError, UrgDriver, connect_tcp, open_serial,
 };
@@ -78,28 +77,39 @@ pub struct Laser {
 /// How often a laser that stopped answering is tried again.
 pub const REOPEN_EVERY: Duration = Duration::from_millis(500);
 
-/// Opens the laser of `link`, takes its geometry into `pipeline`'s laser model and
-/// starts its scans on a thread that sends them to `tx` until `stop` is set. A laser
-/// that stops answering is opened again for up to `reconnect_s` (the module's doc).
+/// One scanner of the robot: where it is plugged in, how long it is tried again when
+/// it stops answering, and the frame its scans carry.
+#[derive(Debug, Clone)]
+pub struct LaserSpec {
+    /// The port or address.
+    pub link: LaserLink,
+    /// How long a laser that stops answering is tried again, s.
+    pub reconnect_s: f64,
+    /// The `frame_id` of its scans (the pipeline tells the scanners apart by it).
+    pub frame_id: String,
+}
+
+/// Opens the laser of `spec`, takes its geometry into `model` and starts its scans on
+/// a thread that sends them to `tx` until `stop` is set. A laser that stops answering
+/// is opened again for up to `reconnect_s` (the module's doc).
 pub fn start(
-    link: &LaserLink,
-    reconnect_s: f64,
+    spec: &LaserSpec,
     clock: MonotonicClock,
-    pipeline: &mut PipelineConfig,
-    tx: SyncSender<Input>,
-    stop: Arc<AtomicBool>,
+    model: &mut LaserModel,
+    (tx, stop): (SyncSender<Input>, Arc<AtomicBool>),
 ) -> Result<Laser, LaserStartError> {
-    let reconnect = Duration::try_from_secs_f64(reconnect_s.max(0.0)).unwrap_or(Duration::ZERO);
-    match link {
+    let reconnect =
+        Duration::try_from_secs_f64(spec.reconnect_s.max(0.0)).unwrap_or(Duration::ZERO);
+    match &spec.link {
         LaserLink::Serial { path, baud } => {
             let (path, baud) = (path.clone(), *baud);
             let open = move || open_serial(&path, baud);
-            start_laser(open, reconnect, clock, link, pipeline, tx, stop)
+            start_laser(open, reconnect, clock, spec, model, (tx, stop))
         }
         LaserLink::Tcp { address } => {
             let address = address.clone();
             let open = move || connect_tcp(&address, Duration::from_secs(3));
-            start_laser(open, reconnect, clock, link, pipeline, tx, stop)
+            start_laser(open, reconnect, clock, spec, model, (tx, stop))
         }
     }
 }
@@ -125,13 +135,15 @@ struct Reopen<O> {
     within: Duration,
     /// The port or address.
     name: String,
+    /// The driver's settings (the scans' frame).
+    driver: DriverConfig,
 }
 
 impl<L: Link, O: FnMut() -> Result<L, ScipError>> Reopen<O> {
     /// One attempt: the link, the handshake, the same geometry, the stream started.
     fn attempt(&mut self) -> Result<UrgDriver<L, MonotonicClock>, ScipError> {
         let link = (self.open)()?;
-        let mut urg = UrgDriver::connect(link, self.clock, DriverConfig::default())?;
+        let mut urg = UrgDriver::connect(link, self.clock, self.driver.clone())?;
         if urg.info().geometry != self.geometry {
             return Err(ScipError::BadParameters {
                 field: "ARES/AMIN/AMAX/AFRT",
@@ -224,14 +236,17 @@ fn start_laser<L: Link + Send + 'static, O: FnMut() -> Result<L, ScipError> + Se
     mut open: O,
     reconnect: Duration,
     clock: MonotonicClock,
-    link: &LaserLink,
-    pipeline: &mut PipelineConfig,
-    tx: SyncSender<Input>,
-    stop: Arc<AtomicBool>,
+    spec: &LaserSpec,
+    laser: &mut LaserModel,
+    (tx, stop): (SyncSender<Input>, Arc<AtomicBool>),
 ) -> Result<Laser, LaserStartError> {
-    let name = link_name(link);
+    let name = link_name(&spec.link);
+    let driver = DriverConfig {
+        frame_id: spec.frame_id.clone(),
+        ..DriverConfig::default()
+    };
     let port = open().map_err(LaserStartError::Link)?;
-    let mut urg = UrgDriver::connect(port, clock, DriverConfig::default()).map_err(|source| {
+    let mut urg = UrgDriver::connect(port, clock, driver.clone()).map_err(|source| {
         LaserStartError::Handshake {
             name: name.to_owned(),
             source,
@@ -240,12 +255,11 @@ fn start_laser<L: Link + Send + 'static, O: FnMut() -> Result<L, ScipError> + Se
     let info = urg.info().clone();
     let model = info.parameters.get("MODL").cloned().unwrap_or_default();
     // The sensor knows its own steps and range limits better than a config file.
-    pipeline.laser.geometry = info.geometry;
-    pipeline.laser.range_min_m = f64::from(info.range_min_mm) / 1000.0;
-    pipeline.laser.range_max_m = f64::from(info.range_max_mm) / 1000.0;
-    pipeline.laser.scan_period_s = info.scan_period_s();
-    pipeline
-        .laser
+    laser.geometry = info.geometry;
+    laser.range_min_m = f64::from(info.range_min_mm) / 1000.0;
+    laser.range_max_m = f64::from(info.range_max_mm) / 1000.0;
+    laser.scan_period_s = info.scan_period_s();
+    laser
         .validate()
         .map_err(|source| LaserStartError::Geometry {
             name: name.to_owned(),
@@ -257,9 +271,10 @@ fn start_laser<L: Link + Send + 'static, O: FnMut() -> Result<L, ScipError> + Se
         source,
     })?;
     tracing::info!(
-        "laser {name}: {model}, {} beams, {:.1} Hz",
+        "laser {name}: {model}, {} beams, {:.1} Hz, frame {}",
         info.geometry.beam_count(),
-        1.0 / info.scan_period_s()
+        1.0 / info.scan_period_s(),
+        spec.frame_id
     );
     let reopen = Reopen {
         open,
@@ -267,9 +282,10 @@ fn start_laser<L: Link + Send + 'static, O: FnMut() -> Result<L, ScipError> + Se
         geometry: info.geometry,
         within: reconnect,
         name: name.to_owned(),
+        driver,
     };
     let thread = std::thread::Builder::new()
-        .name("laser".into())
+        .name(format!("laser {}", spec.frame_id))
         .spawn(move || laser_thread(urg, reopen, tx, stop))
         .map_err(LaserStartError::Thread)?;
     Ok(Laser {
@@ -325,17 +341,19 @@ mod tests {
     fn start_on(address: &str, reconnect_s: f64) -> (Laser, Receiver<Input>, Arc<AtomicBool>) {
         let (tx, rx) = sync_channel(crate::sources::CHANNEL_DEPTH);
         let stop = Arc::new(AtomicBool::new(false));
-        let link = LaserLink::Tcp {
-            address: address.to_owned(),
-        };
-        let mut pipeline = PipelineConfig::default();
-        let laser = start(
-            &link,
+        let spec = LaserSpec {
+            link: LaserLink::Tcp {
+                address: address.to_owned(),
+            },
             reconnect_s,
+            frame_id: "laser".into(),
+        };
+        let mut model = LaserModel::default();
+        let laser = start(
+            &spec,
             MonotonicClock::new(),
-            &mut pipeline,
-            tx,
-            Arc::clone(&stop),
+            &mut model,
+            (tx, Arc::clone(&stop)),
         )
         .unwrap();
         (laser, rx, stop)

@@ -28,11 +28,15 @@
 //! locked), `publish_cmd_vel` (default `true`; `false`: no `cmd_vel` publisher at all,
 //! for Nav2's Following Server to drive from `tether/target_pose` or the target's frame),
 //! `cmd_vel_guard` (default `true`: a guard process publishes zero commands when the
-//! node is killed or frozen; design 12, 13). A `--params-file` sets them as well.
+//! node is killed or frozen; design 12, 13), `extra_scan_topics` (default none: the scan
+//! topics of more scanners, e.g. `"[rear/scan]"`; each is a laser of its own, at the
+//! configuration's `[[extra_lasers]]` entry of its frame or at its mount on
+//! `/tf_static`; design 5.7). A `--params-file` sets them as well.
 //!
 //! With `--scenario NAME` the node is the robot of `tether sim --scenario NAME --ros2`:
-//! its laser mount, follow distance and base limits, and its camera's boxes on
-//! `detections` (`--laser-only` for a simulator started with `--laser-only`).
+//! its laser mount, follow distance and base limits, its extra lasers' scans on
+//! `FRAME/scan`, and its camera's boxes on `detections` (`--laser-only` for a simulator
+//! started with `--laser-only`).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -116,6 +120,8 @@ struct NodeParameters {
     camera_input: Option<CameraInput>,
     /// `detection_class`: the class of the boxes taken for people (empty: all).
     detection_class: String,
+    /// `extra_scan_topics`, when given.
+    extra_scan_topics: Option<Vec<String>>,
 }
 
 /// A TurtleBot 4 (iRobot Create 3 base): what the node assumes without `--config`.
@@ -216,6 +222,23 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
             })?
             .to_owned(),
     };
+    let extra_scan_topics = match ros.params.get("extra_scan_topics") {
+        None => None,
+        Some(ParamValue::StringArray(topics)) => Some(topics.clone()),
+        Some(ParamValue::String(topic)) => Some(vec![topic.clone()]),
+        Some(v) => anyhow::bail!(
+            "parameter extra_scan_topics must be a list of topics, e.g. \"[rear/scan]\", got \
+             {v:?}"
+        ),
+    };
+    if let Some(topics) = &extra_scan_topics {
+        for t in topics {
+            anyhow::ensure!(
+                !t.trim_matches('/').is_empty() && t.trim_matches('/') != "scan",
+                "parameter extra_scan_topics: {t:?} is not another scanner's topic"
+            );
+        }
+    }
     Ok(NodeParameters {
         fixed_frame,
         base_frame,
@@ -227,6 +250,7 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
         use_sim_time,
         camera_input,
         detection_class,
+        extra_scan_topics,
     })
 }
 
@@ -261,18 +285,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .pipeline_config()
             .map_err(|e| anyhow::anyhow!("config {}: {e}", path.display()))?,
         (_, _, Some(scenario)) => {
-            let mut config =
-                tether_eval::closed_loop::config_for(scenario, &PipelineConfig::default());
-            // The node reads one scan topic (and the simulator publishes the first
-            // laser's scans alone): an extra laser would never be heard.
-            if !config.extra_lasers.is_empty() {
-                tracing::warn!(
-                    "the scenario's robot has {} extra lasers; the node reads `scan` alone",
-                    config.extra_lasers.len()
-                );
-                config.extra_lasers.clear();
-            }
-            config
+            tether_eval::closed_loop::config_for(scenario, &PipelineConfig::default())
         }
         _ => turtlebot_pipeline(),
     };
@@ -290,7 +303,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         use_sim_time,
         camera_input,
         detection_class,
+        extra_scan_topics,
     } = parameters(&args.ros, &mut pipeline_config)?;
+    // The simulator publishes an extra laser's scans on `FRAME/scan`.
+    let extra_scan_topics = extra_scan_topics.unwrap_or_else(|| {
+        pipeline_config
+            .extra_lasers
+            .iter()
+            .map(|l| format!("{}/scan", l.frame_id))
+            .collect()
+    });
     // The camera is used when the config describes one (its intrinsics, mount and, for
     // images, cascade; its `folder` or `v4l2` is not used) or the scenario's robot has
     // one, unless --laser-only; else the laser alone. The simulator publishes boxes,
@@ -355,6 +377,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         duration,
         scan_odometry,
         odometry_input,
+        extra_scan_topics,
     };
     let report = run_node(settings, &stop)?;
     summarize(&report, camera)
@@ -385,6 +408,20 @@ fn summarize(
         summary.ticks,
         summary.ticks_with_target,
     );
+    for extra in &report.extra_scans {
+        let frames = extra.frames();
+        tracing::info!(
+            "{}: {} scans taken{} ({} of another frame skipped)",
+            extra.topic,
+            load(&extra.taken),
+            if frames.is_empty() {
+                " (the topic was not used)".to_owned()
+            } else {
+                format!(" for laser {}", frames.join(", "))
+            },
+            load(&extra.other_frame),
+        );
+    }
     if let LiveClock::Sim(sim) = &report.clock {
         tracing::info!(
             "sim time: ended at {:.3} s, {} stalls of the clock, {} clock messages that went \

@@ -82,7 +82,7 @@ pub struct Args {
     /// `/people_truth` (leg_tracker/PersonArray, frame `laser`, stamped like the scan and
     /// recorded right after it): the people at least one beam of the scan hits, with
     /// their simulated ids (the target's id is printed; it is the scenario's person
-    /// marked `target`).
+    /// marked `target`). An extra laser's scans go on `/FRAME/scan` (frame `FRAME`).
     #[arg(long, value_name = "FILE.bag")]
     pub record_bag: Option<PathBuf>,
     /// Put the simulated robot on the ROS 2 graph, in real time: `/scan` and `/odom` out,
@@ -117,6 +117,8 @@ pub struct Args {
 struct BagRecorder {
     writer: BagWriter<std::io::BufWriter<std::fs::File>>,
     scan: ConnectionId,
+    /// `/FRAME/scan` of each extra laser, by frame.
+    extra_scans: Vec<(String, ConnectionId)>,
     odom: Option<ConnectionId>,
     people: ConnectionId,
     seq: u32,
@@ -129,7 +131,11 @@ struct BagRecorder {
 const BAG_LASER_FRAME: &str = "laser";
 
 impl BagRecorder {
-    fn create(path: &std::path::Path, with_odom: bool) -> Result<Self, BagWriteError> {
+    fn create(
+        path: &std::path::Path,
+        with_odom: bool,
+        extra_frames: &[String],
+    ) -> Result<Self, BagWriteError> {
         let mut writer = BagWriter::create(path)?;
         let odom = if with_odom {
             Some(writer.add_connection::<OdometryMsg>("/odom")?)
@@ -137,10 +143,19 @@ impl BagRecorder {
             None
         };
         let scan = writer.add_connection::<LaserScanMsg>("/scan")?;
+        let mut extra_scans = Vec::new();
+        for frame in extra_frames {
+            let topic = format!("/{frame}/scan");
+            extra_scans.push((
+                frame.clone(),
+                writer.add_connection::<LaserScanMsg>(&topic)?,
+            ));
+        }
         let people = writer.add_connection::<PersonArrayMsg>("/people_truth")?;
         Ok(BagRecorder {
             writer,
             scan,
+            extra_scans,
             odom,
             people,
             seq: 0,
@@ -161,8 +176,15 @@ impl BagRecorder {
     /// the people it sees in the laser frame, `p_laser = laser_from_world * p_world`,
     /// heading less the laser's yaw, recorded 1 us after the scan.
     fn try_record(&mut self, event: &Event) -> Result<(), BagWriteError> {
-        // leg_tracker's bags hold one scanner: the first laser's scans.
+        // The labels are the first laser's (leg_tracker's bags label one scanner);
+        // another laser's scans go on their own topic, unlabelled.
         let Some(scan) = event.data.first_laser_scan() else {
+            if let SensorData::Scan(scan) = &event.data
+                && let Some((_, id)) = self.extra_scans.iter().find(|(f, _)| *f == scan.frame_id)
+            {
+                let raw = tether_msgs::RawLaserScan::from_scan(self.seq, scan, 0.1 / 1024.0, 0.1);
+                self.writer.write(*id, scan.stamp, &raw)?;
+            }
             return Ok(());
         };
         let truth = &event.truth;
@@ -418,8 +440,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let context = || format!("simulating `{}` into {}", scenario.name, args.out.display());
     let mut bag = match &args.record_bag {
         Some(path) => Some(
-            BagRecorder::create(path, !args.bag_without_odom)
-                .with_context(|| format!("cannot create {}", path.display()))?,
+            BagRecorder::create(
+                path,
+                !args.bag_without_odom,
+                &scenario
+                    .extra_lasers
+                    .iter()
+                    .map(|l| l.frame_id.clone())
+                    .collect::<Vec<_>>(),
+            )
+            .with_context(|| format!("cannot create {}", path.display()))?,
         ),
         None => None,
     };

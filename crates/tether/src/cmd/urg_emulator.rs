@@ -37,6 +37,11 @@ pub struct Args {
     /// Seed of the simulation's random draws.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Serve the scans of the scenario's extra laser of this frame (its
+    /// `[[extra_lasers]]` entry) instead of its first laser's: one emulator per scanner
+    /// of a robot with several, each started with the same scenario and seed.
+    #[arg(long, value_name = "FRAME")]
+    pub laser: Option<String>,
     /// Boot in SCIP 1.1, as older URG-04LX firmware does (the host must send SCIP2.0).
     #[arg(long)]
     pub scip1: bool,
@@ -100,7 +105,7 @@ pub fn serve<S: ScanSource + 'static>(
 /// Runs the emulator.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let (scenario, _) = Scenario::resolve(&args.scenario)?;
-    let (mut scans, mut config) = simulated_scans(&scenario, args.seed)?;
+    let (mut scans, mut config) = simulated_scans(&scenario, args.seed, args.laser.as_deref())?;
     if let Some(path) = &args.truth {
         let file = std::fs::File::create(path)
             .with_context(|| format!("cannot create the truth file {}", path.display()))?;

@@ -55,6 +55,16 @@ pub fn run(
     extra: &[&str],
     feed: ChildStdin,
 ) -> (Proc, Arc<Mutex<Vec<String>>>) {
+    run_feeding(dir, config, extra, vec![feed])
+}
+
+/// [`run`], its lines passed on to each of `feeds` (the emulators of several scanners).
+pub fn run_feeding(
+    dir: &Path,
+    config: &Path,
+    extra: &[&str],
+    feeds: Vec<ChildStdin>,
+) -> (Proc, Arc<Mutex<Vec<String>>>) {
     let mut args = vec!["run", "--config", config.to_str().unwrap()];
     args.extend_from_slice(extra);
     let mut run = spawn("run", dir, &args, Stdio::null());
@@ -62,13 +72,15 @@ pub fn run(
     let lines = Arc::new(Mutex::new(Vec::new()));
     let kept = Arc::clone(&lines);
     std::thread::spawn(move || {
-        let mut feed = Some(feed);
+        let mut feeds: Vec<Option<ChildStdin>> = feeds.into_iter().map(Some).collect();
         for line in BufReader::new(stdout).lines() {
             let Ok(line) = line else { break };
-            if let Some(f) = feed.as_mut()
-                && writeln!(f, "{line}").is_err()
-            {
-                feed = None;
+            for feed in &mut feeds {
+                if let Some(f) = feed.as_mut()
+                    && writeln!(f, "{line}").is_err()
+                {
+                    *feed = None;
+                }
             }
             kept.lock().unwrap().push(line);
         }
@@ -183,4 +195,37 @@ pub fn assert_final_stop(lines: &Mutex<Vec<String>>, why: &str, stderr: &str) {
         );
         std::thread::sleep(Duration::from_millis(20));
     }
+}
+
+/// A free TCP port on loopback (bound, then let go).
+pub fn free_loopback_address() -> String {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    listener.local_addr().unwrap().to_string()
+}
+
+/// The lines of an emulator's `--truth` file.
+pub fn emulator_truth(path: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(json)
+        .collect()
+}
+
+/// `(x, y)` of a truth line's pose or person, m.
+pub fn xy(v: &serde_json::Value) -> (f64, f64) {
+    (v["x"].as_f64().unwrap(), v["y"].as_f64().unwrap())
+}
+
+/// The distance from the robot to the target in a truth line, m.
+pub fn gap_to_target(t: &serde_json::Value) -> f64 {
+    let (rx, ry) = xy(&t["robot"]);
+    let target = t["people"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["target"] == true)
+        .unwrap();
+    let (px, py) = xy(target);
+    (px - rx).hypot(py - ry)
 }

@@ -111,6 +111,12 @@ class PoseArray(IdlStruct, typename="geometry_msgs::msg::dds_::PoseArray_"):
 
 
 @dataclass
+class PoseStamped(IdlStruct, typename="geometry_msgs::msg::dds_::PoseStamped_"):
+    header: Header
+    pose: Pose
+
+
+@dataclass
 class PoseWithCovariance(IdlStruct, typename="geometry_msgs::msg::dds_::PoseWithCovariance_"):
     pose: Pose
     covariance: array[float64, 36]
@@ -418,6 +424,12 @@ def odometry(stamp, position, orientation, v_x, w_z):
 def transform(stamp, parent, child, translation, rotation):
     """tf2_msgs/TFMessage with the one transform `parent` -> `child`: `translation`
     (x, y, z) and `rotation` (x, y, z, w)."""
+    return transforms(stamp, parent, [(child, translation, rotation)])
+
+
+def transforms(stamp, parent, children):
+    """tf2_msgs/TFMessage with a transform `parent` -> each of `children`, given as
+    (child, translation (x, y, z), rotation (x, y, z, w))."""
     return TFMessage(
         transforms=[
             TransformStamped(
@@ -430,6 +442,7 @@ def transform(stamp, parent, child, translation, rotation):
                     ),
                 ),
             )
+            for child, translation, rotation in children
         ]
     )
 
@@ -439,6 +452,22 @@ def main():
     ap.add_argument("--tether", required=True, help="the tether binary")
     ap.add_argument("--bag", required=True, help="a ROS 1 bag with the scans")
     ap.add_argument("--scan-topic", default="/scan")
+    ap.add_argument(
+        "--extra-scan",
+        action="append",
+        default=[],
+        metavar="TOPIC",
+        help="also publish this bag topic's scans, on the topic of the same name (another "
+        "scanner: tether -p extra_scan_topics)",
+    )
+    ap.add_argument(
+        "--extra-mount",
+        action="append",
+        default=[],
+        nargs=5,
+        metavar=("FRAME", "X", "Y", "YAW", "Z"),
+        help="with --mount: also publish base_link -> FRAME on rt/tf_static",
+    )
     ap.add_argument(
         "--odom-topic", help="also publish this bag topic's odometry on rt/odom"
     )
@@ -522,6 +551,12 @@ def main():
     scan_writer = DataWriter(
         dp, Topic(dp, rt(a.scan_name), LaserScan), qos=qos(a.reliable, 5)
     )
+    extra_writers = {
+        topic: DataWriter(
+            dp, Topic(dp, rt(topic.strip("/")), LaserScan), qos=qos(a.reliable, 5)
+        )
+        for topic in a.extra_scan
+    }
     odom_writer = DataWriter(dp, Topic(dp, rt("odom"), Odometry), qos=qos(False, 5))
     tf_writer_dyn = (
         DataWriter(dp, Topic(dp, rt("tf"), TFMessage), qos=qos(True, 100))
@@ -592,6 +627,9 @@ def main():
     people_reader = DataReader(
         dp, Topic(dp, rt("tether/people"), PoseArray), qos=qos(True, 1000)
     )
+    target_pose_reader = DataReader(
+        dp, Topic(dp, rt("tether/target_pose"), PoseStamped), qos=qos(True, 1000)
+    )
     discovery_reader = DataReader(
         dp,
         Topic(
@@ -603,20 +641,28 @@ def main():
     )
 
     if a.mount:
-        x, y, yaw, z = a.mount
+        mounts = [("laser", *a.mount)] + [
+            (m[0], *(float(v) for v in m[1:])) for m in a.extra_mount
+        ]
         tf_writer = DataWriter(
             dp,
             Topic(dp, rt("tf_static"), TFMessage),
             qos=qos(True, 1, transient_local=True),
         )
         _, stamp = stamp_now()
+        # One message: a latched topic keeps the last one alone.
         tf_writer.write(
-            transform(
+            transforms(
                 stamp,
                 "base_link",
-                "laser",
-                (x, y, z),
-                (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)),
+                [
+                    (
+                        frame,
+                        (x, y, z),
+                        (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)),
+                    )
+                    for frame, x, y, yaw, z in mounts
+                ],
             )
         )
 
@@ -633,14 +679,17 @@ def main():
     # Wait until tether's scan reader has matched ours (up to 10 s).
     started = time.monotonic()
     while time.monotonic() - started < 10.0:
-        if scan_writer.get_matched_subscriptions():
+        if all(
+            w.get_matched_subscriptions()
+            for w in [scan_writer, *extra_writers.values()]
+        ):
             break
         if child.poll() is not None:
             break
         time.sleep(0.05)
     matched_after_s = time.monotonic() - started
 
-    states, people = [], []
+    states, people, target_poses = [], [], []
     nodes = set()
     tf_static_reader = None
     tf_static_seen = []
@@ -657,6 +706,9 @@ def main():
             states.append([time.monotonic(), s.data])
         for s in valid(people_reader.take(N=1000)):
             people.append([time.monotonic(), len(s.poses), s.header.frame_id])
+        for s in valid(target_pose_reader.take(N=1000)):
+            stamp = s.header.stamp.sec * 1_000_000_000 + s.header.stamp.nanosec
+            target_poses.append([stamp, s.pose.position.x, s.pose.position.y])
         for s in valid(discovery_reader.take(N=100)):
             for n in s.node_entities_info_seq:
                 nodes.add((n.node_namespace, n.node_name))
@@ -665,7 +717,10 @@ def main():
     written = {}  # scan stamp (ns) -> when it was written (monotonic s)
     first_t = None
     wall0 = time.monotonic()
-    topics = [a.scan_topic] + ([a.odom_topic] if a.odom_topic else [])
+    topics = [a.scan_topic, *a.extra_scan] + ([a.odom_topic] if a.odom_topic else [])
+    extra_sent = {topic: 0 for topic in a.extra_scan}
+    # Each scan's stamp as published, with its time in the bag.
+    scan_stamps = []
     odom_sent = 0
     images_sent = 0
     next_image = 0.0
@@ -707,6 +762,12 @@ def main():
             drain()
             time.sleep(0.002)
         now, stamp = stamp_now()
+        if topic in extra_writers:
+            extra_writers[topic].write(recorded_scan(m, stamp))
+            extra_sent[topic] += 1
+            scan_stamps.append([now, t_ns])
+            drain()
+            continue
         if topic != a.scan_topic:
             if a.odom_until is not None and offset > a.odom_until:
                 continue
@@ -723,6 +784,7 @@ def main():
             odom_sent += 1
             continue
         written[now] = time.monotonic()
+        scan_stamps.append([now, t_ns])
         scan_writer.write(recorded_scan(m, stamp))
         scans_sent += 1
         drain()
@@ -764,6 +826,9 @@ def main():
                 },
                 "matched_after_s": matched_after_s,
                 "scans_sent": scans_sent,
+                "extra_scans_sent": extra_sent,
+                "scan_stamps": scan_stamps,
+                "target_pose": target_poses,
                 "odom_sent": odom_sent,
                 "images_sent": images_sent,
                 "cmd_vel": cmds,
