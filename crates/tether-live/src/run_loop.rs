@@ -447,16 +447,20 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
                     tracing::debug!("laser: {fault}");
                     Ok(())
                 }
-                Ok(Input::LaserLost { error, within_s }) => {
+                Ok(Input::LaserLost {
+                    laser,
+                    error,
+                    within_s,
+                }) => {
                     tracing::warn!(
-                        "the laser stopped answering ({error}); the robot stands while it is \
-                         opened again, for up to {within_s:.1} s ([laser] reconnect_s)"
+                        "the laser stopped answering ({laser}: {error}); the robot stands while \
+                         it is opened again, for up to {within_s:.1} s ([laser] reconnect_s)"
                     );
                     Ok(())
                 }
-                Ok(Input::LaserBack { after_s }) => {
+                Ok(Input::LaserBack { laser, after_s }) => {
                     self.summary.laser_reconnects += 1;
-                    tracing::warn!("the laser answers again after {after_s:.1} s");
+                    tracing::warn!("the laser answers again after {after_s:.1} s ({laser})");
                     Ok(())
                 }
                 Ok(Input::LaserFailed(error)) => Err(Ending::LaserFailed(error)),

@@ -37,6 +37,8 @@ pub enum Input {
     /// The laser stopped answering; its thread is opening it again for up to
     /// `within_s` (the robot stands meanwhile: no scans, so the laser watchdog holds it).
     LaserLost {
+        /// Which laser (its port or address).
+        laser: String,
         /// What the driver met.
         error: ScipError,
         /// How long the thread tries, s.
@@ -44,6 +46,8 @@ pub enum Input {
     },
     /// The laser answers again after a [`Input::LaserLost`], and streams.
     LaserBack {
+        /// Which laser (its port or address).
+        laser: String,
         /// Time from the loss to the stream's restart, s.
         after_s: f64,
     },

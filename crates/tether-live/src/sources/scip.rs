@@ -194,13 +194,22 @@ fn laser_thread<L: Link, O: FnMut() -> Result<L, ScipError>>(
             Ok(DriverEvent::Scan(scan)) => Input::Scan(scan.scan),
             Ok(DriverEvent::Fault(fault)) => Input::LaserFault(fault.into()),
             Err(error) if reopen.within.is_zero() => {
+                tracing::error!("laser {}: {error}", reopen.name);
                 let _ = tx.send(Input::LaserFailed(error));
                 return;
             }
             Err(error) => {
                 let message = error.to_string();
                 let within_s = reopen.within.as_secs_f64();
-                if tx.send(Input::LaserLost { error, within_s }).is_err() {
+                let laser = reopen.name.clone();
+                if tx
+                    .send(Input::LaserLost {
+                        laser,
+                        error,
+                        within_s,
+                    })
+                    .is_err()
+                {
                     return;
                 }
                 let since = Instant::now();
@@ -208,12 +217,16 @@ fn laser_thread<L: Link, O: FnMut() -> Result<L, ScipError>>(
                     Ok(Some(back)) => {
                         urg = back;
                         Input::LaserBack {
+                            laser: reopen.name.clone(),
                             after_s: since.elapsed().as_secs_f64(),
                         }
                     }
                     Ok(None) => return,
                     Err(last) => {
-                        tracing::debug!("laser {}: lost ({message}), then {last}", reopen.name);
+                        tracing::error!(
+                            "laser {}: lost ({message}) and not back: {last}",
+                            reopen.name
+                        );
                         let _ = tx.send(Input::LaserFailed(last));
                         return;
                     }
@@ -376,7 +389,7 @@ mod tests {
         std::thread::sleep(Duration::from_secs(1));
         let server = serve(&address);
         match next_event(&rx, Duration::from_secs(8), &mut scans) {
-            Some(Input::LaserBack { after_s }) => assert!(after_s >= 1.0, "{after_s}"),
+            Some(Input::LaserBack { after_s, .. }) => assert!(after_s >= 1.0, "{after_s}"),
             other => panic!("not LaserBack: {other:?}"),
         }
         let before = scans;
