@@ -31,7 +31,7 @@ impl Twist {
 }
 
 /// Limits of the base.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct MotionLimits {
     /// Top forward speed, m/s.

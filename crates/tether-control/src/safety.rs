@@ -10,7 +10,7 @@ use tether_core::{Point2, Robot, Stamp};
 pub const SEARCH_RATE_RADPS: f64 = 0.5;
 
 /// Safety settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct SafetyConfig {
     /// Stop when the newest laser scan is older than this, s.

@@ -91,7 +91,7 @@ impl SpringGains {
 }
 
 /// Follower settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct SpringConfig {
     /// Follow distance: the spring's free length, m (user studies prefer 1.2-2.0 m; the

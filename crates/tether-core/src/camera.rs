@@ -34,7 +34,7 @@ pub struct CameraModelError {
 
 /// Pinhole intrinsics, pixels. The image frame has u right, v down, origin at the
 /// top-left corner of the top-left pixel.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, crate::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct CameraIntrinsics {
     /// Focal length along u, px.
@@ -67,7 +67,7 @@ impl Default for CameraIntrinsics {
 }
 
 /// Where the camera sits on the robot.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, crate::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct CameraMount {
     /// Forward offset of the lens from the wheel axis centre, m.
@@ -132,7 +132,7 @@ impl PixelBox {
 }
 
 /// The camera: intrinsics plus mounting.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, crate::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct CameraModel {
     /// Pinhole intrinsics.

@@ -51,7 +51,7 @@ pub enum LaserModelError {
 /// beams in the order they are measured). A 360-degree scanner measures every step:
 /// `first_step = 0`, `last_step = steps_per_rev - 1`, so its beams cover the circle
 /// exactly once.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, crate::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct UrgGeometry {
     /// Encoder steps per revolution (`ARES`).
@@ -182,7 +182,7 @@ impl Polynomial {
 /// Without calibration: `bias = 0`, `sigma(r) = max(0.01 m, 0.01 r)` (the datasheet's
 /// +-10 mm to 1 m and +-1 % beyond). `tether calibrate laser` fits both polynomials
 /// from samples at known distances and writes them here.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, crate::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct RangeNoiseModel {
     /// bias(r), m, as a polynomial in the true range (m).
@@ -250,7 +250,7 @@ impl RangeNoiseModel {
 
 /// Where the scanner sits on the robot: the pose of the laser frame in the robot frame
 /// and the height of its scan plane above the floor.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, crate::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct LaserMount {
     /// Forward offset from the wheel axis centre, m.
@@ -276,7 +276,7 @@ impl Default for LaserMount {
 
 /// A scanner besides a robot's first (`[[extra_lasers]]`, design 5.7): the `frame_id`
 /// its scans carry and its model.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, crate::ConfigDocs)]
 #[serde(deny_unknown_fields)]
 pub struct ExtraLaser {
     /// The `frame_id` its scans carry (e.g. `rear_laser`).
@@ -287,7 +287,7 @@ pub struct ExtraLaser {
 }
 
 /// Everything tether needs to know about a 2-D laser scanner.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, crate::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct LaserModel {
     /// Step geometry.

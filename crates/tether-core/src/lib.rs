@@ -17,7 +17,11 @@
 //! - Units are SI and appear in names where the type does not carry them (`range_m`,
 //!   `tilt_rad`, `stamp_ns`).
 
+// `derive(ConfigDocs)` names this crate by its path, as other crates see it.
+extern crate self as tether_core;
+
 pub mod camera;
+pub mod config_docs;
 pub mod frame;
 pub mod gaussian;
 pub mod geometry;
@@ -27,6 +31,7 @@ pub mod scan;
 pub mod time;
 
 pub use camera::{CameraIntrinsics, CameraModel, CameraModelError, CameraMount, PixelBox};
+pub use config_docs::ConfigDocs;
 pub use frame::{Camera, Frame, Laser, Robot, World};
 pub use gaussian::{Cov2, CovError, Gaussian2};
 pub use geometry::{Point2, Point3, Pose2, Vector2, wrap_angle_rad};

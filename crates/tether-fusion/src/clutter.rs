@@ -31,7 +31,7 @@ use serde::{Deserialize, Serialize};
 use tether_core::{Frame, Point2, Stamp};
 
 /// Settings of a clutter map.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct ClutterConfig {
     /// Learn static clutter (off: nothing is ever static).

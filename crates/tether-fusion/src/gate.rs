@@ -22,7 +22,7 @@ pub fn mahalanobis_sq<F: Frame>(a: &Gaussian2<F>, b: &Gaussian2<F>) -> f64 {
 }
 
 /// A chi-square gate.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields)]
 pub struct Gate {
     /// Threshold on `D^2` (default 9.21, the 99 % quantile for 2 degrees of freedom).

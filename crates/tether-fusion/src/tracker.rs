@@ -118,7 +118,7 @@ impl Observation {
 /// What people can do (design 11): walking up to about 2 m/s, accelerations of a few
 /// m/s^2. Used to refuse observations a track could only reach by an impossible jump
 /// and to bound where a lost person can be.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct MotionBounds {
     /// Highest speed of a person, m/s.
@@ -198,7 +198,7 @@ pub enum UpdateRule {
 }
 
 /// Tracker settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct TrackerConfig {
     /// Association gate on the innovation's squared Mahalanobis distance.

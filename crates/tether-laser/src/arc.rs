@@ -24,7 +24,7 @@ use crate::fit::{centroid, circumcentre};
 use crate::preprocess::ScanPoint;
 
 /// Parameters of the arc test.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct ArcTestConfig {
     /// Largest distance of a bisector intersection from their mean, m (default 0.04,

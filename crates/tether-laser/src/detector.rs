@@ -33,7 +33,7 @@ pub enum DetectorKind {
 }
 
 /// Parameters of the leg detector. Every field has the default it documents.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct DetectorConfig {
     /// Segmentation rule (default: Euclidean clustering at 0.13 m, [`Breakpoint::default`]).

@@ -25,7 +25,7 @@ pub struct Leg {
 }
 
 /// Parameters of pairing and of the observation covariance.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct PairingConfig {
     /// Largest distance between the centres of two legs of one person, m (default 0.6;

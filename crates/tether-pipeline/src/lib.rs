@@ -13,6 +13,7 @@
 //! - `per_frame`: the paper's complementary fusion, frame by frame, with no memory: the
 //!   target is the fused laser-vision pair nearest the heading.
 
+pub mod config_docs;
 mod drive;
 pub mod follow;
 mod laser;
@@ -48,7 +49,7 @@ pub enum FusionMode {
 }
 
 /// Fusion settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct FusionConfig {
     /// Tracker or per-frame.
@@ -86,7 +87,7 @@ impl Default for FusionConfig {
 }
 
 /// Leg detector settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct LegsConfig {
     /// Arc test (the paper) or learned classifier.
@@ -114,7 +115,7 @@ impl Default for LegsConfig {
 }
 
 /// Everything the pipeline needs to know.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct PipelineConfig {
     /// The laser (geometry, noise model, mounting); with `extra_lasers`, the one whose

@@ -10,7 +10,7 @@ use tether_core::{CameraModel, Gaussian2, PixelBox, Point2, Robot};
 use tether_vision::monocular::{MonocularParams, locate};
 
 /// Settings of the monocular person model.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct VisionConfig {
     /// Assumed height of a person's head top, m.

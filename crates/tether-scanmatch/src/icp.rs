@@ -9,7 +9,7 @@ use crate::linalg::{Mat3, ZERO3, symmetric_eigen3};
 use crate::reference::{LineFit, NeighbourSearch, Reference};
 
 /// Settings of one scan-to-keyframe match.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct IcpConfig {
     /// Most Gauss-Newton iterations (each re-finds the correspondences).

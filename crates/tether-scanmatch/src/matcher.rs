@@ -11,7 +11,7 @@ use crate::points::ScanPoints;
 use crate::reference::{NeighbourSearch, Reference};
 
 /// Settings of a [`ScanMatcher`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct ScanMatcherConfig {
     /// The match itself.
@@ -45,7 +45,7 @@ pub struct ScanMatcherConfig {
 /// bounds, and differs from the last trusted velocity by no more than the acceleration
 /// bounds allow over the time since that velocity was measured (plus `slack`, for the
 /// noise of a velocity taken from one increment).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct RobotBounds {
     /// Highest speed, m/s.

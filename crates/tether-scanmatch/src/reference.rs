@@ -27,7 +27,7 @@ const ANCHOR_HALF_WIDTH: usize = 1;
 const BINS_PER_RAD: f64 = 200.0;
 
 /// How the reference's surfaces are estimated around each return.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct LineFit {
     /// Neighbouring returns farther apart than this are on different surfaces (a jump

@@ -1,21 +1,28 @@
 //! Every pipeline parameter with its default and its meaning, in the TOML layout that
 //! `track`, `replay`, `sim` and a robot's `[pipeline]` read (`tether config defaults`).
-//! The meanings are the first lines of the fields' doc comments, gathered from the
-//! sources by the build script; units are in the key names (`_m`, `_s`, `_mps`, ...)
+//! The meanings are the first sentences of the fields' doc comments, which each
+//! configuration type lists itself (`derive(ConfigDocs)`, gathered by
+//! `tether_pipeline::config_docs`); units are in the key names (`_m`, `_s`, `_mps`, ...)
 //! and at the end of each meaning.
 
 use std::fmt::Write as _;
+use std::sync::OnceLock;
 
+use tether_core::config_docs::FieldDoc;
 use tether_pipeline::PipelineConfig;
 
-include!(concat!(env!("OUT_DIR"), "/config_docs.rs"));
+/// Every configuration type's fields.
+fn docs() -> &'static [FieldDoc] {
+    static DOCS: OnceLock<Vec<FieldDoc>> = OnceLock::new();
+    DOCS.get_or_init(tether_pipeline::config_docs::config_docs)
+}
 
-/// The type and first doc line of `field` of struct `name`, if the sources have it.
+/// The type and first doc sentence of `field` of struct `name`, if it has one.
 fn doc_of(name: &str, field: &str) -> Option<(&'static str, &'static str)> {
-    CONFIG_DOCS
+    docs()
         .iter()
-        .find(|(s, f, _, _)| *s == name && *f == field)
-        .map(|(_, _, ty, doc)| (*ty, *doc))
+        .find(|d| d.strukt == name && d.field == field)
+        .map(|d| (d.ty, d.doc))
 }
 
 /// The defaults as annotated TOML, and how many keys had no doc comment.
@@ -98,11 +105,11 @@ fn write_table(
         }
     }
     // Optional keys, unset by default: said, commented out.
-    for (_, key, _, d) in CONFIG_DOCS
+    for d in docs()
         .iter()
-        .filter(|(s, k, ty, _)| Some(*s) == strukt && *ty == "Option" && !table.contains_key(*k))
+        .filter(|d| Some(d.strukt) == strukt && d.ty == "Option" && !table.contains_key(d.field))
     {
-        let _ = writeln!(out, "# {d}\n# {key} = (not set by default)");
+        let _ = writeln!(out, "# {}\n# {} = (not set by default)", d.doc, d.field);
     }
     for (key, value) in tables {
         let inner = if path.is_empty() {

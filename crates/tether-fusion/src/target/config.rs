@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Target selection settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]
 pub struct TargetConfig {
     /// Follow this track id instead of choosing (when it exists).

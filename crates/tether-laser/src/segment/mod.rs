@@ -13,7 +13,7 @@ mod tests;
 use euclidean::euclidean_components;
 
 /// When two consecutive returns start a new segment.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(tag = "rule", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Breakpoint {
     /// Borges and Aldon's adaptive breakpoint ("Line extraction in 2D range images for
