@@ -2,7 +2,7 @@
 //! configuration struct or enum, listing each named field (an enum's: each variant's
 //! named fields, and the enum's own doc as the field `<enum>`) with the last path
 //! segment of its type (`Option<f64>` -> `Option`, `tether_core::LaserModel` ->
-//! `LaserModel`) and the first sentence of its doc comment: the lines up to the first
+//! `LaserModel`; a `Vec`'s element type: `Vec<ExtraLaser>` -> `ExtraLaser`) and the first sentence of its doc comment: the lines up to the first
 //! that ends with a full stop (design 13, `tether config defaults`).
 //!
 //! The compiler hands the doc comment over as `#[doc = "..."]` attributes, one a line,
@@ -61,11 +61,23 @@ fn named_fields(fields: &Fields, out: &mut Vec<(String, String, String)>) {
             let Some(ident) = &f.ident else { continue };
             let ty = &f.ty;
             let text = quote!(#ty).to_string();
-            let base = text.split('<').next().unwrap_or(&text);
-            let base = base.rsplit("::").next().unwrap_or(base).trim().to_string();
+            let mut base = last_segment(&text);
+            // A list's elements are what its tables are (`[[extra_lasers]]`).
+            if base == "Vec"
+                && let Some((_, inner)) = text.split_once('<')
+            {
+                base = last_segment(inner.rsplit_once('>').map_or(inner, |(i, _)| i));
+            }
             out.push((ident.to_string(), base, first_sentence(&f.attrs)));
         }
     }
+}
+
+/// The last path segment of a type's text without its generics: `Option < f64 >` ->
+/// `Option`, `tether_core :: LaserModel` -> `LaserModel`.
+fn last_segment(text: &str) -> String {
+    let base = text.split('<').next().unwrap_or(text);
+    base.rsplit("::").next().unwrap_or(base).trim().to_string()
 }
 
 /// The doc comment's lines up to the first that ends with a full stop, joined by

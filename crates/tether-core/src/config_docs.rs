@@ -13,7 +13,8 @@ pub struct FieldDoc {
     pub strukt: &'static str,
     /// The field's name (`<enum>` for an enum's own doc, which says what its tag is).
     pub field: &'static str,
-    /// The last path segment of its type without generics (`Option<f64>` -> `Option`).
+    /// The last path segment of its type without generics (`Option<f64>` -> `Option`;
+    /// a list's element type, `Vec<ExtraLaser>` -> `ExtraLaser`).
     pub ty: &'static str,
     /// The first sentence of its doc comment.
     pub doc: &'static str,
@@ -43,6 +44,8 @@ mod tests {
         maybe: Option<f64>,
         /// In another crate.
         model: crate::laser::LaserModel,
+        /// A list of tables.
+        more: Vec<crate::laser::ExtraLaser>,
         undocumented: bool,
     }
 
@@ -85,6 +88,7 @@ mod tests {
         );
         assert_eq!(doc("maybe").map(|d| d.1), Some("Option"));
         assert_eq!(doc("model").map(|d| d.1), Some("LaserModel"));
+        assert_eq!(doc("more").map(|d| d.1), Some("ExtraLaser"));
         assert_eq!(doc("undocumented"), Some(("Example", "bool", "")));
         assert_eq!(
             Kind::FIELDS,

@@ -50,7 +50,7 @@ pub fn annotated(
     let mut undocumented = 0;
     write_table(
         &mut out,
-        "",
+        ("", false),
         Some("PipelineConfig"),
         &table,
         &mut undocumented,
@@ -59,9 +59,12 @@ pub fn annotated(
     Ok((out, undocumented))
 }
 
+/// Writes `table` (at dotted `path`, of type `strukt`) as annotated TOML: its keys, then
+/// its tables, then its lists of tables. `element`: it is one table of a list, whose
+/// `[[path]]` header the caller wrote.
 fn write_table(
     out: &mut String,
-    path: &str,
+    (path, element): (&str, bool),
     strukt: Option<&str>,
     table: &toml::Table,
     undocumented: &mut usize,
@@ -79,8 +82,14 @@ fn write_table(
             })
         })
     };
-    let (tables, scalars): (Vec<_>, Vec<_>) = table.iter().partition(|(_, v)| v.is_table());
-    if !path.is_empty() && !scalars.is_empty() {
+    // Lists of tables (`[[extra_lasers]]`) come last, a table each.
+    let list_of_tables = |v: &toml::Value| {
+        v.as_array()
+            .is_some_and(|a| !a.is_empty() && a.iter().all(toml::Value::is_table))
+    };
+    let (lists, rest): (Vec<_>, Vec<_>) = table.iter().partition(|(_, v)| list_of_tables(v));
+    let (tables, scalars): (Vec<_>, Vec<_>) = rest.into_iter().partition(|(_, v)| v.is_table());
+    if !path.is_empty() && !scalars.is_empty() && !element {
         let _ = writeln!(out, "\n[{path}]");
     }
     for (key, value) in scalars {
@@ -126,11 +135,42 @@ fn write_table(
         if let Some(t) = value.as_table() {
             write_table(
                 out,
-                &inner,
+                (&inner, false),
                 found.map(|(ty, _)| ty),
                 t,
                 undocumented,
                 source,
+            );
+        }
+    }
+    for (key, value) in lists {
+        let inner = if path.is_empty() {
+            key.clone()
+        } else {
+            format!("{path}.{key}")
+        };
+        let found = doc(key);
+        if let Some((_, d)) = found
+            && !d.is_empty()
+        {
+            let _ = write!(out, "\n# [[{inner}]]: {d}");
+        }
+        // Where the list came from, once; its tables' keys are the list's.
+        let from = source(&inner).map_or(String::new(), |f| format!("  # {f}"));
+        for t in value
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(toml::Value::as_table)
+        {
+            let _ = writeln!(out, "\n[[{inner}]]{from}");
+            write_table(
+                out,
+                (&inner, true),
+                found.map(|(ty, _)| ty),
+                t,
+                undocumented,
+                &|_| None,
             );
         }
     }
@@ -154,5 +194,33 @@ mod tests {
             text.contains("\n# model = (not set by default)\n"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn a_list_of_tables_is_written_a_table_each_and_reads_back() {
+        let mut config = PipelineConfig::default();
+        for (frame, x_m) in [("rear_laser", -0.1), ("left_laser", 0.0)] {
+            let mut laser = config.laser.clone();
+            laser.mount.x_m = x_m;
+            config.extra_lasers.push(tether_core::ExtraLaser {
+                frame_id: frame.into(),
+                laser,
+            });
+        }
+        let (text, undocumented) = annotated("", &config, &|key| {
+            (key == "extra_lasers").then(|| "robot.toml: [[laser]]".to_owned())
+        })
+        .unwrap();
+        let back: PipelineConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back, config);
+        assert_eq!(undocumented, 0, "{text}");
+        assert_eq!(
+            text.matches("\n[[extra_lasers]]  # robot.toml: [[laser]]\n")
+                .count(),
+            2,
+            "{text}"
+        );
+        assert!(text.contains("\n[extra_lasers.laser.mount]\n"), "{text}");
+        assert!(text.contains("frame_id = \"left_laser\"\n"), "{text}");
     }
 }

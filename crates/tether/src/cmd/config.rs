@@ -104,6 +104,7 @@ fn show(path: Option<&PathBuf>, params: &[String]) -> anyhow::Result<String> {
         name: &name,
         robot,
         has_camera: file.contains_key("camera"),
+        laser_list: file.get("laser").is_some_and(toml::Value::is_array),
         pipeline,
         defaults: &defaults,
         effective: &effective,
@@ -131,6 +132,8 @@ struct SourceTables<'a> {
     robot: bool,
     /// It has a `[camera]`.
     has_camera: bool,
+    /// Its scanners are `[[laser]]` tables (the extra lasers are theirs).
+    laser_list: bool,
     /// Its pipeline keys: a robot file's `[pipeline]`, or the whole of a pipeline file.
     pipeline: &'a toml::Table,
     /// The defaults and the configuration in use, as TOML.
@@ -159,6 +162,9 @@ fn source_of(key: &str, t: &SourceTables<'_>) -> String {
         }
         if key == "fusion.use_vision" && !t.has_camera {
             return format!("{}: no [camera]", t.name);
+        }
+        if key == "extra_lasers" && t.laser_list && lookup(t.pipeline, key).is_none() {
+            return format!("{}: [[laser]]", t.name);
         }
     }
     if lookup(t.pipeline, key).is_some() {
