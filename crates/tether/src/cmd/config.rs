@@ -263,6 +263,32 @@ mod tests {
     }
 
     #[test]
+    fn a_robot_s_further_scanners_are_its_extra_lasers_from_its_laser_tables() {
+        let example = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../configs/robot.example.toml"),
+        )
+        .unwrap()
+        .replacen("\n[laser]\n", "\n[[laser]]\n", 1)
+        .replacen(
+            "\n[follow]\n",
+            "\n[[laser]]\ntcp = \"10.0.0.2\"\nframe_id = \"rear_laser\"\n\
+             mount = { x_m = -0.2, y_m = 0.0, yaw_rad = 3.0, height_m = 0.3 }\n\n[follow]\n",
+            1,
+        );
+        let text = shown(&example, "two_lasers.toml");
+        assert!(
+            text.contains("\n[[extra_lasers]]  # ")
+                && text.contains("two_lasers.toml: [[laser]]\n"),
+            "{text}"
+        );
+        let back: PipelineConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back.extra_lasers.len(), 1);
+        assert_eq!(back.extra_lasers[0].frame_id, "rear_laser");
+        assert_eq!(back.extra_lasers[0].laser.mount.x_m, -0.2);
+    }
+
+    #[test]
     fn a_parameter_of_the_node_overrides_the_file_and_says_so() {
         let text = show(None, &["follow_distance:=1.3".to_owned()]).unwrap();
         let from = line(&text, "follower", "follow_distance_m");
