@@ -266,24 +266,19 @@ fn command_reader(
 /// `/tf_static`: where the laser (and, with a simulated camera, the camera) sit on
 /// `base_link`.
 fn static_transforms(scenario: &Scenario, stamp: Stamp) -> TfMessage {
-    let m = scenario.laser.mount;
-    let mut mount = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
-    mount.position_m[2] = m.height_m;
-    let mut transforms = vec![TransformStampedMsg {
-        header: Header::new(stamp, "base_link"),
-        child_frame_id: "laser".into(),
-        transform: mount,
-    }];
-    for l in &scenario.extra_lasers {
-        let m = l.laser.mount;
-        let mut mount = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
-        mount.position_m[2] = m.height_m;
-        transforms.push(TransformStampedMsg {
+    let lasers = std::iter::once(("laser", &scenario.laser)).chain(
+        scenario
+            .extra_lasers
+            .iter()
+            .map(|l| (l.frame_id.as_str(), &l.laser)),
+    );
+    let mut transforms: Vec<TransformStampedMsg> = lasers
+        .map(|(frame, laser)| TransformStampedMsg {
             header: Header::new(stamp, "base_link"),
-            child_frame_id: l.frame_id.clone(),
-            transform: mount,
-        });
-    }
+            child_frame_id: frame.into(),
+            transform: Pose3::laser_mount(&laser.mount),
+        })
+        .collect();
     if scenario.camera_sim.enabled {
         transforms.push(TransformStampedMsg {
             header: Header::new(stamp, "base_link"),

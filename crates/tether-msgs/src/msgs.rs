@@ -202,6 +202,14 @@ impl Pose3 {
         }
     }
 
+    /// A laser's mount on the robot as a pose: its offset, yaw and height (the scan
+    /// plane level).
+    pub fn laser_mount(m: &tether_core::LaserMount) -> Self {
+        let mut pose = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
+        pose.position_m[2] = m.height_m;
+        pose
+    }
+
     /// The same pose as a tether transform (`x`, `y`, yaw), dropping height, roll and
     /// pitch; the caller names the frames the message's `frame_id`s stand for.
     pub fn pose2<To: Frame, From: Frame>(&self) -> Pose2<To, From> {

@@ -82,6 +82,14 @@ fn write_table(
             })
         })
     };
+    // The dotted key of `key` in this table (`safety.laser_timeout_s`).
+    let dotted = |key: &str| {
+        if path.is_empty() {
+            key.to_owned()
+        } else {
+            format!("{path}.{key}")
+        }
+    };
     // Lists of tables (`[[extra_lasers]]`) come last, a table each.
     let list_of_tables = |v: &toml::Value| {
         v.as_array()
@@ -99,12 +107,7 @@ fn write_table(
             }
             _ => *undocumented += 1,
         }
-        let dotted = if path.is_empty() {
-            key.clone()
-        } else {
-            format!("{path}.{key}")
-        };
-        match source(&dotted) {
+        match source(&dotted(key)) {
             Some(from) => {
                 let _ = writeln!(out, "{key} = {value}  # {from}");
             }
@@ -121,11 +124,7 @@ fn write_table(
         let _ = writeln!(out, "# {}\n# {} = (not set by default)", d.doc, d.field);
     }
     for (key, value) in tables {
-        let inner = if path.is_empty() {
-            key.clone()
-        } else {
-            format!("{path}.{key}")
-        };
+        let inner = dotted(key);
         let found = doc(key);
         if let Some((_, d)) = found
             && !d.is_empty()
@@ -144,11 +143,7 @@ fn write_table(
         }
     }
     for (key, value) in lists {
-        let inner = if path.is_empty() {
-            key.clone()
-        } else {
-            format!("{path}.{key}")
-        };
+        let inner = dotted(key);
         let found = doc(key);
         if let Some((_, d)) = found
             && !d.is_empty()

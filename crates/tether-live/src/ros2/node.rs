@@ -589,15 +589,10 @@ impl StartMounts<'_> {
         let mut unmounted = Vec::new();
         if self.mount_given {
             if let Some(frame) = unmounted_frame {
-                let m = pipeline.laser.mount;
-                let mut pose = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
-                pose.position_m[2] = m.height_m;
-                unmounted.push(("laser", frame, pose));
+                unmounted.push(("laser", frame, Pose3::laser_mount(&pipeline.laser.mount)));
             }
             for (frame, m) in extra_unmounted {
-                let mut pose = Pose3::planar(m.x_m, m.y_m, m.yaw_rad);
-                pose.position_m[2] = m.height_m;
-                unmounted.push(("laser", frame, pose));
+                unmounted.push(("laser", frame, Pose3::laser_mount(&m)));
             }
             if let Some(frame) = unmounted_camera {
                 let pose = camera_pose(&pipeline.camera.mount, is_optical_frame(&frame));
