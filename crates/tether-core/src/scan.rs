@@ -182,6 +182,21 @@ impl LaserScan {
         )
     }
 
+    /// Rounds the geometry (angles, range limits) to what a `sensor_msgs/LaserScan`
+    /// carries, 32-bit floats: a live run processes each scan as its recording holds
+    /// it, so that a replay of the recording processes the very same scan.
+    #[allow(
+        clippy::cast_possible_truncation,
+        reason = "the rounding to 32 bits is the point"
+    )]
+    pub fn round_to_message(&mut self) {
+        let round = |x: f64| f64::from(x as f32);
+        self.angle_min_rad = round(self.angle_min_rad);
+        self.angle_increment_rad = round(self.angle_increment_rad);
+        self.range_min_m = round(self.range_min_m);
+        self.range_max_m = round(self.range_max_m);
+    }
+
     /// Number of beams.
     pub fn len(&self) -> usize {
         self.ranges_m.len()

@@ -22,7 +22,9 @@
 //! - [`recorder`]: the MCAP recording of a run (scans, frames, odometry, ticks).
 //!
 //! [`recording_run`] drives the same pipeline over a recording's samples in log order
-//! (`tether track`, `eval-track`).
+//! (`tether track`, `eval-track`, `replay`); for `replay` with the loop's rules of time
+//! ([`control_timer`]) and, for a recording of `tether run`, the loop's poses
+//! ([`robot_pose`]): its commands are then the live run's.
 //!
 //! [`leg_model`] reads the leg model a config names for every pipeline built.
 //!
@@ -37,6 +39,8 @@
 pub mod base;
 pub mod clock;
 pub mod config;
+pub mod config_docs;
+pub mod control_timer;
 pub mod ego;
 pub mod guard;
 pub mod leg_model;
@@ -49,6 +53,7 @@ pub mod recorder;
 pub mod recording_run;
 pub mod results;
 pub mod robot;
+pub mod robot_pose;
 #[cfg(feature = "ros2")]
 pub mod ros2;
 pub mod run_loop;

@@ -37,9 +37,11 @@ pub enum RecordingError {
 
 /// One message for the writer thread.
 enum Record {
-    Scan(LaserScan, f64),
+    /// A scan, its period, when it arrived.
+    Scan(LaserScan, f64, Stamp),
     Tick(Box<Tick>, Pose2<World, Robot>, Twist),
-    Camera(Stamp, EncodedFrame),
+    /// A frame's stamp, when it arrived, the frame.
+    Camera(Stamp, Stamp, EncodedFrame),
     FinalStop(Stamp),
 }
 
@@ -77,11 +79,10 @@ fn write_all<W: std::io::Write + std::io::Seek>(
 ) -> Result<W, McapError> {
     for record in queue {
         match record {
-            Record::Scan(scan, period_s) => {
+            Record::Scan(scan, period_s, arrived) => {
                 let beams = scan.len().max(1) as f64;
-                let stamp = scan.stamp;
                 let msg = LaserScanMsg::new(scan, period_s / beams, period_s);
-                writer.mcap().write("/scan", stamp, &msg)?;
+                writer.mcap().write("/scan", arrived, &msg)?;
             }
             Record::Tick(tick, pose, moving) => {
                 let odom = OdometryMsg::planar(
@@ -94,13 +95,13 @@ fn write_all<W: std::io::Write + std::io::Seek>(
                 writer.mcap().write("/odom", tick.stamp, &odom)?;
                 writer.write_tick(&tick)?;
             }
-            Record::Camera(stamp, frame) => {
+            Record::Camera(stamp, arrived, frame) => {
                 let msg = CompressedImageMsg::new(
                     Header::new(stamp, "camera"),
                     frame.format,
                     frame.bytes,
                 );
-                writer.mcap().write(CAMERA_TOPIC, stamp, &msg)?;
+                writer.mcap().write(CAMERA_TOPIC, arrived, &msg)?;
             }
             Record::FinalStop(stamp) => {
                 let cmd = TwistMsg::unicycle(0.0, 0.0);
@@ -167,8 +168,14 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Recorder<W> {
         }
     }
 
-    pub(crate) fn scan(&mut self, scan: &LaserScan, period_s: f64) -> Result<(), RecordingError> {
-        self.send(Record::Scan(scan.clone(), period_s))
+    /// A scan as it arrived (at `arrived`, its log time; its header keeps its stamp).
+    pub(crate) fn scan(
+        &mut self,
+        scan: &LaserScan,
+        period_s: f64,
+        arrived: Stamp,
+    ) -> Result<(), RecordingError> {
+        self.send(Record::Scan(scan.clone(), period_s, arrived))
     }
 
     pub(crate) fn tick(
@@ -180,13 +187,15 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Recorder<W> {
         self.send(Record::Tick(Box::new(tick.clone()), pose, moving))
     }
 
-    /// A camera frame as it arrived, on [`CAMERA_TOPIC`] (frame `camera`).
+    /// A camera frame stamped `stamp` as it arrived (at `arrived`, its log time), on
+    /// [`CAMERA_TOPIC`] (frame `camera`).
     pub(crate) fn camera(
         &mut self,
         stamp: Stamp,
+        arrived: Stamp,
         frame: EncodedFrame,
     ) -> Result<(), RecordingError> {
-        self.send(Record::Camera(stamp, frame))
+        self.send(Record::Camera(stamp, arrived, frame))
     }
 
     pub(crate) fn final_stop(&mut self, stamp: Stamp) -> Result<(), RecordingError> {
@@ -334,7 +343,9 @@ mod tests {
         let (done, finished) = std::sync::mpsc::channel();
         let loop_side = std::thread::spawn(move || {
             for k in 0..sent {
-                recorder.scan(&scan(k as i64), 0.1).unwrap();
+                recorder
+                    .scan(&scan(k as i64), 0.1, Stamp::from_ns(k as i64))
+                    .unwrap();
             }
             done.send(()).unwrap();
             recorder
@@ -360,12 +371,12 @@ mod tests {
     fn a_disk_that_fails_ends_the_recording_with_its_error() {
         let (disk, control) = disk();
         let mut recorder = Recorder::new(ResultWriter::streaming(disk, "odom").unwrap());
-        recorder.scan(&scan(0), 0.1).unwrap();
+        recorder.scan(&scan(0), 0.1, Stamp::from_ns(0)).unwrap();
         set(&control, State::Fails);
         let error = (1..10_000)
             .find_map(|k| {
                 std::thread::sleep(Duration::from_millis(1));
-                recorder.scan(&scan(k), 0.1).err()
+                recorder.scan(&scan(k), 0.1, Stamp::from_ns(k)).err()
             })
             .expect("the failed disk never showed");
         let chain: Vec<String> =
@@ -377,7 +388,7 @@ mod tests {
             "{chain:?}"
         );
         // Once failed, it stays failed, and finishing says so too.
-        assert!(recorder.scan(&scan(0), 0.1).is_err());
+        assert!(recorder.scan(&scan(0), 0.1, Stamp::from_ns(0)).is_err());
         assert!(recorder.finish().is_err());
     }
 

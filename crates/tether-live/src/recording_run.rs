@@ -9,17 +9,29 @@
 //! tracks (in the world frame) and the scan's labels (in the laser frame) in one frame:
 //! `world_from_laser = world_from_robot * robot_from_laser`. With scan matching, the
 //! first laser's scans are matched; another scanner's take the pose of the last match.
+//!
+//! With a control period ([`Options::control_period`]) the run is the live loop's
+//! (design 6): the pipeline also ticks at the control timer's instants
+//! ([`crate::control_timer`]) between the data, each datum is handled when it was
+//! logged (its arrival) after the instants up to it, and a datum stamped before the last
+//! tick is processed at that tick's time (counted in [`RunCounts::clamped`]). With the
+//! poses of [`Poses::Commands`], a replay of a live run's recording sends the commands
+//! the live run sent, tick for tick.
 
 use crate::ego::ScanOdometry;
 use std::cell::RefCell;
 use std::path::Path;
+use std::time::Duration;
 use tether_scanmatch::MotionPrior;
 
 use tether_core::{GrayImage, Laser, LaserScan, PixelBox, Pose2, Robot, Stamp, World};
 use tether_fusion::Track;
 use tether_pipeline::{Pipeline, Tick};
 
-use tether_recording::samples::{self, LabelMessage, ReadStats, Sample, Topics};
+use tether_recording::samples::{self, LabelMessage, LogTimes, ReadStats, Sample, Topics};
+
+use crate::control_timer::ControlTimer;
+use crate::robot_pose::RobotPose;
 
 /// Where the robot's pose comes from during a run over a recording.
 pub enum Poses<'a> {
@@ -31,6 +43,76 @@ pub enum Poses<'a> {
     ScanMatching(&'a mut ScanOdometry),
     /// None: the robot stands still at the identity.
     Still,
+    /// The robot drove the pipeline's own commands (a recording of `tether run`): the
+    /// dead reckoning of the commands, corrected by scan matching when the
+    /// [`RobotPose`] matches scans, as the live loop keeps it.
+    Commands(&'a mut RobotPose),
+}
+
+/// The robot's pose kept over a recording, for [`Poses`] to borrow.
+#[derive(Debug)]
+pub enum KeptPoses {
+    /// [`Poses::Odometry`].
+    Odometry,
+    /// [`Poses::ScanMatching`].
+    ScanMatching(ScanOdometry),
+    /// [`Poses::Still`].
+    Still,
+    /// [`Poses::Commands`].
+    Commands(RobotPose),
+}
+
+impl KeptPoses {
+    /// The dead reckoning of the pipeline's commands, corrected by `scan_odometry` as
+    /// the live loop corrects it.
+    pub fn commands(scan_odometry: Option<ScanOdometry>) -> Self {
+        KeptPoses::Commands(RobotPose::new(
+            Stamp::from_ns(i64::MIN),
+            scan_odometry,
+            false,
+        ))
+    }
+
+    /// Where a run over a recording takes the robot's pose from.
+    pub fn poses(&mut self) -> Poses<'_> {
+        match self {
+            KeptPoses::Odometry => Poses::Odometry,
+            KeptPoses::ScanMatching(odometry) => Poses::ScanMatching(odometry),
+            KeptPoses::Still => Poses::Still,
+            KeptPoses::Commands(robot) => Poses::Commands(robot),
+        }
+    }
+
+    /// The scan matching, when the scans are matched.
+    pub fn scan_odometry(&self) -> Option<&ScanOdometry> {
+        match self {
+            KeptPoses::ScanMatching(odometry) => Some(odometry),
+            KeptPoses::Commands(robot) => robot.scan_odometry(),
+            KeptPoses::Odometry | KeptPoses::Still => None,
+        }
+    }
+}
+
+/// How a run over a recording goes besides its poses.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Options<'a> {
+    /// A topic whose messages are handed over as [`Step::Labels`], in log order.
+    pub labels_topic: Option<&'a str>,
+    /// The live loop's control period: the pipeline also ticks on the control timer
+    /// ([`Step::Timer`]) and each datum is handled at its log time; `None`: each datum
+    /// at its own stamp, no timer.
+    pub control_period: Option<Duration>,
+}
+
+/// One tick of the control timer.
+#[derive(Debug, Clone, Copy)]
+pub struct TimerStep<'a> {
+    /// What the pipeline made of it.
+    pub tick: &'a Tick,
+    /// The robot's pose at the tick.
+    pub world_from_robot: Pose2<World, Robot>,
+    /// The tracker's tracks after the tick.
+    pub tracks: &'a [Track],
 }
 
 /// One scan through the pipeline.
@@ -70,6 +152,8 @@ pub enum Step<'a> {
     Scan(ScanStep<'a>),
     /// A camera frame went through the pipeline.
     Camera(CameraStep<'a>),
+    /// The control timer ticked (with [`Options::control_period`]).
+    Timer(TimerStep<'a>),
     /// A message of the labels topic.
     Labels(LabelMessage),
 }
@@ -95,92 +179,223 @@ pub struct RunCounts {
     /// Scans and frames before the first odometry message (with an odometry topic),
     /// left out: the robot's pose was not known yet.
     pub waiting_for_odom: usize,
+    /// Timer ticks (with [`Options::control_period`]).
+    pub timer_ticks: usize,
+    /// Data processed at the last tick's time because they were stamped before it.
+    pub clamped: usize,
+}
+
+/// The loop's state between samples.
+struct Run<'p, 'c, 'q> {
+    pipeline: &'p mut Pipeline,
+    camera: Option<&'c mut CameraBoxes<'q>>,
+    poses: Poses<'p>,
+    /// The pose for [`Poses::Odometry`], [`Poses::ScanMatching`] and [`Poses::Still`]
+    /// (`None` before the first odometry message).
+    pose: Option<Pose2<World, Robot>>,
+    counts: RunCounts,
+    timer: Option<ControlTimer>,
+    period: Option<Duration>,
+    /// When the datum being handled was logged (never before the one before).
+    event: Stamp,
+    /// The last tick's stamp.
+    last_stamp: Option<Stamp>,
+}
+
+type OnStep<'s> = dyn FnMut(Step<'_>) -> anyhow::Result<()> + 's;
+
+impl Run<'_, '_, '_> {
+    /// The pose at a timer tick at `stamp`.
+    fn timer_pose(&self, stamp: Stamp) -> Option<Pose2<World, Robot>> {
+        match &self.poses {
+            Poses::Commands(robot) => Some(robot.at_timer(stamp)),
+            _ => self.pose,
+        }
+    }
+
+    /// A datum's stamp the pipeline takes: with the timer, not before the last tick.
+    fn stamp(&mut self, stamp: Stamp) -> Stamp {
+        match self.last_stamp {
+            Some(last) if self.timer.is_some() && stamp < last => {
+                self.counts.clamped += 1;
+                last
+            }
+            _ => stamp,
+        }
+    }
+
+    /// After a tick at the current event: its command is what the robot drives.
+    fn ticked(&mut self, tick: &Tick) {
+        self.last_stamp = Some(self.last_stamp.map_or(tick.stamp, |l| l.max(tick.stamp)));
+        if let Poses::Commands(robot) = &mut self.poses {
+            robot.commanded(self.event, tick.command);
+        }
+    }
+
+    /// The datum logged at `times` arrives: the timer's instants up to it tick first.
+    fn arrive(&mut self, times: LogTimes, on_step: &mut OnStep<'_>) -> anyhow::Result<()> {
+        let Some(period) = self.period else {
+            return Ok(());
+        };
+        let period_ns = i64::try_from(period.as_nanos()).unwrap_or(i64::MAX);
+        let timer = self
+            .timer
+            .get_or_insert_with(|| ControlTimer::new(times.first, period_ns));
+        let arrived = times.log.max(self.event);
+        let mut due = Vec::new();
+        while let Some(at) = timer.due(arrived) {
+            due.push(at);
+        }
+        for at in due {
+            self.event = self.event.max(at);
+            let stamp = self.stamp(at);
+            let Some(pose) = self.timer_pose(stamp) else {
+                continue;
+            };
+            let tick = self.pipeline.on_timer(stamp, pose);
+            self.counts.timer_ticks += 1;
+            self.ticked(&tick);
+            on_step(Step::Timer(TimerStep {
+                tick: &tick,
+                world_from_robot: pose,
+                tracks: self.pipeline.tracker().tracks(),
+            }))?;
+        }
+        self.event = arrived;
+        Ok(())
+    }
+
+    fn odometry(&mut self, world_from_robot: Pose2<World, Robot>) {
+        self.counts.odom += 1;
+        if let Poses::Odometry = self.poses {
+            self.pose = Some(world_from_robot);
+        }
+    }
+
+    fn camera(
+        &mut self,
+        stamp: Stamp,
+        image: &GrayImage,
+        on_step: &mut OnStep<'_>,
+    ) -> anyhow::Result<()> {
+        let Some(camera) = self.camera.as_mut() else {
+            return Ok(());
+        };
+        self.counts.camera_frames_read += 1;
+        let pose = match &mut self.poses {
+            Poses::Commands(robot) => robot.between_scans(stamp),
+            _ => self.pose,
+        };
+        let Some(world_from_robot) = pose else {
+            self.counts.waiting_for_odom += 1;
+            return Ok(());
+        };
+        let boxes = camera(image)?;
+        let stamp = self.stamp(stamp);
+        let tick = self
+            .pipeline
+            .on_camera_boxes(stamp, &boxes, world_from_robot);
+        self.counts.camera_frames += 1;
+        self.ticked(&tick);
+        on_step(Step::Camera(CameraStep {
+            stamp,
+            tick: &tick,
+            boxes: boxes.len(),
+            world_from_robot,
+            tracks: self.pipeline.tracker().tracks(),
+        }))
+    }
+
+    fn scan(&mut self, mut scan: LaserScan, on_step: &mut OnStep<'_>) -> anyhow::Result<()> {
+        self.counts.scans_read += 1;
+        // The matcher aligns the first laser's scans (at its mount); another scanner's
+        // take the pose of the last one (design 5.7).
+        let first = self.pipeline.is_first_lasers(&scan.frame_id);
+        let pose = {
+            let people = crate::ego::moving_people(self.pipeline.tracker().tracks());
+            match &mut self.poses {
+                Poses::Commands(robot) => robot.for_scan(&scan, first, people),
+                Poses::ScanMatching(odometry) if first => {
+                    let prior = MotionPrior::ConstantVelocity;
+                    self.pose = Some(odometry.update(&scan, prior, people));
+                    self.pose
+                }
+                _ => self.pose,
+            }
+        };
+        let Some(world_from_robot) = pose else {
+            self.counts.waiting_for_odom += 1;
+            return Ok(());
+        };
+        scan.stamp = self.stamp(scan.stamp);
+        let tick = self.pipeline.on_scan(&scan, world_from_robot);
+        self.counts.scans += 1;
+        self.ticked(&tick);
+        on_step(Step::Scan(ScanStep {
+            scan: &scan,
+            tick: &tick,
+            world_from_robot,
+            robot_from_laser: self.pipeline.robot_from_laser_of(&scan.frame_id),
+            tracks: self.pipeline.tracker().tracks(),
+        }))
+    }
 }
 
 /// Runs `pipeline` over the recording at `path`: its scans (`topics.scan`), camera
 /// frames (`topics.image`, through `camera`; ignored without it) and odometry
-/// (`topics.odom`), the robot's pose as `poses` says. With `labels_topic`, that topic's
-/// messages are handed over too, in log order. `on_step` may stop the run by returning
-/// an error.
+/// (`topics.odom`), the robot's pose as `poses` says, as `options` say (labels, the
+/// control timer). `on_step` may stop the run by returning an error.
 pub fn run_recording(
     path: &Path,
     topics: &Topics,
-    labels_topic: Option<&str>,
+    options: Options<'_>,
     pipeline: &mut Pipeline,
-    mut camera: Option<&mut CameraBoxes<'_>>,
-    mut poses: Poses<'_>,
+    camera: Option<&mut CameraBoxes<'_>>,
+    poses: Poses<'_>,
     on_step: &mut dyn FnMut(Step<'_>) -> anyhow::Result<()>,
 ) -> anyhow::Result<RunCounts> {
-    let mut pose: Option<Pose2<World, Robot>> =
-        (!matches!(poses, Poses::Odometry)).then_some(Pose2::IDENTITY);
-    let mut counts = RunCounts::default();
+    let pose = match poses {
+        Poses::Odometry => None,
+        _ => Some(Pose2::IDENTITY),
+    };
+    let mut run = Run {
+        pipeline,
+        camera,
+        poses,
+        pose,
+        counts: RunCounts::default(),
+        timer: None,
+        period: options.control_period,
+        event: Stamp::from_ns(i64::MIN),
+        last_stamp: None,
+    };
     // Both callbacks of the reader hand steps on; never at the same time.
     let on_step = RefCell::new(on_step);
-    let mut on_sample = |sample: Sample| -> anyhow::Result<()> {
+    let mut on_sample = |times: LogTimes, sample: Sample| -> anyhow::Result<()> {
+        let mut on_step = on_step.borrow_mut();
+        run.arrive(times, &mut **on_step)?;
         match sample {
             Sample::Odom {
                 world_from_robot, ..
             } => {
-                counts.odom += 1;
-                if let Poses::Odometry = poses {
-                    pose = Some(world_from_robot);
-                }
+                run.odometry(world_from_robot);
+                Ok(())
             }
-            Sample::Camera { stamp, image } => {
-                let Some(camera) = camera.as_mut() else {
-                    return Ok(());
-                };
-                counts.camera_frames_read += 1;
-                let Some(world_from_robot) = pose else {
-                    counts.waiting_for_odom += 1;
-                    return Ok(());
-                };
-                let boxes = camera(&image)?;
-                let tick = pipeline.on_camera_boxes(stamp, &boxes, world_from_robot);
-                counts.camera_frames += 1;
-                (on_step.borrow_mut())(Step::Camera(CameraStep {
-                    stamp,
-                    tick: &tick,
-                    boxes: boxes.len(),
-                    world_from_robot,
-                    tracks: pipeline.tracker().tracks(),
-                }))?;
-            }
-            Sample::Scan(scan) => {
-                counts.scans_read += 1;
-                // The matcher aligns the first laser's scans (at its mount); another
-                // scanner's take the pose of the last one (design 5.7).
-                if let Poses::ScanMatching(odometry) = &mut poses
-                    && pipeline.is_first_lasers(&scan.frame_id)
-                {
-                    let people = crate::ego::moving_people(pipeline.tracker().tracks());
-                    pose = Some(odometry.update(&scan, MotionPrior::ConstantVelocity, people));
-                }
-                let Some(world_from_robot) = pose else {
-                    counts.waiting_for_odom += 1;
-                    return Ok(());
-                };
-                let tick = pipeline.on_scan(&scan, world_from_robot);
-                counts.scans += 1;
-                (on_step.borrow_mut())(Step::Scan(ScanStep {
-                    scan: &scan,
-                    tick: &tick,
-                    world_from_robot,
-                    robot_from_laser: pipeline.robot_from_laser_of(&scan.frame_id),
-                    tracks: pipeline.tracker().tracks(),
-                }))?;
-            }
+            Sample::Camera { stamp, image } => run.camera(stamp, &image, &mut **on_step),
+            Sample::Scan(scan) => run.scan(scan, &mut **on_step),
         }
-        Ok(())
     };
-    let read = match labels_topic {
-        Some(topic) => {
-            samples::read_with_labels(path, topics, topic, &mut on_sample, &mut |labels| {
-                (on_step.borrow_mut())(Step::Labels(labels))
-            })?
-        }
-        None => samples::read(path, topics, &mut on_sample)?,
+    let mut on_labels = |labels: LabelMessage| -> anyhow::Result<()> {
+        (on_step.borrow_mut())(Step::Labels(labels))
     };
+    let labels = options.labels_topic.map(|topic| {
+        (
+            topic,
+            &mut on_labels as &mut dyn FnMut(LabelMessage) -> anyhow::Result<()>,
+        )
+    });
+    let read = samples::read_logged(path, topics, labels, &mut on_sample)?;
+    let mut counts = run.counts;
     counts.read = read;
     Ok(counts)
 }

@@ -150,7 +150,7 @@ pub fn run(
         }
     };
     let loop_config = LoopConfig {
-        control_period: Duration::from_millis(50),
+        control_period: crate::control_timer::CONTROL_PERIOD,
         duration: settings.duration,
         track_width_m: pipeline.config().limits.track_width_m,
         scan_odometry: settings.scan_odometry.clone(),

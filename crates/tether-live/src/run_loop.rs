@@ -9,10 +9,15 @@
 //! every output gets a final stop.
 //!
 //! Time: every stamp is the host's clock (`Clock`), the one the laser driver maps the
-//! sensor's stamps to. The pipeline refuses data older than what it has already
-//! processed, but a scan arrives a little after it was taken, often after a timer tick:
-//! such data are processed at the last tick's time (the clamp is counted), while the
-//! robot's pose is still looked up at the data's own stamp.
+//! sensor's stamps to. The timer ticks at the instants of [`ControlTimer`] (the
+//! multiples of the period). A datum is handled when it arrives, after every timer
+//! instant up to then; the recording logs it at that time, so that a replay of the
+//! recording ([`crate::recording_run`]) handles it as this loop did. The pipeline
+//! refuses data older than what it has already processed, but a scan arrives a little
+//! after it was taken, often after a timer tick: such data are processed at the last
+//! tick's time (the clamp is counted), while the robot's pose ([`RobotPose`]) is still
+//! looked up at the data's own stamp. Nothing else reads the clock between events: the
+//! commands are dead-reckoned from the event that sent them.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
@@ -21,15 +26,17 @@ use std::time::Duration;
 use tether_control::Twist;
 use tether_core::{LaserScan, PixelBox, Pose2, Robot, Stamp, World};
 use tether_pipeline::{Pipeline, Tick, TickInput};
-use tether_scanmatch::{MotionPrior, ScanMatcherConfig};
+use tether_scanmatch::ScanMatcherConfig;
 use tether_scip::{Clock, ScipError};
 
 use crate::base::{CommandLine, CommandSink, TargetLine};
+use crate::control_timer::ControlTimer;
 use crate::ego::ScanOdometry;
 use crate::monitor::FollowMonitor;
-use crate::odometry::DeadReckoning;
 use crate::recorder::{Recorder, RecordingError};
 use crate::results::TargetStateLine;
+pub use crate::robot_pose::ODOMETRY_TIMEOUT_NS;
+use crate::robot_pose::RobotPose;
 pub use crate::sources::Input;
 use crate::sources::frames::EncodedFrame;
 use crate::stop_log::StopLog;
@@ -39,9 +46,6 @@ use crate::target_log::TargetLog;
 /// publishing `/clock`) gets the robot a stop: the timer, and with it the watchdog,
 /// runs on that clock and would never fire.
 pub const CLOCK_STALL: Duration = Duration::from_secs(1);
-
-/// Longest time odometry is carried forward by its velocity, s.
-const ODOMETRY_EXTRAPOLATION_S: f64 = 0.2;
 
 /// Settings of the loop.
 #[derive(Debug, Clone)]
@@ -62,9 +66,6 @@ pub struct LoopConfig {
     /// `false`, odometry messages are ignored.
     pub odometry_input: bool,
 }
-
-/// How old the newest odometry may be when a scan or frame needs the robot's pose, ns.
-pub const ODOMETRY_TIMEOUT_NS: i64 = 500_000_000;
 
 /// Why the run ended.
 #[derive(Debug)]
@@ -167,20 +168,18 @@ struct Live<'a, W: std::io::Write + std::io::Seek + Send + 'static> {
     clock: &'a dyn Clock,
     sinks: &'a mut [Box<dyn CommandSink>],
     recorder: Option<&'a mut Recorder<W>>,
-    odometry: DeadReckoning,
-    /// Scan matching and its state: the dead-reckoned pose at the last scan, and the
-    /// correction that takes dead-reckoned poses to scan-matched ones.
-    scan_odometry: Option<ScanOdometry>,
-    dead_reckoned_at_last_scan: Option<Pose2<World, Robot>>,
-    correction: Pose2<World, World>,
+    /// The robot's pose: dead reckoning of the commands, scan matching, odometry.
+    poses: RobotPose,
     config: &'a LoopConfig,
     last_stamp: Stamp,
+    /// The time of the event being handled: a timer instant, or when a datum arrived
+    /// (never before the event before it). A recording logs each datum at it, so that
+    /// a replay handles them as this loop did.
+    event: Stamp,
     summary: RunSummary,
     scan_period_s: f64,
     /// Where the distance driven was last measured to.
     travelled_to: tether_core::Point2<World>,
-    /// The newest odometry (when it is the pose source) and the velocity with it.
-    odometry_pose: Option<(Stamp, Pose2<World, Robot>, Twist)>,
     /// Says when the target is lost and when the robot cannot keep up.
     monitor: FollowMonitor,
 }
@@ -200,72 +199,21 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
         }
     }
 
-    /// The newest odometry for a datum stamped `stamp`: `None` without odometry,
-    /// `Some(None)` when it has stopped (the datum is then skipped).
-    fn odometry_for(&mut self, stamp: Stamp) -> Option<Option<Pose2<World, Robot>>> {
-        let (at, pose, moving) = self.odometry_pose?;
-        if stamp.ns_since(at) > ODOMETRY_TIMEOUT_NS {
-            if self.summary.skipped_stale_odometry == 0 {
-                tracing::warn!(
-                    "the odometry stopped {:.2} s before this datum; scans and frames are \
-                     skipped until it comes back (the watchdog stops the robot)",
-                    stamp.ns_since(at) as f64 * 1e-9
-                );
-            }
-            self.summary.skipped_stale_odometry += 1;
-            return Some(None);
-        }
-        // Between odometry messages (20-50 Hz on most bases) the base keeps moving:
-        // the pose at the datum's stamp, along the arc of the last velocity.
-        let dt_s = (stamp.ns_since(at) as f64 * 1e-9).clamp(0.0, ODOMETRY_EXTRAPOLATION_S);
-        Some(Some(crate::odometry::integrate(pose, moving, dt_s)))
-    }
-
     fn scan(&mut self, mut scan: LaserScan) -> Result<(), Ending> {
+        scan.round_to_message();
         if let Some(r) = self.recorder.as_deref_mut() {
-            r.scan(&scan, self.scan_period_s)
+            r.scan(&scan, self.scan_period_s, self.event)
                 .map_err(recording_failed)?;
         }
-        if let Some(odometry) = self.odometry_for(scan.stamp) {
-            let Some(pose) = odometry else {
-                return Ok(());
-            };
-            scan.stamp = self.pipeline_stamp(scan.stamp);
-            let tick = self.pipeline.on_scan(&scan, pose);
-            self.summary.scans += 1;
-            return self.emit(&tick, pose);
-        }
-        let dead_reckoned = self.odometry.pose_at(scan.stamp);
-        // The matcher aligns the first laser's scans (at that laser's mount); another
-        // scanner's scans take the pose between them.
         let first = self.pipeline.is_first_lasers(&scan.frame_id);
-        let pose = match self.scan_odometry.as_mut() {
-            Some(_) if !first => self.correction * dead_reckoned,
-            Some(matcher) => {
-                let increment = self
-                    .dead_reckoned_at_last_scan
-                    .map_or(Pose2::IDENTITY, |last| last.inverse() * dead_reckoned);
-                self.dead_reckoned_at_last_scan = Some(dead_reckoned);
-                let people = crate::ego::moving_people(self.pipeline.tracker().tracks());
-                let matched = matcher.update(&scan, MotionPrior::Increment(increment), people);
-                self.correction = matched * dead_reckoned.inverse();
-                matched
-            }
-            None => dead_reckoned,
+        let people = crate::ego::moving_people(self.pipeline.tracker().tracks());
+        let Some(pose) = self.poses.for_scan(&scan, first, people) else {
+            return Ok(());
         };
         scan.stamp = self.pipeline_stamp(scan.stamp);
         let tick = self.pipeline.on_scan(&scan, pose);
         self.summary.scans += 1;
         self.emit(&tick, pose)
-    }
-
-    /// The robot's pose at `stamp` between scans: the odometry, or the dead reckoning
-    /// corrected by the last scan match.
-    fn pose_between_scans(&mut self, stamp: Stamp) -> Option<Pose2<World, Robot>> {
-        match self.odometry_for(stamp) {
-            Some(odometry) => odometry,
-            None => Some(self.correction * self.odometry.pose_at(stamp)),
-        }
     }
 
     fn camera(
@@ -274,29 +222,24 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
         boxes: &[PixelBox],
         frame: Option<EncodedFrame>,
     ) -> Result<(), Ending> {
-        let Some(pose) = self.pose_between_scans(stamp) else {
+        let Some(pose) = self.poses.between_scans(stamp) else {
             return Ok(());
         };
-        let stamp = self.pipeline_stamp(stamp);
         if let (Some(r), Some(frame)) = (self.recorder.as_deref_mut(), frame) {
-            r.camera(stamp, frame).map_err(recording_failed)?;
+            r.camera(stamp, self.event, frame)
+                .map_err(recording_failed)?;
         }
+        let stamp = self.pipeline_stamp(stamp);
         let tick = self.pipeline.on_camera_boxes(stamp, boxes, pose);
         self.summary.frames += 1;
         self.emit(&tick, pose)
     }
 
-    fn timer(&mut self, now: Stamp) -> Result<(), Ending> {
-        let stamp = self.pipeline_stamp(now);
-        // With stale odometry the timer still ticks (its watchdog stops the robot), at
-        // the last pose the odometry gave.
-        let pose = match self.odometry_pose {
-            Some((at, pose, moving)) => {
-                let dt_s = (stamp.ns_since(at) as f64 * 1e-9).clamp(0.0, ODOMETRY_EXTRAPOLATION_S);
-                crate::odometry::integrate(pose, moving, dt_s)
-            }
-            None => self.correction * self.odometry.pose_at(stamp),
-        };
+    /// A tick of the control timer at its instant `at`.
+    fn timer(&mut self, at: Stamp) -> Result<(), Ending> {
+        self.event = self.event.max(at);
+        let stamp = self.pipeline_stamp(at);
+        let pose = self.poses.at_timer(stamp);
         let tick = self.pipeline.on_timer(stamp, pose);
         self.emit(&tick, pose)
     }
@@ -305,11 +248,11 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
     fn emit(&mut self, tick: &Tick, pose: Pose2<World, Robot>) -> Result<(), Ending> {
         self.last_stamp = self.last_stamp.max(tick.stamp);
         self.summary.ticks += 1;
-        let now = self.now();
-        let here = self.odometry.pose_at(now).translation();
+        let now = self.event;
+        let here = self.poses.dead_reckoned(now).translation();
         self.summary.distance_m += self.travelled_to.distance_m(here);
         self.travelled_to = here;
-        self.odometry.set_command(now, tick.command);
+        self.poses.commanded(now, tick.command);
         let input = match tick.input {
             TickInput::Scan => "scan",
             TickInput::Camera => "camera",
@@ -393,7 +336,7 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
             .config
             .duration
             .map(|d| start.saturating_add_ns(i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)));
-        let mut next_timer = start.saturating_add_ns(period_ns);
+        let mut timer = ControlTimer::new(start, period_ns);
         let mut camera_alive = true;
         // When the clock last moved (wall time), and whether the stop for a stalled
         // clock has gone out.
@@ -416,93 +359,98 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
             if end.is_some_and(|end| now >= end) {
                 return Ending::Duration;
             }
-            if now >= next_timer {
-                if let Err(e) = self.timer(now) {
+            if let Some(at) = timer.due(now) {
+                if let Err(e) = self.timer(at) {
                     return e;
-                }
-                next_timer = next_timer.saturating_add_ns(period_ns);
-                if next_timer <= now {
-                    // Fell behind (a stalled machine): no burst of catch-up ticks.
-                    next_timer = now.saturating_add_ns(period_ns);
                 }
                 continue;
             }
-            let wait_ns = next_timer.ns_since(now).clamp(0, period_ns);
+            let wait_ns = timer.next().ns_since(now).clamp(0, period_ns);
             let wait = Duration::from_nanos(wait_ns as u64);
-            let result = match inputs.recv_timeout(wait) {
-                Ok(Input::Scan(scan)) => self.scan(scan),
-                Ok(Input::Camera {
-                    stamp,
-                    boxes,
-                    frame,
-                }) => {
-                    if camera_alive {
-                        self.camera(stamp, &boxes, frame)
-                    } else {
-                        Ok(())
-                    }
-                }
-                Ok(Input::LaserFault(fault)) => {
-                    self.summary.laser_faults += 1;
-                    tracing::debug!("laser: {fault}");
-                    Ok(())
-                }
-                Ok(Input::LaserLost {
-                    laser,
-                    error,
-                    within_s,
-                }) => {
-                    tracing::warn!(
-                        "the laser stopped answering ({laser}: {error}); the robot stands while \
-                         it is opened again, for up to {within_s:.1} s ([laser] reconnect_s)"
-                    );
-                    Ok(())
-                }
-                Ok(Input::LaserBack { laser, after_s }) => {
-                    self.summary.laser_reconnects += 1;
-                    tracing::warn!("the laser answers again after {after_s:.1} s ({laser})");
-                    Ok(())
-                }
-                Ok(Input::LaserFailed(error)) => Err(Ending::LaserFailed(error)),
-                Ok(Input::CameraFrameBad(why)) => {
-                    self.summary.bad_frames += 1;
-                    let n = self.summary.bad_frames;
-                    if n <= 5 || n.is_multiple_of(100) {
-                        tracing::warn!("camera frame skipped ({n} so far): {why}");
-                    }
-                    Ok(())
-                }
-                Ok(Input::CameraEnded(why)) => {
-                    camera_alive = false;
-                    self.pipeline.camera_gone();
-                    match why {
-                        None => tracing::info!("the camera's frames ended; laser only from now on"),
-                        Some(e) => {
-                            tracing::error!("the camera failed ({e}); laser only from now on")
-                        }
-                    }
-                    Ok(())
-                }
-                Ok(Input::ClockAdvanced) => Ok(()),
-                Ok(Input::Odometry {
-                    stamp,
-                    world_from_robot,
-                    moving,
-                }) => {
-                    if self.config.odometry_input {
-                        if self.odometry_pose.is_none() {
-                            tracing::info!("odometry arrived: it is the robot's pose from now on");
-                        }
-                        self.summary.odometry_messages += 1;
-                        self.odometry_pose = Some((stamp, world_from_robot, moving));
-                    }
-                    Ok(())
-                }
-                Err(RecvTimeoutError::Timeout) => Ok(()),
-                Err(RecvTimeoutError::Disconnected) => Err(Ending::InputsClosed),
+            let input = match inputs.recv_timeout(wait) {
+                Ok(input) => input,
+                Err(RecvTimeoutError::Timeout) => continue,
+                Err(RecvTimeoutError::Disconnected) => return Ending::InputsClosed,
             };
-            if let Err(ending) = result {
+            // The datum is handled at its arrival, after every timer instant up to it
+            // (as a replay of the recording handles it).
+            let arrived = self.now().max(self.event);
+            while let Some(at) = timer.due(arrived) {
+                if let Err(e) = self.timer(at) {
+                    return e;
+                }
+            }
+            self.event = arrived;
+            if let Err(ending) = self.input(input, &mut camera_alive) {
                 return ending;
+            }
+        }
+    }
+
+    /// Handles one input at [`Live::event`].
+    fn input(&mut self, input: Input, camera_alive: &mut bool) -> Result<(), Ending> {
+        match input {
+            Input::Scan(scan) => self.scan(scan),
+            Input::Camera {
+                stamp,
+                boxes,
+                frame,
+            } => {
+                if *camera_alive {
+                    self.camera(stamp, &boxes, frame)
+                } else {
+                    Ok(())
+                }
+            }
+            Input::LaserFault(fault) => {
+                self.summary.laser_faults += 1;
+                tracing::debug!("laser: {fault}");
+                Ok(())
+            }
+            Input::LaserLost {
+                laser,
+                error,
+                within_s,
+            } => {
+                tracing::warn!(
+                    "the laser stopped answering ({laser}: {error}); the robot stands while \
+                         it is opened again, for up to {within_s:.1} s ([laser] reconnect_s)"
+                );
+                Ok(())
+            }
+            Input::LaserBack { laser, after_s } => {
+                self.summary.laser_reconnects += 1;
+                tracing::warn!("the laser answers again after {after_s:.1} s ({laser})");
+                Ok(())
+            }
+            Input::LaserFailed(error) => Err(Ending::LaserFailed(error)),
+            Input::CameraFrameBad(why) => {
+                self.summary.bad_frames += 1;
+                let n = self.summary.bad_frames;
+                if n <= 5 || n.is_multiple_of(100) {
+                    tracing::warn!("camera frame skipped ({n} so far): {why}");
+                }
+                Ok(())
+            }
+            Input::CameraEnded(why) => {
+                *camera_alive = false;
+                self.pipeline.camera_gone();
+                match why {
+                    None => tracing::info!("the camera's frames ended; laser only from now on"),
+                    Some(e) => {
+                        tracing::error!("the camera failed ({e}); laser only from now on")
+                    }
+                }
+                Ok(())
+            }
+            Input::ClockAdvanced => Ok(()),
+            Input::Odometry {
+                stamp,
+                world_from_robot,
+                moving,
+            } => {
+                self.poses.odometry(stamp, world_from_robot, moving);
+                Ok(())
             }
         }
     }
@@ -533,9 +481,9 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
                 .final_stop_failures
                 .push(("recording".into(), e.into()));
         }
-        let here = self.odometry.pose_at(stamp).translation();
+        let here = self.poses.dead_reckoned(stamp).translation();
         self.summary.distance_m += self.travelled_to.distance_m(here);
-        self.odometry.set_command(stamp, Twist::STOP);
+        self.poses.commanded(stamp, Twist::STOP);
     }
 }
 
@@ -583,15 +531,18 @@ pub fn run<W: std::io::Write + std::io::Seek + Send + 'static>(
         clock,
         sinks,
         recorder,
-        odometry: DeadReckoning::new(start),
-        scan_odometry: config
-            .scan_odometry
-            .clone()
-            .map(|c| ScanOdometry::new(c, pipeline_mount)),
-        dead_reckoned_at_last_scan: None,
-        correction: Pose2::IDENTITY,
+        poses: RobotPose::new(
+            start,
+            config
+                .scan_odometry
+                .clone()
+                .map(|c| ScanOdometry::new(c, pipeline_mount)),
+            config.odometry_input,
+        ),
         config,
-        last_stamp: start,
+        // No tick yet: no datum is too old.
+        last_stamp: Stamp::from_ns(i64::MIN),
+        event: start,
         summary: RunSummary {
             ending: Ending::InputsClosed,
             ticks: 0,
@@ -613,7 +564,6 @@ pub fn run<W: std::io::Write + std::io::Seek + Send + 'static>(
         },
         scan_period_s,
         travelled_to: tether_core::Point2::ORIGIN,
-        odometry_pose: None,
         monitor,
     };
     // A panic in the loop (a bug) must not skip the final stop: it ends the run like a
@@ -624,6 +574,8 @@ pub fn run<W: std::io::Write + std::io::Seek + Send + 'static>(
     let mut summary = live.summary;
     summary.ending = ending;
     summary.cannot_keep_up = live.monitor.pull_away_warnings;
+    summary.odometry_messages = live.poses.odometry_messages;
+    summary.skipped_stale_odometry = live.poses.skipped_stale_odometry;
     summary
 }
 

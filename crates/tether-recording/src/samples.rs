@@ -344,6 +344,23 @@ fn check_scans(path: &Path, topic: &str, tally: &ScanTally) -> anyhow::Result<()
     Ok(())
 }
 
+/// When a sample was logged: the time the recorder received it (a live tether run logs
+/// each datum when its loop took it), and the log time of the recording's first
+/// message (of any topic in an MCAP file; of the topics read in a bag).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LogTimes {
+    /// This message's log time.
+    pub log: Stamp,
+    /// The first message's log time.
+    pub first: Stamp,
+}
+
+/// What a timed reading calls with each sample.
+pub type OnLoggedSample<'a> = dyn FnMut(LogTimes, Sample) -> anyhow::Result<()> + 'a;
+
+/// What a reading calls with each message of a labels topic.
+pub type OnLabels<'a> = dyn FnMut(LabelMessage) -> anyhow::Result<()> + 'a;
+
 /// Reads the recording at `path` (MCAP or ROS 1 bag, told apart by their first bytes)
 /// and calls `on_sample` with every sample of `topics`, in log order. `on_sample` may
 /// stop the reading by returning an error.
@@ -352,11 +369,7 @@ pub fn read(
     topics: &Topics,
     on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
 ) -> anyhow::Result<ReadStats> {
-    if is_mcap(path)? {
-        read_mcap(path, topics, on_sample, None)
-    } else {
-        read_bag(path, topics, on_sample, None)
-    }
+    read_logged(path, topics, None, &mut |_, sample| on_sample(sample))
 }
 
 /// Like [`read`], and also hands every message of `labels_topic` (see
@@ -368,20 +381,35 @@ pub fn read_with_labels(
     on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
     on_labels: &mut dyn FnMut(LabelMessage) -> anyhow::Result<()>,
 ) -> anyhow::Result<ReadStats> {
-    let sink = LabelSink {
-        topic: labels_topic,
-        on_labels,
-    };
+    read_logged(
+        path,
+        topics,
+        Some((labels_topic, on_labels)),
+        &mut |_, sample| on_sample(sample),
+    )
+}
+
+/// Like [`read`] (and [`read_with_labels`] with `labels`), each sample with its
+/// [`LogTimes`].
+pub fn read_logged(
+    path: &Path,
+    topics: &Topics,
+    labels: Option<(&str, &mut OnLabels<'_>)>,
+    on_sample: &mut OnLoggedSample<'_>,
+) -> anyhow::Result<ReadStats> {
+    let sink = labels.map(|(topic, on_labels)| LabelSink { topic, on_labels });
     if is_mcap(path)? {
-        read_mcap(path, topics, on_sample, Some(sink))
+        read_mcap(path, topics, on_sample, sink)
     } else {
-        read_bag(path, topics, on_sample, Some(sink))
+        read_bag(path, topics, on_sample, sink)
     }
 }
 
 /// A stored message of either format, decoded into the sample it stands for.
 trait Stored {
     fn topic(&self) -> &str;
+    /// When the recorder received it.
+    fn log_time(&self) -> Stamp;
     /// Whether the message is a `CompressedImage` (else a camera topic holds `Image`s).
     fn is_compressed(&self) -> bool;
     fn scan(&self) -> anyhow::Result<LaserScan>;
@@ -407,6 +435,9 @@ trait Stored {
 impl Stored for mcap::RawMessage {
     fn topic(&self) -> &str {
         self.topic()
+    }
+    fn log_time(&self) -> Stamp {
+        self.log_time
     }
     fn is_compressed(&self) -> bool {
         let name = self.channel.type_name();
@@ -466,6 +497,9 @@ impl Stored for mcap::RawMessage {
 impl Stored for rosbag::RawMessage {
     fn topic(&self) -> &str {
         &self.connection.topic
+    }
+    fn log_time(&self) -> Stamp {
+        self.time
     }
     fn is_compressed(&self) -> bool {
         self.connection.msg_type == <CompressedImageMsg as RosMessage>::TYPE
@@ -543,11 +577,11 @@ fn deliver_labels(
 /// Hands `raw`'s sample to `on_sample`, or skips and counts it.
 fn deliver(
     raw: &impl Stored,
-    at: &dyn std::fmt::Display,
+    (at, first): (&dyn std::fmt::Display, Stamp),
     topics: &Topics,
     stats: &mut ReadStats,
     scans: &mut ScanTally,
-    on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
+    on_sample: &mut OnLoggedSample<'_>,
 ) -> anyhow::Result<()> {
     let is_scan = raw.topic() == topics.scan;
     match raw.sample(topics) {
@@ -555,7 +589,8 @@ fn deliver(
             if is_scan {
                 scans.good += 1;
             }
-            on_sample(s)
+            let log = raw.log_time();
+            on_sample(LogTimes { log, first }, s)
         }
         Err(e) => {
             if is_scan {
@@ -573,7 +608,7 @@ fn deliver(
 fn read_mcap(
     path: &Path,
     topics: &Topics,
-    on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
+    on_sample: &mut OnLoggedSample<'_>,
     mut labels: Option<LabelSink<'_>>,
 ) -> anyhow::Result<ReadStats> {
     let file = McapFile::open(path)?;
@@ -599,14 +634,17 @@ fn read_mcap(
     };
     let mut scans = ScanTally::default();
     let mut messages = file.messages();
+    let mut first = None;
     for raw in &mut messages {
         let raw = raw?;
+        let first = *first.get_or_insert(raw.log_time);
         if let Some(sink) = labels.as_mut().filter(|l| l.topic == raw.topic()) {
             stats.messages += 1;
             deliver_labels(&raw, &raw.at, sink, &mut stats)?;
         } else if wanted.contains(&raw.topic()) {
             stats.messages += 1;
-            deliver(&raw, &raw.at, topics, &mut stats, &mut scans, on_sample)?;
+            let at = (&raw.at as &dyn std::fmt::Display, first);
+            deliver(&raw, at, topics, &mut stats, &mut scans, on_sample)?;
         }
     }
     stats.unattributed = messages.skipped_count();
@@ -624,7 +662,7 @@ fn read_mcap(
 fn read_bag(
     path: &Path,
     topics: &Topics,
-    on_sample: &mut dyn FnMut(Sample) -> anyhow::Result<()>,
+    on_sample: &mut OnLoggedSample<'_>,
     mut labels: Option<LabelSink<'_>>,
 ) -> anyhow::Result<ReadStats> {
     // A bag cut short (or never indexed) is read by walking its records: its
@@ -662,13 +700,16 @@ fn read_bag(
     };
     let mut scans = ScanTally::default();
     let mut messages = bag.messages().only_topics(&wanted);
+    let mut first = None;
     for raw in &mut messages {
         let raw = raw?;
+        let first = *first.get_or_insert(raw.time);
         stats.messages += 1;
         if let Some(sink) = labels.as_mut().filter(|l| l.topic == raw.topic()) {
             deliver_labels(&raw, &raw.at, sink, &mut stats)?;
         } else {
-            deliver(&raw, &raw.at, topics, &mut stats, &mut scans, on_sample)?;
+            let at = (&raw.at as &dyn std::fmt::Display, first);
+            deliver(&raw, at, topics, &mut stats, &mut scans, on_sample)?;
         }
     }
     stats.unattributed = messages.skipped_count();

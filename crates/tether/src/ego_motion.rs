@@ -20,6 +20,10 @@ pub enum EgoMotion {
     Scans,
     /// None: the robot is taken to stand still.
     None,
+    /// The robot drove tether's own commands (a recording of `tether run`): the dead
+    /// reckoning of the commands, corrected by scan matching, as the live loop keeps it
+    /// (for `run` and `ros2`: scan matching, odometry messages ignored).
+    Commands,
 }
 
 /// Where a run's poses come from, once [`EgoMotion`] is resolved.
@@ -31,13 +35,15 @@ pub enum PoseSource {
     Scans,
     /// None: the robot stands still.
     Still,
+    /// The dead reckoning of the pipeline's own commands, corrected by scan matching.
+    Commands,
 }
 
 impl PoseSource {
     /// The frame name positions are given in.
     pub fn frame(self) -> &'static str {
         match self {
-            PoseSource::Odometry => "odom",
+            PoseSource::Odometry | PoseSource::Commands => "odom",
             PoseSource::Scans => "scan_odom",
             PoseSource::Still => "base_link",
         }
@@ -52,40 +58,34 @@ impl EgoMotion {
             (EgoMotion::Auto, false) | (EgoMotion::Scans, _) => Ok(PoseSource::Scans),
             (EgoMotion::Odom, false) => Err(NoOdometry),
             (EgoMotion::None, _) => Ok(PoseSource::Still),
+            (EgoMotion::Commands, _) => Ok(PoseSource::Commands),
         }
     }
 
-    /// [`EgoMotion::resolve`] for a run over a recording, with the scan odometry the run
-    /// keeps when the source is scan matching (the settings of the run's configuration,
-    /// `config.scan_matcher`, for its scanner mounted at `config.laser`'s mount).
+    /// [`EgoMotion::resolve`] for a run over a recording, with the poses the run keeps:
+    /// with scan matching (scans or commands), the settings of the run's configuration
+    /// (`config.scan_matcher`), for its scanner mounted at `config.laser`'s mount.
     pub fn for_recording(
         self,
         have_odometry: bool,
         config: &tether_pipeline::PipelineConfig,
-    ) -> Result<(PoseSource, Option<tether_live::ego::ScanOdometry>), NoOdometry> {
+    ) -> Result<(PoseSource, tether_live::recording_run::KeptPoses), NoOdometry> {
         let source = self.resolve(have_odometry)?;
-        let scan_odometry = (source == PoseSource::Scans).then(|| {
+        let matched = matches!(source, PoseSource::Scans | PoseSource::Commands);
+        let scan_odometry = matched.then(|| {
             tether_live::ego::ScanOdometry::new(
                 config.scan_matcher.clone(),
                 config.laser.robot_from_laser(),
             )
         });
-        Ok((source, scan_odometry))
-    }
-}
-
-/// Where a run over a recording takes the robot's pose from
-/// ([`tether_live::recording_run::Poses`]): `source`, with the scan odometry
-/// [`EgoMotion::for_recording`] gave for scan matching.
-pub fn poses(
-    source: PoseSource,
-    scan_odometry: Option<&mut tether_live::ego::ScanOdometry>,
-) -> tether_live::recording_run::Poses<'_> {
-    use tether_live::recording_run::Poses;
-    match (source, scan_odometry) {
-        (PoseSource::Scans, Some(odometry)) => Poses::ScanMatching(odometry),
-        (PoseSource::Odometry, _) => Poses::Odometry,
-        _ => Poses::Still,
+        use tether_live::recording_run::KeptPoses;
+        let kept = match (source, scan_odometry) {
+            (PoseSource::Commands, matcher) => KeptPoses::commands(matcher),
+            (PoseSource::Scans, Some(matcher)) => KeptPoses::ScanMatching(matcher),
+            (PoseSource::Odometry, _) => KeptPoses::Odometry,
+            _ => KeptPoses::Still,
+        };
+        Ok((source, kept))
     }
 }
 
@@ -100,5 +100,6 @@ mod tests {
         assert_eq!(EgoMotion::Scans.resolve(true), Ok(PoseSource::Scans));
         assert_eq!(EgoMotion::None.resolve(true), Ok(PoseSource::Still));
         assert!(EgoMotion::Odom.resolve(false).is_err());
+        assert_eq!(EgoMotion::Commands.resolve(true), Ok(PoseSource::Commands));
     }
 }

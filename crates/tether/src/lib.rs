@@ -1,11 +1,10 @@
 //! The `tether` application: what its commands share that is the command line's own
-//! (the `--ego-motion` choice, the log and terminal output, files written whole, the
-//! annotated settings). The closed loop and the measures are `tether-eval`'s, the
+//! (the `--ego-motion` choice, the log and terminal output, files written whole). The
+//! annotated settings are `tether-live`'s (`config_docs`). The closed loop and the measures are `tether-eval`'s, the
 //! reports `tether-report`'s; the live runtime (`run`, `ros2`) is the `tether-live`
 //! crate, re-exported here as [`live`].
 
 pub mod args;
-pub mod config_docs;
 pub mod ego_motion;
 pub mod logs;
 pub mod output;

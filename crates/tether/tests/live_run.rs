@@ -23,6 +23,8 @@ use common::run::{
     wait_until, wait_until_driving, xy,
 };
 use common::{scratch, tether, text};
+use tether_msgs::TwistMsg;
+use tether_recording::mcap::McapFile;
 use tether_testkit::{opencv_cascade, or_skip};
 
 #[test]
@@ -114,6 +116,58 @@ fn run_follows_the_emulators_person() {
         .find_map(|l| l.split(" scans").next()?.trim().parse().ok())
         .unwrap_or(0);
     assert!(scans > 60, "{report}");
+
+    // Replayed as the live loop ran (the robot drove tether's commands; the same timer
+    // ticks), the recording gives back the commands the live run sent, tick for tick.
+    let again = dir.join("again.mcap");
+    let out = tether(&[
+        "replay",
+        record.to_str().unwrap(),
+        "--config",
+        dir.join("robot.toml").to_str().unwrap(),
+        "--ego-motion",
+        "commands",
+        "--out",
+        again.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let replayed: Vec<(i64, f64, f64)> = McapFile::open(&again)
+        .unwrap()
+        .decoded::<TwistMsg>(&["/tether/cmd_vel"])
+        .map(|m| {
+            let m = m.unwrap();
+            (m.log_time.ns(), m.message.v_mps(), m.message.w_radps())
+        })
+        .collect();
+    let live: Vec<(i64, f64, f64)> = lines
+        .iter()
+        .filter(|l| l["input"] != "final")
+        .map(|l| {
+            let f = |k: &str| l[k].as_f64().unwrap();
+            (l["stamp_ns"].as_i64().unwrap(), f("v_mps"), f("w_radps"))
+        })
+        .collect();
+    // The replay ends with the recording's last scan; the live run ticked on until
+    // its duration.
+    assert!(
+        replayed.len() <= live.len() && replayed.len() + 4 >= live.len(),
+        "{} commands replayed, {} sent live",
+        replayed.len(),
+        live.len()
+    );
+    let differ = replayed.iter().zip(&live).position(|(r, l)| r != l);
+    assert_eq!(
+        differ,
+        None,
+        "tick {differ:?} differs: replayed {:?}, live {:?}",
+        differ.map(|k| &replayed[k.saturating_sub(2)..(k + 3).min(replayed.len())]),
+        differ.map(|k| &live[k.saturating_sub(2)..(k + 3).min(live.len())])
+    );
+    eprintln!(
+        "replay with --ego-motion commands: {} of {} live commands, identical",
+        replayed.len(),
+        live.len()
+    );
 }
 
 #[test]

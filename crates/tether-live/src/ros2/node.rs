@@ -292,7 +292,7 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         started.elapsed()
     };
     let loop_config = LoopConfig {
-        control_period: Duration::from_millis(50),
+        control_period: crate::control_timer::CONTROL_PERIOD,
         duration: duration.map(|d| d.saturating_sub(spent)),
         track_width_m: pipeline.config().limits.track_width_m,
         scan_odometry,

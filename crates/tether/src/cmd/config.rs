@@ -37,7 +37,7 @@ pub enum ConfigCommand {
 pub fn run(command: ConfigCommand) -> anyhow::Result<()> {
     match command {
         ConfigCommand::Defaults => {
-            let (text, _) = tether::config_docs::annotated_defaults()?;
+            let (text, _) = tether_live::config_docs::annotated_defaults()?;
             tether::outln!("{}", text.trim_end())?;
         }
         ConfigCommand::Show { config, params } => {
@@ -86,7 +86,7 @@ fn show(path: Option<&PathBuf>, params: &[String]) -> anyhow::Result<String> {
             true => None,
             false => from_param(key).or_else(|| Some("default".to_owned())),
         };
-        let (text, _) = tether::config_docs::annotated(header, &config, &source)?;
+        let (text, _) = tether_live::config_docs::annotated(header, &config, &source)?;
         return Ok(text);
     };
     let name = path.display().to_string();
@@ -120,7 +120,7 @@ fn show(path: Option<&PathBuf>, params: &[String]) -> anyhow::Result<String> {
             ""
         }
     );
-    let (text, _) = tether::config_docs::annotated(&header, &config, &source)?;
+    let (text, _) = tether_live::config_docs::annotated(&header, &config, &source)?;
     Ok(text)
 }
 

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use tether_eval::track_eval::{EvalOptions, LabelsFrame, Pairing, PoseLabels, TrackEval};
 use tether_live::pipeline_file;
-use tether_live::recording_run::{Step, run_recording};
+use tether_live::recording_run::{Options, Step, run_recording};
 use tether_recording::samples::Topics;
 
 /// Options of `tether eval-track`.
@@ -75,7 +75,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         pipeline_file::load_for_recording(args.config.as_deref(), args.odom_topic.is_some())?;
     config.fusion.use_vision = false;
     args.leg_model.apply(&mut config);
-    let (source, mut scan_odometry) = args
+    let (_, mut poses) = args
         .ego_motion
         .for_recording(args.odom_topic.is_some(), &config)
         .map_err(anyhow::Error::msg)?;
@@ -95,21 +95,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let counts = run_recording(
         &args.recording,
         &topics,
-        Some(&args.labels_topic),
+        Options {
+            labels_topic: Some(&args.labels_topic),
+            control_period: None,
+        },
         &mut pipeline,
         None,
-        tether::ego_motion::poses(source, scan_odometry.as_mut()),
+        poses.poses(),
         &mut |step| {
             match step {
                 Step::Scan(s) => eval.on_scan(&s),
                 Step::Labels(l) => eval.on_labels(l),
-                Step::Camera(_) => {}
+                Step::Camera(_) | Step::Timer(_) => {}
             }
             Ok(())
         },
     )?;
     let skipped = counts.read.bad_messages + counts.read.unattributed;
-    if let Some(odometry) = &scan_odometry {
+    if let Some(odometry) = poses.scan_odometry() {
         tracing::info!("{}", odometry.summary());
     }
     if skipped > 0 {

@@ -8,8 +8,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 use tether::ego_motion::EgoMotion;
 use tether_core::GrayImage;
+use tether_live::control_timer::CONTROL_PERIOD;
 use tether_live::pipeline_file;
-use tether_live::recording_run::{CameraBoxes, Step, run_recording};
+use tether_live::recording_run::{CameraBoxes, Options, Step, run_recording};
 use tether_live::results::ResultWriter;
 use tether_recording::samples::Topics;
 use tether_report::replay_report::ReplaySummary;
@@ -36,7 +37,10 @@ pub struct Args {
     pub odom_topic: Option<String>,
     /// Where the robot's motion comes from: `auto` (the odometry topic if given, else
     /// scan matching), `odom`, `scans` (even with odometry), `none` (the robot stands
-    /// still; positions in its own frame).
+    /// still; positions in its own frame), `commands` (a recording of `tether run`: the
+    /// robot drove tether's commands, so their dead reckoning corrected by scan
+    /// matching, as the live loop kept it; the replay then sends the live run's
+    /// commands).
     #[arg(long, value_enum, default_value_t = EgoMotion::Auto)]
     pub ego_motion: EgoMotion,
     /// A pipeline configuration (TOML; every table optional).
@@ -70,7 +74,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     config.fusion.use_vision = camera.is_some();
     args.leg_model.apply(&mut config);
     let intrinsics = config.camera.intrinsics;
-    let (source, mut scan_odometry) = args
+    let (source, mut poses) = args
         .ego_motion
         .for_recording(args.odom_topic.is_some(), &config)
         .map_err(anyhow::Error::msg)?;
@@ -98,10 +102,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let counts = run_recording(
         &args.recording,
         &topics,
-        None,
+        Options {
+            labels_topic: None,
+            control_period: Some(CONTROL_PERIOD),
+        },
         &mut pipeline,
         boxes.as_mut().map(|b| b as &mut CameraBoxes<'_>),
-        tether::ego_motion::poses(source, scan_odometry.as_mut()),
+        poses.poses(),
         &mut |step| {
             let (tick, world_from_robot, tracks) = match step {
                 Step::Scan(s) => {
@@ -112,6 +119,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     summary.boxes += c.boxes;
                     (c.tick, c.world_from_robot, c.tracks)
                 }
+                Step::Timer(t) => (t.tick, t.world_from_robot, t.tracks),
                 Step::Labels(_) => return Ok(()),
             };
             summary.record(tick, world_from_robot, tracks);
@@ -139,7 +147,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             summary.waiting_for_odom
         );
     }
-    if let Some(odometry) = &scan_odometry {
+    tracing::info!(
+        "{} timer ticks ({} ms); {} data stamped before the tick before them, processed at \
+         its time (as on the robot)",
+        counts.timer_ticks,
+        CONTROL_PERIOD.as_millis(),
+        counts.clamped
+    );
+    if let Some(odometry) = poses.scan_odometry() {
         tracing::info!("{}", odometry.summary());
     }
     let ps = pipeline.stats();

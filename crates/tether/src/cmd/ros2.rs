@@ -265,7 +265,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // commands corrected by scan matching.
     let (with_scans, odometry_input) = match args.ego_motion {
         EgoMotion::Auto => (true, true),
-        EgoMotion::Scans => (true, false),
+        EgoMotion::Scans | EgoMotion::Commands => (true, false),
         EgoMotion::Odom => (false, true),
         EgoMotion::None => anyhow::bail!(
             "--ego-motion none: a robot that drives cannot be taken to stand still; use \

@@ -50,7 +50,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // The base reports no odometry: the commands' dead reckoning, corrected by the scans
     // unless asked not to be.
     let with_scans = match args.ego_motion {
-        EgoMotion::Auto | EgoMotion::Scans => true,
+        EgoMotion::Auto | EgoMotion::Scans | EgoMotion::Commands => true,
         EgoMotion::Odom => false,
         EgoMotion::None => anyhow::bail!(
             "--ego-motion none: a robot that drives cannot be taken to stand still; use \

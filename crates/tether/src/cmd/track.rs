@@ -9,7 +9,7 @@ use serde::Serialize;
 use tether::args::{CameraArgs, camera};
 use tether_core::GrayImage;
 use tether_live::pipeline_file;
-use tether_live::recording_run::{CameraBoxes, ScanStep, Step, run_recording};
+use tether_live::recording_run::{CameraBoxes, Options, ScanStep, Step, run_recording};
 use tether_live::results::TargetStateLine;
 use tether_live::target_log::TargetLog;
 use tether_recording::samples::Topics;
@@ -99,7 +99,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     config.fusion.use_vision = camera.is_some();
     let intrinsics = config.camera.intrinsics;
-    let (source, mut scan_odometry) = args
+    let (_, mut poses) = args
         .ego_motion
         .for_recording(args.odom_topic.is_some(), &config)
         .map_err(anyhow::Error::msg)?;
@@ -123,10 +123,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let counts = run_recording(
         &args.bag,
         &topics,
-        None,
+        Options::default(),
         &mut pipeline,
         boxes.as_mut().map(|b| b as &mut CameraBoxes<'_>),
-        tether::ego_motion::poses(source, scan_odometry.as_mut()),
+        poses.poses(),
         &mut |step| {
             let Step::Scan(ScanStep {
                 scan,
@@ -179,7 +179,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
     )?;
     let skipped = counts.read.bad_messages + counts.read.unattributed;
-    if let Some(odometry) = &scan_odometry {
+    if let Some(odometry) = poses.scan_odometry() {
         tracing::info!("{}", odometry.summary());
     }
     out.commit()
@@ -259,7 +259,7 @@ mod tests {
     fn defaults() -> &'static str {
         static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
         TEXT.get_or_init(|| {
-            let (text, _) = tether::config_docs::annotated_defaults().unwrap();
+            let (text, _) = tether_live::config_docs::annotated_defaults().unwrap();
             text.lines()
                 .filter(|l| !l.starts_with('#') && !l.is_empty())
                 .map(|l| format!("{l}\n"))
