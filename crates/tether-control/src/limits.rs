@@ -35,26 +35,35 @@ impl Twist {
 #[serde(deny_unknown_fields, default)]
 pub struct MotionLimits {
     /// Top forward speed, m/s.
+    #[config(range = "> 0, <= 3")]
     pub max_speed_mps: f64,
     /// Top reverse speed, m/s (0: never reverse). The laser does not see behind, so the
     /// pipeline only reverses along the path the robot has just driven.
     pub max_reverse_mps: f64,
     /// Top turn rate, rad/s.
+    #[config(range = "> 0, <= 2pi")]
     pub max_turn_radps: f64,
     /// Top speed of either wheel, m/s.
+    #[config(range = "> 0, <= 3")]
     pub max_wheel_speed_mps: f64,
     /// Distance between the wheels, m.
+    #[config(range = "> 0, <= 2")]
     pub track_width_m: f64,
     /// Largest increase of speed, m/s^2.
+    #[config(range = "> 0, <= 10")]
     pub max_accel_mps2: f64,
     /// Largest decrease of speed (braking), m/s^2.
+    #[config(range = "> 0, <= 10")]
     pub max_decel_mps2: f64,
     /// Largest change of turn rate, rad/s^2.
+    #[config(range = "> 0, <= 100")]
     pub max_angular_accel_radps2: f64,
     /// Largest change of the linear acceleration, m/s^3 (smoothness; emergency stops
     /// ignore it).
+    #[config(range = "> 0, <= 1000")]
     pub max_jerk_mps3: f64,
     /// Largest change of the angular acceleration, rad/s^3.
+    #[config(range = "> 0, <= 1000")]
     pub max_angular_jerk_radps3: f64,
 }
 

@@ -14,34 +14,44 @@ pub const SEARCH_RATE_RADPS: f64 = 0.5;
 #[serde(deny_unknown_fields, default)]
 pub struct SafetyConfig {
     /// Stop when the newest laser scan is older than this, s.
+    #[config(range = "> 0, <= 1")]
     pub laser_timeout_s: f64,
     /// Stop when the target's estimate has not been updated for this long, s. Until
     /// then the robot follows the target where it should be (its track's prediction),
     /// at a pace that falls to zero by then (see `unseen_full_pace_s`).
+    #[config(range = "> 0, <= 2")]
     pub target_timeout_s: f64,
     /// For this long an unseen target is followed at full pace, s; from then the pace
     /// falls linearly to zero at `target_timeout_s`, and the robot stops at once when
     /// another person is within `unseen_clear_m` of where the target should be (design
     /// 6, safety 2). A missed scan or two changes nothing.
+    #[config(range = ">= 0, <= 2")]
     pub unseen_full_pace_s: f64,
     /// Another person this near where an unseen target should be makes the guess
     /// ambiguous, m: the robot stops (`unseen_among_others`).
+    #[config(range = ">= 0, <= 5")]
     pub unseen_clear_m: f64,
     /// Free space kept ahead of the footprint in the direction of travel, m.
+    #[config(range = ">= 0.1, <= 3")]
     pub stop_distance_m: f64,
     /// Radius of the robot's footprint, m.
+    #[config(range = "> 0, <= 2")]
     pub robot_radius_m: f64,
     /// Extra width on each side of the footprint's corridor, m.
+    #[config(range = ">= 0, <= 1")]
     pub corridor_margin_m: f64,
     /// For this long after losing the target the robot, standing, turns on the spot
     /// towards where the target should be, s (0: it only stands).
+    #[config(range = ">= 0, <= 60")]
     pub search_turn_s: f64,
     /// The opt-in search for a lost target (0: off): once that turn is done, the robot
     /// rotates on the spot on toward the side where the target was last seen, at
     /// `SEARCH_RATE_RADPS`, until it has turned this far since the loss, rad, as Nav2's
     /// Following Server rotates to search.
+    #[config(range = ">= 0, <= 2pi")]
     pub search_rotate_rad: f64,
     /// The search ends this long after the loss, s, whatever it has turned.
+    #[config(range = ">= 0, <= 60")]
     pub search_rotate_s: f64,
 }
 

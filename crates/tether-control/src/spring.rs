@@ -48,20 +48,26 @@ pub enum SpringVariant {
 }
 
 /// Gains and virtual inertia of the spring.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, tether_core::ConfigDocs)]
 #[serde(deny_unknown_fields)]
 pub struct SpringGains {
     /// Stretch stiffness, N/m.
+    #[config(range = "> 0")]
     pub k1: f64,
     /// Bending stiffness, N/rad.
+    #[config(range = "> 0")]
     pub k2: f64,
     /// Linear damping, N s/m.
+    #[config(range = "> 0")]
     pub k3: f64,
     /// Angular damping, N m s/rad.
+    #[config(range = "> 0")]
     pub k4: f64,
     /// Virtual mass, kg.
+    #[config(range = "> 0")]
     pub mass_kg: f64,
     /// Virtual moment of inertia, kg m^2.
+    #[config(range = "> 0")]
     pub inertia_kgm2: f64,
 }
 
@@ -96,16 +102,22 @@ impl SpringGains {
 pub struct SpringConfig {
     /// Follow distance: the spring's free length, m (user studies prefer 1.2-2.0 m; the
     /// paper's robot kept 0.65-0.8 m).
+    #[config(range = "> 0")]
     pub follow_distance_m: f64,
     /// Attachment point ahead of the wheel axis, m.
+    #[config(range = "> 0")]
     pub attach_ahead_m: f64,
     /// Natural frequency of the distance loop, rad/s.
+    #[config(range = "> 0")]
     pub distance_omega_radps: f64,
     /// Natural frequency of the bearing loop, rad/s.
+    #[config(range = "> 0")]
     pub bearing_omega_radps: f64,
     /// Virtual mass, kg.
+    #[config(range = "> 0")]
     pub mass_kg: f64,
     /// Virtual inertia, kg m^2.
+    #[config(range = "> 0")]
     pub inertia_kgm2: f64,
     /// Damp the speed relative to the person's tracked speed (removes the lag).
     pub relative_damping: bool,

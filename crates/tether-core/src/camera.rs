@@ -38,16 +38,20 @@ pub struct CameraModelError {
 #[serde(deny_unknown_fields, default)]
 pub struct CameraIntrinsics {
     /// Focal length along u, px.
+    #[config(range = "> 0")]
     pub fx_px: f64,
     /// Focal length along v, px.
+    #[config(range = "> 0")]
     pub fy_px: f64,
     /// Principal point, u, px.
     pub cx_px: f64,
     /// Principal point, v, px.
     pub cy_px: f64,
     /// Image width, px.
+    #[config(range = ">= 1")]
     pub width_px: u32,
     /// Image height, px.
+    #[config(range = ">= 1")]
     pub height_px: u32,
 }
 
@@ -79,6 +83,7 @@ pub struct CameraMount {
     /// Height of the lens above the floor (`Hc`), m.
     pub height_m: f64,
     /// Upward pitch of the optical axis (`theta_c`), rad.
+    #[config(range = "> -1.4, < 1.4")]
     pub tilt_rad: f64,
 }
 

@@ -7,7 +7,7 @@
 pub use tether_config_derive::ConfigDocs;
 
 /// One field of a configuration struct (or of an enum's variant).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FieldDoc {
     /// The struct's (or enum's) name, e.g. `SafetyConfig`.
     pub strukt: &'static str,
@@ -18,6 +18,33 @@ pub struct FieldDoc {
     pub ty: &'static str,
     /// The first sentence of its doc comment.
     pub doc: &'static str,
+    /// The values a number admits (`#[config(range = "> 0")]`), if it is bounded.
+    pub range: Option<ValueRange>,
+}
+
+/// The values a number of the configuration admits: `text` as written beside the field
+/// (`"> 0, <= 1"`), and its bounds, each with whether it is admitted itself.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ValueRange {
+    /// The conditions as written, e.g. `> 0, <= 1`.
+    pub text: &'static str,
+    /// The lower bound and whether it is admitted.
+    pub min: Option<(f64, bool)>,
+    /// The upper bound and whether it is admitted.
+    pub max: Option<(f64, bool)>,
+}
+
+impl ValueRange {
+    /// Whether `x` is in the range (never NaN).
+    pub fn admits(&self, x: f64) -> bool {
+        let above = self
+            .min
+            .is_none_or(|(lo, inclusive)| if inclusive { x >= lo } else { x > lo });
+        let below = self
+            .max
+            .is_none_or(|(hi, inclusive)| if inclusive { x <= hi } else { x < hi });
+        !x.is_nan() && above && below
+    }
 }
 
 /// A configuration struct or enum whose fields are documented ([`FieldDoc`]).
@@ -46,6 +73,9 @@ mod tests {
         model: crate::laser::LaserModel,
         /// A list of tables.
         more: Vec<crate::laser::ExtraLaser>,
+        /// A fraction.
+        #[config(range = "> 0, <= 1")]
+        fraction: f64,
         undocumented: bool,
     }
 
@@ -90,6 +120,21 @@ mod tests {
         assert_eq!(doc("model").map(|d| d.1), Some("LaserModel"));
         assert_eq!(doc("more").map(|d| d.1), Some("ExtraLaser"));
         assert_eq!(doc("undocumented"), Some(("Example", "bool", "")));
+        let fraction = Example::FIELDS
+            .iter()
+            .find(|d| d.field == "fraction")
+            .and_then(|d| d.range)
+            .unwrap_or_else(|| panic!("no range"));
+        assert_eq!(fraction.text, "> 0, <= 1");
+        assert_eq!(
+            (fraction.min, fraction.max),
+            (Some((0.0, false)), Some((1.0, true)))
+        );
+        let admitted: Vec<bool> = [-1.0, 0.0, 1e-9, 0.5, 1.0, 1.5, f64::NAN]
+            .iter()
+            .map(|&x| fraction.admits(x))
+            .collect();
+        assert_eq!(admitted, [false, false, true, true, true, false, false]);
         assert_eq!(
             Kind::FIELDS,
             &[
@@ -97,13 +142,15 @@ mod tests {
                     strukt: "Kind",
                     field: "<enum>",
                     ty: "",
-                    doc: "How a thing is done."
+                    doc: "How a thing is done.",
+                    range: None,
                 },
                 FieldDoc {
                     strukt: "Kind",
                     field: "margin_m",
                     ty: "f64",
-                    doc: "The margin, m."
+                    doc: "The margin, m.",
+                    range: None,
                 }
             ]
         );

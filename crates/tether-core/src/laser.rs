@@ -55,6 +55,7 @@ pub enum LaserModelError {
 #[serde(deny_unknown_fields, default)]
 pub struct UrgGeometry {
     /// Encoder steps per revolution (`ARES`).
+    #[config(range = ">= 1")]
     pub steps_per_rev: u32,
     /// First measured step (`AMIN`).
     pub first_step: u32,
@@ -190,6 +191,7 @@ pub struct RangeNoiseModel {
     /// sigma(r), m, as a polynomial in range (m), before the floor is applied.
     pub sigma_m: Polynomial,
     /// Smallest standard deviation ever used, m.
+    #[config(range = "> 0")]
     pub sigma_floor_m: f64,
 }
 
@@ -260,6 +262,7 @@ pub struct LaserMount {
     /// Yaw of the scanner's x axis relative to the robot's, rad.
     pub yaw_rad: f64,
     /// Height of the scan plane above the floor, m (the paper: about 0.30 m).
+    #[config(range = ">= 0")]
     pub height_m: f64,
 }
 
@@ -293,10 +296,12 @@ pub struct LaserModel {
     /// Step geometry.
     pub geometry: UrgGeometry,
     /// Shortest valid range, m (URG-04LX: 0.02).
+    #[config(range = ">= 0")]
     pub range_min_m: f64,
     /// Longest valid range, m (URG-04LX: 5.6; the paper used the 4 m mode).
     pub range_max_m: f64,
     /// Time of one revolution, s (URG-04LX: 0.1 at 600 rpm).
+    #[config(range = ">= 0.001, <= 10")]
     pub scan_period_s: f64,
     /// Range noise.
     pub noise: RangeNoiseModel,

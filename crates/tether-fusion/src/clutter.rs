@@ -37,20 +37,25 @@ pub struct ClutterConfig {
     /// Learn static clutter (off: nothing is ever static).
     pub enabled: bool,
     /// Grid cell size, m.
+    #[config(range = "> 0")]
     pub cell_m: f64,
     /// A sighting counts for every cell whose centre is within this of it, m (the jitter
     /// of a static cluster's centre from scan to scan, ~2-5 cm, plus half a cell).
+    #[config(range = ">= 0")]
     pub spread_m: f64,
     /// Evidence that makes a cell static, s of presence.
+    #[config(range = "> 0")]
     pub static_after_s: f64,
     /// Evidence lost per second without a sighting (relative to time: 0.25 forgets a
     /// second of presence in four seconds of absence).
+    #[config(range = "> 0")]
     pub forget_rate: f64,
     /// Evidence cap, s: how long a static place is remembered once it is gone is
     /// `(max_evidence_s - static_after_s) / forget_rate`.
     pub max_evidence_s: f64,
     /// Longest scan interval credited as presence, s (a gap in the data is not
     /// presence).
+    #[config(range = "> 0")]
     pub max_dt_s: f64,
 }
 

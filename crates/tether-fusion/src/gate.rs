@@ -26,6 +26,7 @@ pub fn mahalanobis_sq<F: Frame>(a: &Gaussian2<F>, b: &Gaussian2<F>) -> f64 {
 #[serde(deny_unknown_fields)]
 pub struct Gate {
     /// Threshold on `D^2` (default 9.21, the 99 % quantile for 2 degrees of freedom).
+    #[config(range = "> 0")]
     pub threshold: f64,
 }
 

@@ -122,12 +122,15 @@ impl Observation {
 #[serde(deny_unknown_fields, default)]
 pub struct MotionBounds {
     /// Highest speed of a person, m/s.
+    #[config(range = "> 0")]
     pub max_speed_mps: f64,
     /// Highest sustained acceleration of a person, m/s^2.
+    #[config(range = "> 0")]
     pub max_accel_mps2: f64,
     /// The region a coasting track takes observations from grows by at most this
     /// beyond its estimate's own uncertainty, m: a track silent for long is more
     /// likely lost than far away.
+    #[config(range = "> 0")]
     pub max_coast_growth_m: f64,
 }
 
@@ -205,25 +208,34 @@ pub struct TrackerConfig {
     pub gate: Gate,
     /// Spectral density of the white-noise acceleration, m^2/s^3 (how briskly people
     /// change velocity).
+    #[config(range = "> 0")]
     pub accel_noise: f64,
     /// Velocity uncertainty of a new track, m/s.
+    #[config(range = "> 0")]
     pub initial_speed_sigma_mps: f64,
     /// Updates that confirm a tentative track.
+    #[config(range = ">= 1")]
     pub confirm_hits: u32,
     /// A tentative track not updated for this long is dropped, s.
+    #[config(range = "> 0")]
     pub tentative_timeout_s: f64,
     /// A confirmed track not updated for this long is dropped, s.
+    #[config(range = "> 0")]
     pub max_coast_s: f64,
     /// A return hides what lies more than this behind it ([`crate::Shadow`]), m.
+    #[config(range = "> 0")]
     pub shadow_margin_m: f64,
     /// A person found within this distance beside the last scan's shadow came out of it,
     /// m: about how far a walker moves between two scans (1 m/s at 10 Hz). The
     /// detector finds a leg only once a few beams hit it, by when it is already past
     /// the shadow's edge ([`Observation::from_shadow`]).
+    #[config(range = ">= 0")]
     pub shadow_edge_m: f64,
     /// A track whose position standard deviation exceeds this is dropped, m.
+    #[config(range = "> 0")]
     pub max_position_sigma_m: f64,
     /// Observations with a position standard deviation above this are ignored, m.
+    #[config(range = "> 0")]
     pub max_observation_sigma_m: f64,
     /// How laser (and fused) observations update tracks.
     pub laser_update: UpdateRule,
@@ -231,6 +243,7 @@ pub struct TrackerConfig {
     pub vision_update: UpdateRule,
     /// A track updated by the laser within this long takes only the bearing of a
     /// vision observation, s (0: always the full position).
+    #[config(range = ">= 0")]
     pub laser_support_s: f64,
     /// A camera observation updates no track that another confirmed track is closer to
     /// than this, m (0: no such rule). Two people closer than about a body width (0.5 m)
@@ -238,26 +251,32 @@ pub struct TrackerConfig {
     /// may be either one's or both merged, and giving it to the wrong track at a crossing
     /// drags that track onto the other person; the laser, which resolves their legs,
     /// updates them alone until they part.
+    #[config(range = ">= 0")]
     pub vision_min_separation_m: f64,
     /// What people can do: the physical gate of every track.
     pub motion: MotionBounds,
     /// No new track starts closer than this to a confirmed track, m: two people's
     /// centres are never closer than about a body width, so what is found there is the
     /// tracked person's other leg, or a false positive at their feet (0: no rule).
+    #[config(range = ">= 0")]
     pub spawn_separation_m: f64,
     /// Two confirmed tracks closer than this for `duplicate_after_s` are one person
     /// tracked twice (its legs seen apart): the younger is dropped, m (0: no rule).
+    #[config(range = ">= 0")]
     pub duplicate_distance_m: f64,
     /// How long two tracks must stay within `duplicate_distance_m` to be one person, s
     /// (two people passing close by stay that close for a moment only).
+    #[config(range = ">= 0")]
     pub duplicate_after_s: f64,
     /// A weak observation (a leg the classifier barely accepts) updates only a
     /// confirmed track updated within `weak_keepalive_s`, or whose prediction is within
     /// `weak_max_offset_m` of it: it keeps a track going through a dark spell, but a
     /// track that has been coasting does not jump to it, since a coasting track's reach
     /// covers a leg-like bush or a bystander's leg as readily as its person's, s.
+    #[config(range = ">= 0")]
     pub weak_keepalive_s: f64,
     /// See `weak_keepalive_s`, m.
+    #[config(range = ">= 0")]
     pub weak_max_offset_m: f64,
     /// A lone leg, or a camera observation alone for a track the laser has tracked,
     /// updates a track that has not been updated for this long only within
@@ -271,17 +290,21 @@ pub struct TrackerConfig {
     /// who reappears away from where their track coasted to starts a new track, which
     /// the target selector vouches for as usual). Camera-only tracking (no laser ever
     /// on the track) is left as it was.
+    #[config(range = ">= 0")]
     pub coast_lone_leg_after_s: f64,
     /// See `coast_lone_leg_after_s`, m (0: no such rule).
+    #[config(range = ">= 0")]
     pub coast_lone_leg_offset_m: f64,
     /// A track given a lone leg also takes a second lone leg within this distance of
     /// the first that no track was given and no other track explains better, and is
     /// updated with their midpoint (design 5.5, "legs paired by the tracks"), m (0: no
     /// such rule). The detector's own pairing distance (0.6 m): a stride.
+    #[config(range = ">= 0")]
     pub pair_lone_legs_within_m: f64,
     /// A lone leg that a confirmed track explains with a cost (`d^2 + ln det S`)
     /// lower by more than this is not given to any other track (design 5.5, "legs
     /// paired by the tracks"; 0: no such rule).
+    #[config(range = ">= 0")]
     pub leg_owner_cost_gap: f64,
     /// Match in a cascade: confirmed tracks choose their observations first, and
     /// tentative tracks share what is left (`false`: one assignment of all tracks).

@@ -29,8 +29,10 @@ use crate::preprocess::ScanPoint;
 pub struct ArcTestConfig {
     /// Largest distance of a bisector intersection from their mean, m (default 0.04,
     /// the paper's delta).
+    #[config(range = "> 0")]
     pub delta_m: f64,
     /// Smallest accepted leg diameter, m (default 0.05).
+    #[config(range = ">= 0")]
     pub diameter_min_m: f64,
     /// Largest accepted leg diameter, m (default 0.20).
     pub diameter_max_m: f64,

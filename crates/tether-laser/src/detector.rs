@@ -39,9 +39,11 @@ pub struct DetectorConfig {
     /// Segmentation rule (default: Euclidean clustering at 0.13 m, [`Breakpoint::default`]).
     pub breakpoint: Breakpoint,
     /// Fewest returns in a leg candidate (default 3).
+    #[config(range = ">= 3")]
     pub min_points: usize,
     /// Widest candidate segment, first to last return, m (default 0.5: wider than two
     /// legs side by side, so no leg).
+    #[config(range = "> 0")]
     pub max_width_m: f64,
     /// The arc test. Its diameter range also bounds the learned detector's radius
     /// estimate.
@@ -52,6 +54,7 @@ pub struct DetectorConfig {
     /// are reported as weak legs (learned detector only; 0: none): not people, but
     /// enough to keep a person already tracked there (default 0.2 of the margin's
     /// [-1, 1] range).
+    #[config(range = ">= 0, <= 2")]
     pub weak_margin: f64,
 }
 

@@ -30,18 +30,23 @@ pub struct Leg {
 pub struct PairingConfig {
     /// Largest distance between the centres of two legs of one person, m (default 0.6;
     /// real data: 0.21-0.34 m typical, up to 0.58 m).
+    #[config(range = "> 0")]
     pub max_separation_m: f64,
     /// Report a lone leg as a (weaker) person hypothesis (default true).
     pub single_leg_people: bool,
     /// Standard deviation of the leg midpoint about the body centre along the line
     /// through the two legs (the walking direction during a stride), m (default 0.1).
+    #[config(range = "> 0")]
     pub gait_sigma_along_m: f64,
     /// The same across that line, m (default 0.03).
+    #[config(range = "> 0")]
     pub gait_sigma_across_m: f64,
     /// Standard deviation of the body centre about a lone leg, m (default 0.15: the
     /// other leg is up to ~0.3 m from the midpoint).
+    #[config(range = "> 0")]
     pub single_leg_sigma_m: f64,
     /// A lone leg's person score is its leg score times this (default 0.5).
+    #[config(range = ">= 0, <= 1")]
     pub single_leg_score_factor: f64,
 }
 

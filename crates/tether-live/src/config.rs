@@ -723,11 +723,12 @@ impl RobotConfig {
                 field,
                 message,
             })?;
-        config.pipeline_config().map_err(|e| ConfigError::Invalid {
+        let pipeline = config.pipeline_config().map_err(|e| ConfigError::Invalid {
             path: path.to_path_buf(),
             field: "pipeline".into(),
             message: e.to_string(),
         })?;
+        crate::pipeline_file::check_ranges(path, &pipeline)?;
         Ok(config)
     }
 

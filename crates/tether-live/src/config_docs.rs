@@ -17,6 +17,101 @@ fn docs() -> &'static [FieldDoc] {
     DOCS.get_or_init(tether_pipeline::config_docs::config_docs)
 }
 
+/// The keys of `config` whose value is outside the range its field admits
+/// (`#[config(range = ...)]`, design 13): each its dotted key (`safety.laser_timeout_s`,
+/// `extra_lasers[0].laser.range_max_m`) and why, `is -1, must be > 0`. The one check of
+/// every bounded number, whichever file or `-p` set it.
+pub fn out_of_range(config: &PipelineConfig) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    match toml::Table::try_from(config) {
+        Ok(table) => check_table("", "PipelineConfig", &table, &mut out),
+        Err(e) => out.push((String::new(), format!("cannot be read as TOML: {e}"))),
+    }
+    out
+}
+
+/// [`out_of_range`] of `table` (at dotted `path`, of type `strukt`).
+fn check_table(path: &str, strukt: &str, table: &toml::Table, out: &mut Vec<(String, String)>) {
+    for (key, value) in table {
+        let dotted = if path.is_empty() {
+            key.clone()
+        } else {
+            format!("{path}.{key}")
+        };
+        let Some(field) = docs().iter().find(|d| d.strukt == strukt && d.field == key) else {
+            continue;
+        };
+        match value {
+            toml::Value::Table(inner) => check_table(&dotted, field.ty, inner, out),
+            toml::Value::Array(items) => {
+                for (i, item) in items.iter().enumerate() {
+                    if let Some(inner) = item.as_table() {
+                        check_table(&format!("{dotted}[{i}]"), field.ty, inner, out);
+                    }
+                }
+            }
+            number => {
+                let x = number
+                    .as_float()
+                    .or_else(|| number.as_integer().map(|i| i as f64));
+                if let (Some(range), Some(x)) = (field.range, x)
+                    && !range.admits(x)
+                {
+                    out.push((dotted, format!("is {number}, must be {}", range.text)));
+                }
+            }
+        }
+    }
+}
+
+/// The registry's entry of a dotted key of the pipeline's configuration
+/// (`follower.follow_distance_m`), if it has one.
+pub fn field_doc(dotted: &str) -> Option<&'static FieldDoc> {
+    let mut strukt = "PipelineConfig";
+    let mut found = None;
+    for part in dotted.split('.') {
+        let d = docs()
+            .iter()
+            .find(|d| d.strukt == strukt && d.field == part)?;
+        strukt = d.ty;
+        found = Some(d);
+    }
+    found
+}
+
+/// The unit a key's name carries (`_m`: metres, `_radps`: rad/s, ...; design 1), or
+/// `""`.
+pub fn unit_of_key(dotted: &str) -> &'static str {
+    const UNITS: [(&str, &str); 13] = [
+        ("_mps2", "m/s^2"),
+        ("_mps3", "m/s^3"),
+        ("_mps", "m/s"),
+        ("_radps2", "rad/s^2"),
+        ("_radps3", "rad/s^3"),
+        ("_radps", "rad/s"),
+        ("_rad", "rad"),
+        ("_kgm2", "kg m^2"),
+        ("_kg", "kg"),
+        ("_px", "px"),
+        ("_hz", "Hz"),
+        ("_m", "m"),
+        ("_s", "s"),
+    ];
+    let name = dotted.rsplit('.').next().unwrap_or(dotted);
+    UNITS
+        .iter()
+        .find(|(suffix, _)| name.ends_with(suffix))
+        .map_or("", |(_, unit)| unit)
+}
+
+/// The range of `field` of struct `name`, if it is bounded.
+fn range_of(name: &str, field: &str) -> Option<tether_core::config_docs::ValueRange> {
+    docs()
+        .iter()
+        .find(|d| d.strukt == name && d.field == field)
+        .and_then(|d| d.range)
+}
+
 /// The type and first doc sentence of `field` of struct `name`, if it has one.
 fn doc_of(name: &str, field: &str) -> Option<(&'static str, &'static str)> {
     docs()
@@ -103,7 +198,10 @@ fn write_table(
     for (key, value) in scalars {
         match doc(key) {
             Some((_, d)) if !d.is_empty() => {
-                let _ = writeln!(out, "# {d}");
+                let range = strukt
+                    .and_then(|s| range_of(s, key))
+                    .map_or(String::new(), |r| format!(" ({})", r.text));
+                let _ = writeln!(out, "# {d}{range}");
             }
             _ => *undocumented += 1,
         }
@@ -188,6 +286,99 @@ mod tests {
         assert!(
             text.contains("\n# model = (not set by default)\n"),
             "{text}"
+        );
+    }
+
+    /// Every bounded key under `table` (of type `strukt`, at `path`): its path, range and
+    /// whether it is an integer.
+    fn bounded(
+        path: &[String],
+        strukt: &str,
+        table: &toml::Table,
+        out: &mut Vec<(Vec<String>, tether_core::config_docs::ValueRange, bool)>,
+    ) {
+        for (key, value) in table {
+            let Some(field) = docs().iter().find(|d| d.strukt == strukt && d.field == key) else {
+                continue;
+            };
+            let mut here = path.to_vec();
+            here.push(key.clone());
+            match (value, field.range) {
+                (toml::Value::Table(inner), _) => bounded(&here, field.ty, inner, out),
+                (number, Some(range)) => out.push((here, range, number.is_integer())),
+                _ => {}
+            }
+        }
+    }
+
+    /// The registry's ranges are what the pipeline's own checks refuse: a value just
+    /// outside each bound of each key is named by the loader's check and refused by
+    /// `Pipeline::new`; every default is inside its range.
+    #[test]
+    fn every_range_is_enforced_and_every_default_is_in_it() {
+        let defaults = toml::Table::try_from(PipelineConfig::default()).unwrap();
+        assert!(out_of_range(&PipelineConfig::default()).is_empty());
+        let mut keys = Vec::new();
+        bounded(&[], "PipelineConfig", &defaults, &mut keys);
+        assert!(keys.len() > 100, "{} bounded keys", keys.len());
+        let (mut checked, mut taken) = (0, Vec::new());
+        for (path, range, integer) in keys {
+            let dotted = path.join(".");
+            let outside = [
+                range.min.map(|(lo, inclusive)| {
+                    if !inclusive {
+                        lo
+                    } else if integer {
+                        lo - 1.0
+                    } else {
+                        lo - 1e-3 * (1.0 + lo.abs())
+                    }
+                }),
+                range.max.map(|(hi, inclusive)| {
+                    if !inclusive {
+                        hi
+                    } else if integer {
+                        hi + 1.0
+                    } else {
+                        hi + 1e-3 * (1.0 + hi.abs())
+                    }
+                }),
+            ];
+            for x in outside.into_iter().flatten() {
+                let mut table = defaults.clone();
+                let (last, parents) = path.split_last().unwrap();
+                let mut at = &mut table;
+                for key in parents {
+                    at = at.get_mut(key).and_then(toml::Value::as_table_mut).unwrap();
+                }
+                let value = if integer {
+                    toml::Value::Integer(x as i64)
+                } else {
+                    toml::Value::Float(x)
+                };
+                at.insert(last.clone(), value);
+                let config: PipelineConfig = match table.try_into() {
+                    Ok(c) => c,
+                    // An unsigned count below zero does not even read.
+                    Err(_) if integer && x < 0.0 => continue,
+                    Err(e) => panic!("{dotted} = {x}: {e}"),
+                };
+                let named = out_of_range(&config);
+                assert!(
+                    named.iter().any(|(k, _)| *k == dotted),
+                    "{dotted} = {x} is outside {} but not named: {named:?}",
+                    range.text
+                );
+                if tether_pipeline::Pipeline::new(config, None).is_ok() {
+                    taken.push(format!("{dotted} = {x} (outside {})", range.text));
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 100, "{checked} values checked");
+        assert!(
+            taken.is_empty(),
+            "outside their range, yet the pipeline takes: {taken:#?}"
         );
     }
 

@@ -1,17 +1,21 @@
 //! The parameters of `tether ros2` (`--ros-args -p NAME:=VALUE`), in one table: each
 //! name with its default, unit, meaning and, for those that set the pipeline, the key of
-//! the configuration file it overrides (`follow_distance` is `follower.follow_distance_m`).
-//! The node reads its parameters through this table, `tether config show -p` applies the
-//! pipeline's among them to the configuration it prints, and a test holds
-//! `docs/ros2.md`'s table to it.
+//! the configuration file it overrides (`follow_distance` is `follower.follow_distance_m`),
+//! whose unit, meaning and range are the configuration registry's for that key
+//! ([`crate::config_docs::field_doc`]). The node reads its parameters through this table,
+//! `tether config show -p` applies the pipeline's among them to the configuration it
+//! prints, and a test holds `docs/ros2.md`'s table to it.
 
+use tether_core::config_docs::ValueRange;
 use tether_pipeline::PipelineConfig;
+
+use crate::config_docs::{field_doc, unit_of_key};
 
 /// What a parameter sets.
 #[derive(Debug, Clone, Copy)]
 pub enum Sets {
     /// A number of the pipeline's configuration: its dotted key in a configuration file
-    /// and the field. Must be positive and finite.
+    /// and the field. Its value must be in the key's range.
     Pipeline {
         /// The key of the configuration file it overrides, e.g.
         /// `follower.follow_distance_m`.
@@ -30,12 +34,38 @@ pub struct NodeParam {
     pub name: &'static str,
     /// Its default, as `-p` would spell it (`-` when the configuration decides).
     pub default: &'static str,
-    /// Its unit, or the values it takes.
-    pub unit: &'static str,
-    /// What it does.
-    pub meaning: &'static str,
+    /// A setting of the node's: its unit, or the values it takes.
+    node_unit: &'static str,
+    /// A setting of the node's: what it does.
+    node_meaning: &'static str,
     /// What it sets.
     pub sets: Sets,
+}
+
+impl NodeParam {
+    /// Its unit, or the values it takes (a pipeline's number: its key's unit).
+    pub fn unit(&self) -> &'static str {
+        match self.sets {
+            Sets::Pipeline { key, .. } => unit_of_key(key),
+            Sets::Node => self.node_unit,
+        }
+    }
+
+    /// What it does (a pipeline's number: its key's meaning).
+    pub fn meaning(&self) -> &'static str {
+        match self.sets {
+            Sets::Pipeline { key, .. } => field_doc(key).map_or("", |d| d.doc),
+            Sets::Node => self.node_meaning,
+        }
+    }
+
+    /// The values it takes, when it sets a bounded number of the pipeline.
+    pub fn range(&self) -> Option<ValueRange> {
+        match self.sets {
+            Sets::Pipeline { key, .. } => field_doc(key).and_then(|d| d.range),
+            Sets::Node => None,
+        }
+    }
 }
 
 /// Every parameter of `tether ros2`.
@@ -100,34 +130,18 @@ pub const NODE_PARAMS: &[NodeParam] = &[
         "class name",
         "the class of the boxes taken for people (empty: all)",
     ),
-    pipeline(
-        "follow_distance",
-        "m",
-        "the distance to keep to the person",
-        "follower.follow_distance_m",
-        |p| &mut p.follower.follow_distance_m,
-    ),
-    pipeline(
-        "attach_ahead",
-        "m",
-        "where the spring pulls, ahead of the wheel axis",
-        "follower.attach_ahead_m",
-        |p| &mut p.follower.attach_ahead_m,
-    ),
-    pipeline(
-        "distance_omega",
-        "rad/s",
-        "the distance loop's natural frequency (the spring's gain)",
-        "follower.distance_omega_radps",
-        |p| &mut p.follower.distance_omega_radps,
-    ),
-    pipeline(
-        "bearing_omega",
-        "rad/s",
-        "the bearing loop's natural frequency (the spring's gain)",
-        "follower.bearing_omega_radps",
-        |p| &mut p.follower.bearing_omega_radps,
-    ),
+    pipeline("follow_distance", "follower.follow_distance_m", |p| {
+        &mut p.follower.follow_distance_m
+    }),
+    pipeline("attach_ahead", "follower.attach_ahead_m", |p| {
+        &mut p.follower.attach_ahead_m
+    }),
+    pipeline("distance_omega", "follower.distance_omega_radps", |p| {
+        &mut p.follower.distance_omega_radps
+    }),
+    pipeline("bearing_omega", "follower.bearing_omega_radps", |p| {
+        &mut p.follower.bearing_omega_radps
+    }),
     node(
         "use_sim_time",
         "false",
@@ -146,26 +160,24 @@ const fn node(
     NodeParam {
         name,
         default,
-        unit,
-        meaning,
+        node_unit: unit,
+        node_meaning: meaning,
         sets: Sets::Node,
     }
 }
 
-/// A parameter that overrides a number of the pipeline's configuration (its default is
-/// the configuration's).
+/// A parameter that overrides a number of the pipeline's configuration, `key` (its
+/// default, unit, meaning and range are the key's).
 const fn pipeline(
     name: &'static str,
-    unit: &'static str,
-    meaning: &'static str,
     key: &'static str,
     field: fn(&mut PipelineConfig) -> &mut f64,
 ) -> NodeParam {
     NodeParam {
         name,
         default: "-",
-        unit,
-        meaning,
+        node_unit: "",
+        node_meaning: "",
         sets: Sets::Pipeline { key, field },
     }
 }
@@ -185,7 +197,7 @@ pub fn names() -> String {
 }
 
 /// Sets the pipeline's number that parameter `name` overrides to `value`; the error says
-/// why not (not a parameter, not one of the pipeline's, not a positive number).
+/// why not (not a parameter, not one of the pipeline's, not a number in its key's range).
 pub fn set_pipeline(
     config: &mut PipelineConfig,
     name: &str,
@@ -198,14 +210,16 @@ pub fn set_pipeline(
             "parameter {name} is a setting of the node, not of the pipeline"
         ));
     };
+    let range = p.range();
     match value {
-        Some(x) if x.is_finite() && x > 0.0 => {
+        Some(x) if x.is_finite() && range.is_none_or(|r| r.admits(x)) => {
             *field(config) = x;
             Ok(key)
         }
         _ => Err(format!(
-            "parameter {name} must be a positive number in {}, got {}",
-            p.unit,
+            "parameter {name} must be a number{} in {}, got {}",
+            range.map_or(String::new(), |r| format!(" {}", r.text)),
+            p.unit(),
             value.map_or_else(|| "something else".to_owned(), |v| v.to_string())
         )),
     }
@@ -234,6 +248,36 @@ mod tests {
         }
     }
 
+    /// A pipeline's parameter says its key's unit and meaning, and refuses what the
+    /// key's range refuses.
+    #[test]
+    fn a_pipeline_s_parameter_is_its_key_s() {
+        let p = param("follow_distance").unwrap_or_else(|| panic!("no follow_distance"));
+        assert_eq!(p.unit(), "m");
+        assert!(
+            p.meaning().starts_with("Follow distance"),
+            "{}",
+            p.meaning()
+        );
+        assert_eq!(p.range().map(|r| r.text), Some("> 0"));
+        let mut config = PipelineConfig::default();
+        let refused = set_pipeline(&mut config, "follow_distance", Some(0.0));
+        assert_eq!(
+            refused,
+            Err("parameter follow_distance must be a number > 0 in m, got 0".to_owned())
+        );
+        for p in NODE_PARAMS
+            .iter()
+            .filter(|p| matches!(p.sets, Sets::Pipeline { .. }))
+        {
+            assert!(
+                !p.unit().is_empty() && !p.meaning().is_empty(),
+                "{}",
+                p.name
+            );
+        }
+    }
+
     #[test]
     fn what_is_not_a_positive_number_of_the_pipeline_is_refused() {
         let mut config = PipelineConfig::default();
@@ -251,7 +295,7 @@ mod tests {
         for p in NODE_PARAMS {
             assert!(
                 doc.lines()
-                    .any(|l| l.starts_with(&format!("| `{}` |", p.name)) && l.contains(p.unit)),
+                    .any(|l| l.starts_with(&format!("| `{}` |", p.name)) && l.contains(p.unit())),
                 "{} is not in docs/ros2.md's table of parameters",
                 p.name
             );

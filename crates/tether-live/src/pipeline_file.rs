@@ -41,7 +41,21 @@ pub fn load(path: Option<&Path>) -> Result<PipelineConfig, ConfigError> {
         ),
     })?;
     crate::leg_model::resolve(&mut config.legs, crate::leg_model::folder_of(path));
+    check_ranges(path, &config)?;
     Ok(config)
+}
+
+/// The first key of `config` (read from `path`) outside its range
+/// ([`crate::config_docs::out_of_range`]), as the error that names it.
+pub fn check_ranges(path: &Path, config: &PipelineConfig) -> Result<(), ConfigError> {
+    match crate::config_docs::out_of_range(config).into_iter().next() {
+        Some((field, message)) => Err(ConfigError::Invalid {
+            path: path.to_path_buf(),
+            field,
+            message,
+        }),
+        None => Ok(()),
+    }
 }
 
 /// [`load`] for a recording with (`has_odometry`) or without odometry: without, the

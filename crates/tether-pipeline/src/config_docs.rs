@@ -35,6 +35,7 @@ pub fn config_docs() -> Vec<FieldDoc> {
         tether_control::MotionLimits::FIELDS,
         tether_control::SafetyConfig::FIELDS,
         tether_control::SpringConfig::FIELDS,
+        tether_control::SpringGains::FIELDS,
         tether_scanmatch::ScanMatcherConfig::FIELDS,
         tether_scanmatch::RobotBounds::FIELDS,
         tether_scanmatch::IcpConfig::FIELDS,

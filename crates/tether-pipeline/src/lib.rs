@@ -367,6 +367,17 @@ impl Pipeline {
             .scan_matcher
             .validate()
             .map_err(|e| config_err("scan_matcher", e))?;
+        config
+            .vision
+            .validate()
+            .map_err(|e| config_err("vision", e))?;
+        let gate = config.fusion.gate.threshold;
+        if !(gate.is_finite() && gate > 0.0) {
+            return Err(config_err(
+                "fusion",
+                format!("gate.threshold must be > 0, got {gate}"),
+            ));
+        }
         if let (Some(path), None) = (&config.legs.model, &classifier) {
             return Err(config_err(
                 "legs",

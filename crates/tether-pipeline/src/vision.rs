@@ -14,20 +14,28 @@ use tether_vision::monocular::{MonocularParams, locate};
 #[serde(deny_unknown_fields, default)]
 pub struct VisionConfig {
     /// Assumed height of a person's head top, m.
+    #[config(range = "> 0")]
     pub head_height_m: f64,
     /// Spread of people's heights, m.
+    #[config(range = "> 0")]
     pub head_height_sigma_m: f64,
     /// Share of the box above the head top (`m`; 0 when the box starts at the head).
+    #[config(range = ">= 0")]
     pub box_margin_frac: f64,
     /// Pixel noise of a box edge, px ...
+    #[config(range = "> 0")]
     pub pixel_sigma_px: f64,
     /// ... plus this share of the box's size.
+    #[config(range = ">= 0")]
     pub size_sigma_frac: f64,
     /// Uncertainty of the camera's tilt, rad.
+    #[config(range = "> 0")]
     pub tilt_sigma_rad: f64,
     /// Boxes shorter than this are ignored, px.
+    #[config(range = ">= 0")]
     pub min_box_height_px: f64,
     /// People estimated farther than this are ignored, m.
+    #[config(range = "> 0")]
     pub max_range_m: f64,
 }
 

@@ -13,36 +13,47 @@ use crate::reference::{LineFit, NeighbourSearch, Reference};
 #[serde(deny_unknown_fields, default)]
 pub struct IcpConfig {
     /// Most Gauss-Newton iterations (each re-finds the correspondences).
+    #[config(range = ">= 1")]
     pub max_iterations: u32,
     /// Converged when a step moves less than this, m...
+    #[config(range = "> 0")]
     pub translation_tolerance_m: f64,
     /// ...and turns less than this, rad.
+    #[config(range = "> 0")]
     pub rotation_tolerance_rad: f64,
     /// A point whose nearest reference return is farther than this has no match, m.
+    #[config(range = "> 0")]
     pub max_correspondence_m: f64,
     /// How the keyframe's surface lines are fitted.
     pub lines: LineFit,
     /// Share of the matched points with the largest residuals left out of each step
     /// (trimmed least squares: a moving person or a new object must not pull).
+    #[config(range = ">= 0, < 1")]
     pub trim_fraction: f64,
     /// Huber threshold on the point-to-line residual, m: larger residuals are weighted
     /// by `huber_m / |r|`.
+    #[config(range = "> 0")]
     pub huber_m: f64,
     /// After a step shorter than this (and turning less than
     /// `reuse_correspondences_below_rad`) the next iteration keeps the nearest returns
     /// instead of searching again: they no longer change, m. 0 searches every time.
+    #[config(range = ">= 0")]
     pub reuse_correspondences_below_m: f64,
     /// See `reuse_correspondences_below_m`, rad.
+    #[config(range = ">= 0")]
     pub reuse_correspondences_below_rad: f64,
     /// Fewer matched points than this and the match has failed.
+    #[config(range = ">= 3")]
     pub min_matches: usize,
     /// Length that turns a rotation into a distance when the Hessian is judged
     /// (`yaw * rotation_scale_m`), m: about the distance of the scene.
+    #[config(range = "> 0")]
     pub rotation_scale_m: f64,
     /// A direction of the normalised Hessian (per unit weight, rotation scaled) whose
     /// eigenvalue is below this is degenerate: the scene does not constrain the motion
     /// along it (a corridor along its axis). Dimensionless: 1 would be a direction that
     /// every residual measures fully.
+    #[config(range = "> 0")]
     pub degeneracy_min_eigenvalue: f64,
 }
 

@@ -17,23 +17,30 @@ pub struct ScanMatcherConfig {
     /// The match itself.
     pub icp: IcpConfig,
     /// A new keyframe when the robot is farther than this from the current one, m...
+    #[config(range = "> 0")]
     pub keyframe_translation_m: f64,
     /// ...or has turned more than this, rad...
+    #[config(range = "> 0")]
     pub keyframe_rotation_rad: f64,
     /// ...or when fewer than this share of the scan's points found a match (the view
     /// has changed).
+    #[config(range = ">= 0, < 1")]
     pub keyframe_min_overlap: f64,
     /// Points of the new scan closer than this to the last point kept are skipped
     /// (the keyframe keeps all): near the scanner, beams are millimetres apart and
     /// add cost, not information, m. 0 keeps every point.
+    #[config(range = ">= 0")]
     pub min_point_spacing_m: f64,
     /// Standard deviation of the prior's translation error per second of prediction,
     /// m/s (used along degenerate directions and when the match fails).
+    #[config(range = "> 0")]
     pub prior_sigma_m_per_s: f64,
     /// Standard deviation of the prior's rotation error per second, rad/s.
+    #[config(range = "> 0")]
     pub prior_sigma_rad_per_s: f64,
     /// A gap between scans longer than this makes the constant-velocity prior
     /// unreliable: it is replaced by "stationary" and the estimate says so, s.
+    #[config(range = "> 0")]
     pub max_prior_gap_s: f64,
     /// What the robot can do: a match that would need more is wrong (a false minimum
     /// in a sparse scene) and falls back to the prior.
@@ -49,20 +56,27 @@ pub struct ScanMatcherConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct RobotBounds {
     /// Highest speed, m/s.
+    #[config(range = "> 0")]
     pub max_speed_mps: f64,
     /// Highest sideways speed, m/s: a differential-drive or car-like base cannot slide
     /// sideways; what remains is the turn seen from a scanner mounted off the axle
     /// (`w * mount_x`) and noise. Raise it for a holonomic base.
+    #[config(range = "> 0")]
     pub max_lateral_speed_mps: f64,
     /// Highest turn rate, rad/s.
+    #[config(range = "> 0")]
     pub max_turn_rate_radps: f64,
     /// Highest acceleration, m/s^2.
+    #[config(range = "> 0")]
     pub max_accel_mps2: f64,
     /// Highest angular acceleration, rad/s^2.
+    #[config(range = "> 0")]
     pub max_angular_accel_radps2: f64,
     /// Noise of a velocity measured from one increment, m/s.
+    #[config(range = "> 0")]
     pub speed_slack_mps: f64,
     /// Noise of a turn rate measured from one increment, rad/s.
+    #[config(range = "> 0")]
     pub turn_rate_slack_radps: f64,
 }
 

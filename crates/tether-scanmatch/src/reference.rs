@@ -32,11 +32,14 @@ const BINS_PER_RAD: f64 = 200.0;
 pub struct LineFit {
     /// Neighbouring returns farther apart than this are on different surfaces (a jump
     /// edge), m.
+    #[config(range = "> 0")]
     pub max_gap_m: f64,
     /// Half the length of surface around a return that its line is fitted to, m.
+    #[config(range = "> 0")]
     pub half_span_m: f64,
     /// A fit is a line only when the spread across it is at most this share of the
     /// spread along it (ratio of the eigenvalues of the points' covariance).
+    #[config(range = "> 0")]
     pub max_flatness: f64,
 }
 

@@ -13,18 +13,23 @@ pub struct TargetConfig {
     /// heading.
     pub near_point_m: Option<[f64; 2]>,
     /// How close to `near_point_m` the chosen person must be, m.
+    #[config(range = "> 0")]
     pub near_point_radius_m: f64,
     /// Only people seen by both sensors within this window can be chosen at start, s.
+    #[config(range = "> 0")]
     pub both_sensors_window_s: f64,
     /// Only a person seen by both sensors can be chosen at start, and, where the camera
     /// sees, re-acquired (turned off when one sensor is absent).
     pub require_both_sensors: bool,
     /// Farthest person that can be chosen at start, m.
+    #[config(range = "> 0")]
     pub max_select_range_m: f64,
     /// Largest bearing off the robot's heading for the choice at start, rad.
+    #[config(range = "> 0")]
     pub max_select_bearing_rad: f64,
     /// The target counts as lost when its track has not been updated for this long, s
     /// (until then it coasts, still locked).
+    #[config(range = "> 0")]
     pub lost_after_s: f64,
     /// Leg-pair observations a walking track needs before the laser alone vouches for
     /// it when re-acquiring (walking already sets it apart from static clutter; one
@@ -40,6 +45,7 @@ pub struct TargetConfig {
     /// centimetres; a bush's, whose returns wander over it, is kept out by the learned
     /// static clutter). Each tenth of a metre costs a tenth of a second of a walker
     /// who reappears.
+    #[config(range = ">= 0")]
     pub min_walked_m: f64,
     /// Share of a track's (not weak) updates that must be leg pairs before the laser
     /// alone vouches for it when re-acquiring: a bush or a phantom that now and then
@@ -47,12 +53,15 @@ pub struct TargetConfig {
     /// park), while a real person, even when the recordings show one leg as often as
     /// two (leg_tracker's labelled `positive_*` bags), shows a pair in more than a
     /// fifth.
+    #[config(range = ">= 0")]
     pub min_pair_share: f64,
     /// Largest share of a track's updates that may be weak (legs the classifier barely
     /// accepts) for the laser alone to vouch for it.
+    #[config(range = ">= 0")]
     pub max_weak_share: f64,
     /// Margin added to the region where a lost target can be, beyond three standard
     /// deviations of its last estimate and of the candidate's, m.
+    #[config(range = ">= 0")]
     pub region_margin_m: f64,
     /// Another track is somebody else, never the target taken up again, once it has
     /// been updated at the same instants as the locked target, farther from it than
@@ -60,35 +69,45 @@ pub struct TargetConfig {
     /// tracks for a moment, or a track that takes the person's legs while the target's
     /// own track is led off by clutter, do not add up to that; a bystander walking
     /// beside the target does.
+    #[config(range = ">= 0")]
     pub beside_s: f64,
     /// How far apart two tracks updated together must be to count as two people, m.
+    #[config(range = ">= 0")]
     pub beside_distance_m: f64,
     /// Another track closer than this to the target is a close encounter (a bystander
     /// passing, a crossing): the tracker may swap the two, so the target's own motion
     /// is carried on from before the encounter and checked against its track, m.
+    #[config(range = ">= 0")]
     pub encounter_distance_m: f64,
     /// Longest an encounter is bridged by the target's motion from before it, s.
+    #[config(range = ">= 0")]
     pub encounter_max_s: f64,
     /// Typical acceleration of a walker, m/s^2: how fast the prediction through an
     /// encounter spreads (`sigma(dt) = sqrt(sigma_0^2 + (sigma_v dt)^2 + (a dt^2 / 2)^2)`).
+    #[config(range = ">= 0")]
     pub encounter_accel_mps2: f64,
     /// During an encounter, the target is handed over from its track to another one
     /// when that track explains the target's motion from before the encounter
     /// (position and velocity) better by at least this much: the difference of their
     /// squared normalised distances, `d_track^2 - d_other^2` (twice the log-likelihood
     /// ratio; 4 is a ratio of e^2, about 7), and better than any third track by as much.
+    #[config(range = ">= 0")]
     pub handover_margin: f64,
     /// ...and the other track is within this normalised distance of the prediction.
+    #[config(range = ">= 0")]
     pub handover_within_sigma: f64,
     /// A target's track that has coasted this long while exactly one other track takes
     /// up the target hands it over ([`super::TargetSelector`]'s coasting handover), s.
+    #[config(range = ">= 0")]
     pub handover_coast_s: f64,
     /// The target's track that stays within `led_off_distance_m` of somebody else's
     /// track for `led_off_after_s` has been led off onto that person: the target is
     /// lost. Two people passing shoulder to shoulder are closer than half a metre for
     /// a moment only; two tracks on one person stay within a few centimetres, m.
+    #[config(range = ">= 0")]
     pub led_off_distance_m: f64,
     /// See `led_off_distance_m`, s.
+    #[config(range = ">= 0")]
     pub led_off_after_s: f64,
     /// After the target has been lost this long, s, it is taken up again as at the
     /// start: the one person standing in front of the robot (within
@@ -97,8 +116,10 @@ pub struct TargetConfig {
     /// covers everything in view, and a verdict that a track is somebody else may rest
     /// on a lock that had gone astray; the followed person comes back in front of the
     /// robot, a passer-by does not stay there.
+    #[config(range = ">= 0")]
     pub restart_after_s: f64,
     /// See `restart_after_s`, s.
+    #[config(range = ">= 0")]
     pub restart_dwell_s: f64,
 }
 

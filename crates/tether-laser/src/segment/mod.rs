@@ -30,12 +30,14 @@ pub enum Breakpoint {
     /// widen `dphi`; at `dphi >= lambda` the returns are always split.
     Adaptive {
         /// `lambda`, rad. Borges and Aldon use 10 deg.
+        #[config(range = "> 0, < 1.5")]
         lambda_rad: f64,
     },
     /// A fixed jump: split where `|p[n] - p[n-1]| > jump_m` (design 4.2: 0.1-0.2 m; the
     /// leg_tracker clustering uses 0.13 m).
     FixedJump {
         /// The largest gap inside a segment, m.
+        #[config(range = "> 0")]
         jump_m: f64,
     },
     /// Both rules: split where either says so, i.e. where the gap exceeds
@@ -44,8 +46,10 @@ pub enum Breakpoint {
     /// sin(lambda) + 3 sigma_r / r)`) would merge two legs one behind the other.
     AdaptiveOrJump {
         /// `lambda` of the adaptive rule, rad.
+        #[config(range = "> 0, < 1.5")]
         lambda_rad: f64,
         /// The largest gap inside a segment, m.
+        #[config(range = "> 0")]
         jump_m: f64,
     },
     /// Euclidean clustering, as leg_tracker's `ScanProcessor::splitConnected` (Leigh
@@ -58,6 +62,7 @@ pub enum Breakpoint {
     /// not be consecutive.
     Euclidean {
         /// Returns closer than this are in one cluster, m (leg_tracker: 0.13).
+        #[config(range = "> 0")]
         distance_m: f64,
     },
 }

@@ -185,9 +185,9 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
         if let (Sets::Pipeline { .. }, Some(v)) = (p.sets, ros.params.get(p.name)) {
             anyhow::ensure!(
                 v.as_f64().is_some(),
-                "parameter {} must be a positive number in {}, got {v:?}",
+                "parameter {} must be a number in {}, got {v:?}",
                 p.name,
-                p.unit
+                p.unit()
             );
             node_params::set_pipeline(pipeline, p.name, v.as_f64()).map_err(anyhow::Error::msg)?;
         }
