@@ -22,9 +22,9 @@
 //! - [`recorder`]: the MCAP recording of a run (scans, frames, odometry, ticks).
 //!
 //! [`recording_run`] drives the same pipeline over a recording's samples in log order
-//! (`tether track`, `eval-track`, `replay`); for `replay` with the loop's rules of time
+//! (`tether track`, `eval-track`, `replay`), with the loop's rules of time
 //! ([`control_timer`]) and, for a recording of `tether run`, the loop's poses
-//! ([`robot_pose`]): its commands are then the live run's.
+//! ([`robot_pose`]): a replay's commands are then the live run's.
 //!
 //! [`leg_model`] reads the leg model a config names for every pipeline built.
 //!

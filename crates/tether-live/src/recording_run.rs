@@ -13,7 +13,8 @@
 //! With a control period ([`Options::control_period`]) the run is the live loop's
 //! (design 6): the pipeline also ticks at the control timer's instants
 //! ([`crate::control_timer`]) between the data, each datum is handled when it was
-//! logged (its arrival) after the instants up to it, and a datum stamped before the last
+//! logged (its arrival; [`arrival`]: its stamp when the recording was written after the
+//! fact) after the instants up to it, and a datum stamped before the last
 //! tick is processed at that tick's time (counted in [`RunCounts::clamped`]). With the
 //! poses of [`Poses::Commands`], a replay of a live run's recording sends the commands
 //! the live run sent, tick for tick.
@@ -185,6 +186,22 @@ pub struct RunCounts {
     pub clamped: usize,
 }
 
+/// The longest a datum's log time may follow (or precede) its stamp and still be when
+/// it arrived, ns: past that the recording was written after the fact (a bag extracted
+/// or re-recorded from another), and its log times say nothing of the robot's.
+pub const MAX_LATENCY_NS: i64 = 1_000_000_000;
+
+/// When a datum stamped `stamp` and logged at `log` arrived: its log time (the time the
+/// recorder, or a live tether run, received it), unless the two are more than
+/// [`MAX_LATENCY_NS`] apart, when it is taken to arrive as it was taken.
+pub fn arrival(stamp: Stamp, log: Stamp) -> Stamp {
+    if log.ns_since(stamp).abs() <= MAX_LATENCY_NS {
+        log
+    } else {
+        stamp
+    }
+}
+
 /// The loop's state between samples.
 struct Run<'p, 'c, 'q> {
     pipeline: &'p mut Pipeline,
@@ -232,16 +249,30 @@ impl Run<'_, '_, '_> {
         }
     }
 
-    /// The datum logged at `times` arrives: the timer's instants up to it tick first.
-    fn arrive(&mut self, times: LogTimes, on_step: &mut OnStep<'_>) -> anyhow::Result<()> {
+    /// The datum stamped `stamp` and logged at `times` arrives: the timer's instants up
+    /// to its arrival ([`arrival`]) tick first.
+    fn arrive(
+        &mut self,
+        stamp: Stamp,
+        times: LogTimes,
+        on_step: &mut OnStep<'_>,
+    ) -> anyhow::Result<()> {
         let Some(period) = self.period else {
             return Ok(());
         };
         let period_ns = i64::try_from(period.as_nanos()).unwrap_or(i64::MAX);
+        let arrival = arrival(stamp, times.log);
+        // The timer runs from the recording's first message when that is the clock the
+        // data arrived on (a live run's first tick), else from the first datum.
+        let start = if times.first <= arrival && arrival.ns_since(times.first) <= MAX_LATENCY_NS {
+            times.first
+        } else {
+            arrival
+        };
         let timer = self
             .timer
-            .get_or_insert_with(|| ControlTimer::new(times.first, period_ns));
-        let arrived = times.log.max(self.event);
+            .get_or_insert_with(|| ControlTimer::new(start, period_ns));
+        let arrived = arrival.max(self.event);
         let mut due = Vec::new();
         while let Some(at) = timer.due(arrived) {
             due.push(at);
@@ -373,7 +404,11 @@ pub fn run_recording(
     let on_step = RefCell::new(on_step);
     let mut on_sample = |times: LogTimes, sample: Sample| -> anyhow::Result<()> {
         let mut on_step = on_step.borrow_mut();
-        run.arrive(times, &mut **on_step)?;
+        let stamp = match &sample {
+            Sample::Odom { stamp, .. } | Sample::Camera { stamp, .. } => *stamp,
+            Sample::Scan(scan) => scan.stamp,
+        };
+        run.arrive(stamp, times, &mut **on_step)?;
         match sample {
             Sample::Odom {
                 world_from_robot, ..

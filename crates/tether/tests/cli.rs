@@ -711,6 +711,35 @@ fn a_file_that_is_no_recording_is_named_for_what_it_is() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A number outside its range is named by its dotted key and refused when the file is
+/// read, whichever table holds it and whichever command reads it.
+#[test]
+fn a_number_outside_its_range_is_named_when_the_config_is_read() {
+    let dir = scratch("config-range");
+    for (table, key, value, range) in [
+        ("safety", "laser_timeout_s", "5.0", "> 0, <= 1"),
+        ("tracker.gate", "threshold", "0.0", "> 0"),
+        ("vision", "max_range_m", "-1.0", "> 0"),
+        ("scan_matcher.icp", "trim_fraction", "1.0", ">= 0, < 1"),
+    ] {
+        let config = dir.join("range.toml");
+        std::fs::write(&config, format!("[{table}]\n{key} = {value}\n")).unwrap();
+        let out = tether(&[
+            "replay",
+            dir.join("nothing.mcap").to_str().unwrap(),
+            "--config",
+            config.to_str().unwrap(),
+        ]);
+        assert!(!out.status.success());
+        let stderr = text(&out.stderr);
+        assert!(
+            stderr.contains(&format!("`{table}.{key}` is {value}, must be {range}")),
+            "{stderr}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn config_defaults_prints_a_config_the_commands_read() {
     let dir = scratch("config-defaults");
@@ -719,7 +748,8 @@ fn config_defaults_prints_a_config_the_commands_read() {
     let defaults = text(&out.stdout);
     assert!(
         defaults.contains(
-            "# Stop when the newest laser scan is older than this, s.\nlaser_timeout_s = 0.3"
+            "# Stop when the newest laser scan is older than this, s. (> 0, <= 1)\n\
+             laser_timeout_s = 0.3"
         ),
         "{defaults}"
     );

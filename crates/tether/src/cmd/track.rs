@@ -123,7 +123,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let counts = run_recording(
         &args.bag,
         &topics,
-        Options::default(),
+        Options {
+            labels_topic: None,
+            control_period: Some(tether_live::control_timer::CONTROL_PERIOD),
+        },
         &mut pipeline,
         boxes.as_mut().map(|b| b as &mut CameraBoxes<'_>),
         poses.poses(),
