@@ -71,7 +71,8 @@ struct Line<'a> {
     frame: &'a str,
     people: Vec<PersonLine>,
     target: Option<u64>,
-    /// Locked, lost (and why) or searching, and the candidates refused.
+    /// Locked, lost (and why) or searching, and the candidates refused; with the
+    /// transition of a tick of the control timer since the last scan, if any.
     target_state: TargetStateLine,
     /// The robot's pose in the odometry frame (`--odom-topic`), in the frame of the
     /// first scan (scan matching), or the origin (`--ego-motion none`).
@@ -117,6 +118,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (mut scans, mut with_target) = (0usize, 0usize);
     let mut ids = std::collections::BTreeSet::new();
     let mut target_log = TargetLog::new();
+    // A transition of the lock at a tick of the control timer since the last scan: said
+    // on the next scan's line.
+    let mut transition_between = None;
     let mut boxes = camera
         .as_mut()
         .map(|c| move |image: &GrayImage| Ok(c.boxes(image, &intrinsics)?));
@@ -131,14 +135,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         boxes.as_mut().map(|b| b as &mut CameraBoxes<'_>),
         poses.poses(),
         &mut |step| {
-            let Step::Scan(ScanStep {
-                scan,
-                tick,
-                world_from_robot,
-                ..
-            }) = step
-            else {
-                return Ok(());
+            let (scan, tick, world_from_robot) = match step {
+                Step::Scan(ScanStep {
+                    scan,
+                    tick,
+                    world_from_robot,
+                    ..
+                }) => (scan, tick, world_from_robot),
+                Step::Timer(t) => {
+                    target_log.record_tick(t.tick);
+                    transition_between = t.tick.transition.map(|t| t.name()).or(transition_between);
+                    return Ok(());
+                }
+                Step::Camera(_) | Step::Labels(_) => return Ok(()),
             };
             // Positions and velocities in the scan's frame, whatever the robot's motion.
             let scan_from_world = laser_from_robot * world_from_robot.inverse();
@@ -167,7 +176,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 frame: &scan.frame_id,
                 people,
                 target,
-                target_state: TargetStateLine::of(tick),
+                target_state: {
+                    let mut state = TargetStateLine::of(tick);
+                    state.transition = state.transition.or(transition_between.take());
+                    state
+                },
                 robot_pose: PoseLine {
                     x: world_from_robot.x,
                     y: world_from_robot.y,
