@@ -434,3 +434,117 @@ pub fn run_recording(
     counts.read = read;
     Ok(counts)
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
+
+    use super::*;
+    use tether_msgs::LaserScanMsg;
+
+    const MS: i64 = 1_000_000;
+
+    /// A recording of three scans stamped 0.1, 0.2 and 0.3 s, each logged `lag_ms`
+    /// later; what the loop made of it with the control timer, as `(input, tick stamp
+    /// in ms)`, and its counts.
+    fn steps_with_lag(lag_ms: i64) -> (Vec<(&'static str, i64)>, RunCounts) {
+        let path = std::env::temp_dir().join(format!(
+            "tether-recording-run-{}-{lag_ms}.mcap",
+            std::process::id()
+        ));
+        let mut writer = crate::results::ResultWriter::create_streaming(&path, "odom").unwrap();
+        for k in 1..=3 {
+            let stamp = Stamp::from_ns(k * 100 * MS);
+            let scan =
+                LaserScan::new(stamp, "laser", -2.0, 0.006, 0.02, 5.6, vec![3.0; 682]).unwrap();
+            let log = stamp.saturating_add_ns(lag_ms * MS);
+            writer
+                .mcap()
+                .write("/scan", log, &LaserScanMsg::new(scan, 0.0, 0.1))
+                .unwrap();
+        }
+        writer.finish().unwrap();
+        let mut pipeline = Pipeline::new(tether_pipeline::PipelineConfig::default(), None).unwrap();
+        let topics = Topics {
+            scan: "/scan".into(),
+            image: None,
+            odom: None,
+        };
+        let options = Options {
+            labels_topic: None,
+            control_period: Some(Duration::from_millis(50)),
+        };
+        let mut steps = Vec::new();
+        let counts = run_recording(
+            &path,
+            &topics,
+            options,
+            &mut pipeline,
+            None,
+            Poses::Still,
+            &mut |step| {
+                match step {
+                    Step::Scan(s) => steps.push(("scan", s.tick.stamp.ns() / MS)),
+                    Step::Timer(t) => steps.push(("timer", t.tick.stamp.ns() / MS)),
+                    Step::Camera(_) | Step::Labels(_) => {}
+                }
+                Ok(())
+            },
+        )
+        .unwrap();
+        let _ = std::fs::remove_file(&path);
+        (steps, counts)
+    }
+
+    /// Logged 80 ms after they were taken, the scans come after the timer's instants up
+    /// to their arrival, and one taken before the last tick is processed at its time.
+    #[test]
+    fn the_timer_ticks_up_to_each_arrival_and_late_scans_take_the_tick_s_time() {
+        let (steps, counts) = steps_with_lag(80);
+        assert_eq!(
+            steps,
+            [
+                ("scan", 100),
+                ("timer", 200),
+                ("timer", 250),
+                ("scan", 250),
+                ("timer", 300),
+                ("timer", 350),
+                ("scan", 350),
+            ]
+        );
+        assert_eq!(
+            (counts.timer_ticks, counts.clamped, counts.scans),
+            (4, 2, 3)
+        );
+    }
+
+    /// Logged 5 s after they were taken (a bag written after the fact), the scans
+    /// arrive at their stamps: no scan is late.
+    #[test]
+    fn a_recording_written_after_the_fact_arrives_at_its_stamps() {
+        let (steps, counts) = steps_with_lag(5_000);
+        assert_eq!(
+            steps,
+            [
+                ("timer", 100),
+                ("scan", 100),
+                ("timer", 150),
+                ("timer", 200),
+                ("scan", 200),
+                ("timer", 250),
+                ("timer", 300),
+                ("scan", 300),
+            ]
+        );
+        assert_eq!((counts.timer_ticks, counts.clamped), (5, 0));
+        assert_eq!(
+            arrival(Stamp::from_ns(0), Stamp::from_ns(MAX_LATENCY_NS)),
+            Stamp::from_ns(MAX_LATENCY_NS)
+        );
+        assert_eq!(
+            arrival(Stamp::from_ns(0), Stamp::from_ns(MAX_LATENCY_NS + 1)),
+            Stamp::from_ns(0)
+        );
+    }
+}
