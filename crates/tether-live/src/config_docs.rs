@@ -38,7 +38,7 @@ fn check_table(path: &str, strukt: &str, table: &toml::Table, out: &mut Vec<(Str
         } else {
             format!("{path}.{key}")
         };
-        let Some(field) = docs().iter().find(|d| d.strukt == strukt && d.field == key) else {
+        let Some(field) = entry(strukt, key) else {
             continue;
         };
         match value {
@@ -70,9 +70,7 @@ pub fn field_doc(dotted: &str) -> Option<&'static FieldDoc> {
     let mut strukt = "PipelineConfig";
     let mut found = None;
     for part in dotted.split('.') {
-        let d = docs()
-            .iter()
-            .find(|d| d.strukt == strukt && d.field == part)?;
+        let d = entry(strukt, part)?;
         strukt = d.ty;
         found = Some(d);
     }
@@ -104,20 +102,19 @@ pub fn unit_of_key(dotted: &str) -> &'static str {
         .map_or("", |(_, unit)| unit)
 }
 
+/// The registry's entry of `field` of struct (or enum) `name`.
+fn entry(name: &str, field: &str) -> Option<&'static FieldDoc> {
+    docs().iter().find(|d| d.strukt == name && d.field == field)
+}
+
 /// The range of `field` of struct `name`, if it is bounded.
 fn range_of(name: &str, field: &str) -> Option<tether_core::config_docs::ValueRange> {
-    docs()
-        .iter()
-        .find(|d| d.strukt == name && d.field == field)
-        .and_then(|d| d.range)
+    entry(name, field).and_then(|d| d.range)
 }
 
 /// The type and first doc sentence of `field` of struct `name`, if it has one.
 fn doc_of(name: &str, field: &str) -> Option<(&'static str, &'static str)> {
-    docs()
-        .iter()
-        .find(|d| d.strukt == name && d.field == field)
-        .map(|d| (d.ty, d.doc))
+    entry(name, field).map(|d| (d.ty, d.doc))
 }
 
 /// The defaults as annotated TOML, and how many keys had no doc comment.
@@ -298,7 +295,7 @@ mod tests {
         out: &mut Vec<(Vec<String>, tether_core::config_docs::ValueRange, bool)>,
     ) {
         for (key, value) in table {
-            let Some(field) = docs().iter().find(|d| d.strukt == strukt && d.field == key) else {
+            let Some(field) = entry(strukt, key) else {
                 continue;
             };
             let mut here = path.to_vec();
