@@ -13,8 +13,9 @@
 use tether_control::Twist;
 use tether_core::{LaserScan, Pose2, Robot, Stamp, World};
 
+use tether_live::driver::{Driver, GivenPose};
 use tether_live::odometry::DeadReckoning;
-use tether_pipeline::{Pipeline, PipelineConfig, PipelineError, Tick};
+use tether_pipeline::{PipelineConfig, PipelineError, Tick};
 use tether_sim::{Command, Event, Scenario, SensorData, SimError, Simulation, Truth};
 
 /// Something that goes wrong on purpose between the sensors and the pipeline.
@@ -219,8 +220,11 @@ impl OdometryFeed {
     }
 }
 
+/// Hands `event` to a pipeline's driver at the robot's pose `pose` (the simulator is the
+/// clock: its timer events are the control timer's instants, ties after the data of the
+/// same instant), through `faults`; `None` when a fault swallowed the input.
 fn feed(
-    pipeline: &mut Pipeline,
+    driver: &mut Driver<'_, GivenPose>,
     event: &Event,
     pose: Pose2<World, Robot>,
     faults: &[Fault],
@@ -234,6 +238,7 @@ fn feed(
             stamp = stamp.saturating_add_ns((jump_s * 1e9) as i64);
         }
     }
+    *driver.poses_mut() = GivenPose(pose);
     match &event.data {
         SensorData::Scan(scan) => {
             if faults
@@ -250,7 +255,7 @@ fn feed(
             } else {
                 scan.ranges_m().to_vec()
             };
-            let scan = LaserScan::new(
+            let mut scan = LaserScan::new(
                 stamp,
                 scan.frame_id.clone(),
                 scan.angle_min_rad,
@@ -260,7 +265,7 @@ fn feed(
                 ranges,
             )
             .ok()?;
-            Some(pipeline.on_scan(&scan, pose))
+            driver.scan(&mut scan).map(|d| d.tick)
         }
         SensorData::Camera(frame) => {
             if faults
@@ -269,9 +274,10 @@ fn feed(
             {
                 return None;
             }
-            Some(pipeline.on_camera_boxes(stamp, &frame.boxes, pose))
+            let pose = driver.camera_pose(stamp)?;
+            Some(driver.camera(stamp, &frame.boxes, pose).tick)
         }
-        SensorData::Timer => Some(pipeline.on_timer(stamp, pose)),
+        SensorData::Timer => driver.timer(stamp).map(|d| d.tick),
     }
 }
 
@@ -360,11 +366,16 @@ pub fn run_observed(
 ) -> Result<RunLog, RunError> {
     let mut sim = Simulation::new(scenario, seed)?;
     sim.set_control_rate_hz(CONTROL_RATE_HZ);
-    let mut driver = tether_live::leg_model::pipeline(config.clone())?;
-    let mut riders = passengers
+    let mut driving = tether_live::leg_model::pipeline(config.clone())?;
+    let mut riding = passengers
         .iter()
         .map(|c| tether_live::leg_model::pipeline(c.clone()))
         .collect::<Result<Vec<_>, _>>()?;
+    let mut driver = Driver::new(&mut driving, GivenPose(Pose2::IDENTITY));
+    let mut riders: Vec<_> = riding
+        .iter_mut()
+        .map(|p| Driver::new(p, GivenPose(Pose2::IDENTITY)))
+        .collect();
     let mut steps = Vec::new();
     let mut odometry = OdometryFeed::for_scenario(scenario);
     while let Some(event) = sim.advance() {

@@ -41,6 +41,7 @@ pub mod clock;
 pub mod config;
 pub mod config_docs;
 pub mod control_timer;
+pub mod driver;
 pub mod ego;
 pub mod guard;
 pub mod leg_model;

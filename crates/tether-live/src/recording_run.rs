@@ -16,8 +16,9 @@
 //! logged (its arrival; [`arrival`]: its stamp when the recording was written after the
 //! fact) after the instants up to it, and a datum stamped before the last
 //! tick is processed at that tick's time (counted in [`RunCounts::clamped`]). With the
-//! poses of [`Poses::Commands`], a replay of a live run's recording sends the commands
-//! the live run sent, tick for tick.
+//! poses of [`KeptPoses::Commands`], a replay of a live run's recording sends the commands
+//! the live run sent, tick for tick. These rules are the [`Driver`]'s, the one the live
+//! loop drives its pipeline with.
 
 use crate::ego::ScanOdometry;
 use std::cell::RefCell;
@@ -25,41 +26,31 @@ use std::path::Path;
 use std::time::Duration;
 use tether_scanmatch::MotionPrior;
 
-use tether_core::{GrayImage, Laser, LaserScan, PixelBox, Pose2, Robot, Stamp, World};
+use tether_control::Twist;
+use tether_core::{GrayImage, Laser, LaserScan, PixelBox, Point2, Pose2, Robot, Stamp, World};
 use tether_fusion::Track;
 use tether_pipeline::{Pipeline, Tick};
 
 use tether_recording::samples::{self, LabelMessage, LogTimes, ReadStats, Sample, Topics};
 
 use crate::control_timer::ControlTimer;
+use crate::driver::{Driver, PoseSource};
 use crate::robot_pose::RobotPose;
 
 /// Where the robot's pose comes from during a run over a recording.
-pub enum Poses<'a> {
+#[derive(Debug)]
+pub enum KeptPoses {
     /// The odometry topic's messages (`Topics::odom`); inputs before the first are left
     /// out.
     Odometry,
     /// Scan matching, each scan against the static scene, the people being tracked left
     /// out; odometry messages are counted, not used.
-    ScanMatching(&'a mut ScanOdometry),
+    ScanMatching(ScanOdometry),
     /// None: the robot stands still at the identity.
     Still,
     /// The robot drove the pipeline's own commands (a recording of `tether run`): the
     /// dead reckoning of the commands, corrected by scan matching when the
     /// [`RobotPose`] matches scans, as the live loop keeps it.
-    Commands(&'a mut RobotPose),
-}
-
-/// The robot's pose kept over a recording, for [`Poses`] to borrow.
-#[derive(Debug)]
-pub enum KeptPoses {
-    /// [`Poses::Odometry`].
-    Odometry,
-    /// [`Poses::ScanMatching`].
-    ScanMatching(ScanOdometry),
-    /// [`Poses::Still`].
-    Still,
-    /// [`Poses::Commands`].
     Commands(RobotPose),
 }
 
@@ -74,22 +65,69 @@ impl KeptPoses {
         ))
     }
 
-    /// Where a run over a recording takes the robot's pose from.
-    pub fn poses(&mut self) -> Poses<'_> {
-        match self {
-            KeptPoses::Odometry => Poses::Odometry,
-            KeptPoses::ScanMatching(odometry) => Poses::ScanMatching(odometry),
-            KeptPoses::Still => Poses::Still,
-            KeptPoses::Commands(robot) => Poses::Commands(robot),
-        }
-    }
-
     /// The scan matching, when the scans are matched.
     pub fn scan_odometry(&self) -> Option<&ScanOdometry> {
         match self {
             KeptPoses::ScanMatching(odometry) => Some(odometry),
             KeptPoses::Commands(robot) => robot.scan_odometry(),
             KeptPoses::Odometry | KeptPoses::Still => None,
+        }
+    }
+}
+
+/// [`KeptPoses`] as the driver's pose source, with the pose of the ones that are not
+/// [`KeptPoses::Commands`] (`None` before the first odometry message).
+struct RecordingPoses<'k> {
+    kept: &'k mut KeptPoses,
+    pose: Option<Pose2<World, Robot>>,
+}
+
+impl RecordingPoses<'_> {
+    /// An odometry message: the pose with [`KeptPoses::Odometry`].
+    fn odometry(&mut self, world_from_robot: Pose2<World, Robot>) {
+        if let KeptPoses::Odometry = self.kept {
+            self.pose = Some(world_from_robot);
+        }
+    }
+}
+
+impl PoseSource for RecordingPoses<'_> {
+    fn for_scan(
+        &mut self,
+        scan: &LaserScan,
+        first: bool,
+        people: &mut dyn Iterator<Item = Point2<World>>,
+    ) -> Option<Pose2<World, Robot>> {
+        // The matcher aligns the first laser's scans (at its mount); another scanner's
+        // take the pose of the last one (design 5.7).
+        match &mut *self.kept {
+            KeptPoses::Commands(robot) => robot.for_scan(scan, first, people),
+            KeptPoses::ScanMatching(odometry) if first => {
+                let prior = MotionPrior::ConstantVelocity;
+                self.pose = Some(odometry.update(scan, prior, people));
+                self.pose
+            }
+            _ => self.pose,
+        }
+    }
+
+    fn between_scans(&mut self, stamp: Stamp) -> Option<Pose2<World, Robot>> {
+        match &mut *self.kept {
+            KeptPoses::Commands(robot) => robot.between_scans(stamp),
+            _ => self.pose,
+        }
+    }
+
+    fn at_timer(&mut self, stamp: Stamp) -> Option<Pose2<World, Robot>> {
+        match &*self.kept {
+            KeptPoses::Commands(robot) => Some(robot.at_timer(stamp)),
+            _ => self.pose,
+        }
+    }
+
+    fn commanded(&mut self, at: Stamp, command: Twist) {
+        if let KeptPoses::Commands(robot) = &mut *self.kept {
+            robot.commanded(at, command);
         }
     }
 }
@@ -203,52 +241,16 @@ pub fn arrival(stamp: Stamp, log: Stamp) -> Stamp {
 }
 
 /// The loop's state between samples.
-struct Run<'p, 'c, 'q> {
-    pipeline: &'p mut Pipeline,
+struct Run<'p, 'c, 'q, 'k> {
+    driver: Driver<'p, RecordingPoses<'k>>,
     camera: Option<&'c mut CameraBoxes<'q>>,
-    poses: Poses<'p>,
-    /// The pose for [`Poses::Odometry`], [`Poses::ScanMatching`] and [`Poses::Still`]
-    /// (`None` before the first odometry message).
-    pose: Option<Pose2<World, Robot>>,
     counts: RunCounts,
-    timer: Option<ControlTimer>,
     period: Option<Duration>,
-    /// When the datum being handled was logged (never before the one before).
-    event: Stamp,
-    /// The last tick's stamp.
-    last_stamp: Option<Stamp>,
 }
 
 type OnStep<'s> = dyn FnMut(Step<'_>) -> anyhow::Result<()> + 's;
 
-impl Run<'_, '_, '_> {
-    /// The pose at a timer tick at `stamp`.
-    fn timer_pose(&self, stamp: Stamp) -> Option<Pose2<World, Robot>> {
-        match &self.poses {
-            Poses::Commands(robot) => Some(robot.at_timer(stamp)),
-            _ => self.pose,
-        }
-    }
-
-    /// A datum's stamp the pipeline takes: with the timer, not before the last tick.
-    fn stamp(&mut self, stamp: Stamp) -> Stamp {
-        match self.last_stamp {
-            Some(last) if self.timer.is_some() && stamp < last => {
-                self.counts.clamped += 1;
-                last
-            }
-            _ => stamp,
-        }
-    }
-
-    /// After a tick at the current event: its command is what the robot drives.
-    fn ticked(&mut self, tick: &Tick) {
-        self.last_stamp = Some(self.last_stamp.map_or(tick.stamp, |l| l.max(tick.stamp)));
-        if let Poses::Commands(robot) = &mut self.poses {
-            robot.commanded(self.event, tick.command);
-        }
-    }
-
+impl Run<'_, '_, '_, '_> {
     /// The datum stamped `stamp` and logged at `times` arrives: the timer's instants up
     /// to its arrival ([`arrival`]) tick first.
     fn arrive(
@@ -260,47 +262,35 @@ impl Run<'_, '_, '_> {
         let Some(period) = self.period else {
             return Ok(());
         };
-        let period_ns = i64::try_from(period.as_nanos()).unwrap_or(i64::MAX);
         let arrival = arrival(stamp, times.log);
-        // The timer runs from the recording's first message when that is the clock the
-        // data arrived on (a live run's first tick), else from the first datum.
-        let start = if times.first <= arrival && arrival.ns_since(times.first) <= MAX_LATENCY_NS {
-            times.first
-        } else {
-            arrival
-        };
-        let timer = self
-            .timer
-            .get_or_insert_with(|| ControlTimer::new(start, period_ns));
-        let arrived = arrival.max(self.event);
-        let mut due = Vec::new();
-        while let Some(at) = timer.due(arrived) {
-            due.push(at);
+        if !self.driver.has_timer() {
+            // The timer runs from the recording's first message when that is the clock
+            // the data arrived on (a live run's first tick), else from the first datum.
+            let start = if times.first <= arrival && arrival.ns_since(times.first) <= MAX_LATENCY_NS
+            {
+                times.first
+            } else {
+                arrival
+            };
+            let period_ns = i64::try_from(period.as_nanos()).unwrap_or(i64::MAX);
+            self.driver.start_timer(
+                ControlTimer::new(start, period_ns),
+                Stamp::from_ns(i64::MIN),
+            );
         }
-        for at in due {
-            self.event = self.event.max(at);
-            let stamp = self.stamp(at);
-            let Some(pose) = self.timer_pose(stamp) else {
+        let arrived = self.driver.arrival(arrival);
+        while let Some(at) = self.driver.due(arrived) {
+            let Some(driven) = self.driver.timer(at) else {
                 continue;
             };
-            let tick = self.pipeline.on_timer(stamp, pose);
-            self.counts.timer_ticks += 1;
-            self.ticked(&tick);
             on_step(Step::Timer(TimerStep {
-                tick: &tick,
-                world_from_robot: pose,
-                tracks: self.pipeline.tracker().tracks(),
+                tick: &driven.tick,
+                world_from_robot: driven.world_from_robot,
+                tracks: self.driver.pipeline().tracker().tracks(),
             }))?;
         }
-        self.event = arrived;
+        self.driver.arrived(arrived);
         Ok(())
-    }
-
-    fn odometry(&mut self, world_from_robot: Pose2<World, Robot>) {
-        self.counts.odom += 1;
-        if let Poses::Odometry = self.poses {
-            self.pose = Some(world_from_robot);
-        }
     }
 
     fn camera(
@@ -313,61 +303,31 @@ impl Run<'_, '_, '_> {
             return Ok(());
         };
         self.counts.camera_frames_read += 1;
-        let pose = match &mut self.poses {
-            Poses::Commands(robot) => robot.between_scans(stamp),
-            _ => self.pose,
-        };
-        let Some(world_from_robot) = pose else {
-            self.counts.waiting_for_odom += 1;
+        let Some(world_from_robot) = self.driver.camera_pose(stamp) else {
             return Ok(());
         };
         let boxes = camera(image)?;
-        let stamp = self.stamp(stamp);
-        let tick = self
-            .pipeline
-            .on_camera_boxes(stamp, &boxes, world_from_robot);
-        self.counts.camera_frames += 1;
-        self.ticked(&tick);
+        let driven = self.driver.camera(stamp, &boxes, world_from_robot);
         on_step(Step::Camera(CameraStep {
-            stamp,
-            tick: &tick,
+            stamp: driven.stamp,
+            tick: &driven.tick,
             boxes: boxes.len(),
             world_from_robot,
-            tracks: self.pipeline.tracker().tracks(),
+            tracks: self.driver.pipeline().tracker().tracks(),
         }))
     }
 
     fn scan(&mut self, mut scan: LaserScan, on_step: &mut OnStep<'_>) -> anyhow::Result<()> {
         self.counts.scans_read += 1;
-        // The matcher aligns the first laser's scans (at its mount); another scanner's
-        // take the pose of the last one (design 5.7).
-        let first = self.pipeline.is_first_lasers(&scan.frame_id);
-        let pose = {
-            let people = crate::ego::moving_people(self.pipeline.tracker().tracks());
-            match &mut self.poses {
-                Poses::Commands(robot) => robot.for_scan(&scan, first, people),
-                Poses::ScanMatching(odometry) if first => {
-                    let prior = MotionPrior::ConstantVelocity;
-                    self.pose = Some(odometry.update(&scan, prior, people));
-                    self.pose
-                }
-                _ => self.pose,
-            }
-        };
-        let Some(world_from_robot) = pose else {
-            self.counts.waiting_for_odom += 1;
+        let Some(driven) = self.driver.scan(&mut scan) else {
             return Ok(());
         };
-        scan.stamp = self.stamp(scan.stamp);
-        let tick = self.pipeline.on_scan(&scan, world_from_robot);
-        self.counts.scans += 1;
-        self.ticked(&tick);
         on_step(Step::Scan(ScanStep {
             scan: &scan,
-            tick: &tick,
-            world_from_robot,
-            robot_from_laser: self.pipeline.robot_from_laser_of(&scan.frame_id),
-            tracks: self.pipeline.tracker().tracks(),
+            tick: &driven.tick,
+            world_from_robot: driven.world_from_robot,
+            robot_from_laser: self.driver.pipeline().robot_from_laser_of(&scan.frame_id),
+            tracks: self.driver.pipeline().tracker().tracks(),
         }))
     }
 }
@@ -382,23 +342,19 @@ pub fn run_recording(
     options: Options<'_>,
     pipeline: &mut Pipeline,
     camera: Option<&mut CameraBoxes<'_>>,
-    poses: Poses<'_>,
+    poses: &mut KeptPoses,
     on_step: &mut dyn FnMut(Step<'_>) -> anyhow::Result<()>,
 ) -> anyhow::Result<RunCounts> {
     let pose = match poses {
-        Poses::Odometry => None,
+        KeptPoses::Odometry => None,
         _ => Some(Pose2::IDENTITY),
     };
+    let poses = RecordingPoses { kept: poses, pose };
     let mut run = Run {
-        pipeline,
+        driver: Driver::new(pipeline, poses),
         camera,
-        poses,
-        pose,
         counts: RunCounts::default(),
-        timer: None,
         period: options.control_period,
-        event: Stamp::from_ns(i64::MIN),
-        last_stamp: None,
     };
     // Both callbacks of the reader hand steps on; never at the same time.
     let on_step = RefCell::new(on_step);
@@ -413,7 +369,8 @@ pub fn run_recording(
             Sample::Odom {
                 world_from_robot, ..
             } => {
-                run.odometry(world_from_robot);
+                run.counts.odom += 1;
+                run.driver.poses_mut().odometry(world_from_robot);
                 Ok(())
             }
             Sample::Camera { stamp, image } => run.camera(stamp, &image, &mut **on_step),
@@ -430,9 +387,20 @@ pub fn run_recording(
         )
     });
     let read = samples::read_logged(path, topics, labels, &mut on_sample)?;
-    let mut counts = run.counts;
-    counts.read = read;
-    Ok(counts)
+    let driven = run.driver.counts();
+    Ok(RunCounts {
+        read,
+        scans: count(driven.scans),
+        camera_frames: count(driven.frames),
+        waiting_for_odom: count(driven.without_pose),
+        timer_ticks: count(driven.timer_ticks),
+        clamped: count(driven.clamped),
+        ..run.counts
+    })
+}
+
+fn count(n: u64) -> usize {
+    usize::try_from(n).unwrap_or(usize::MAX)
 }
 
 #[cfg(test)]
@@ -481,7 +449,7 @@ mod tests {
             options,
             &mut pipeline,
             None,
-            Poses::Still,
+            &mut KeptPoses::Still,
             &mut |step| {
                 match step {
                     Step::Scan(s) => steps.push(("scan", s.tick.stamp.ns() / MS)),

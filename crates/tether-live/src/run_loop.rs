@@ -24,13 +24,14 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::Duration;
 
 use tether_control::Twist;
-use tether_core::{LaserScan, PixelBox, Pose2, Robot, Stamp, World};
-use tether_pipeline::{Pipeline, Tick, TickInput};
+use tether_core::{LaserScan, PixelBox, Stamp, World};
+use tether_pipeline::{Pipeline, TickInput};
 use tether_scanmatch::ScanMatcherConfig;
 use tether_scip::{Clock, ScipError};
 
 use crate::base::{CommandLine, CommandSink, TargetLine};
 use crate::control_timer::ControlTimer;
+use crate::driver::{Driven, Driver};
 use crate::ego::ScanOdometry;
 use crate::monitor::FollowMonitor;
 use crate::recorder::{Recorder, RecordingError};
@@ -164,18 +165,15 @@ pub struct RunSummary {
 
 /// The loop's state.
 struct Live<'a, W: std::io::Write + std::io::Seek + Send + 'static> {
-    pipeline: &'a mut Pipeline,
+    /// The pipeline, the control timer and the robot's pose: dead reckoning of the
+    /// commands, scan matching, odometry. Its event time is when the datum being
+    /// handled arrived; a recording logs each datum at it, so that a replay handles
+    /// them as this loop did.
+    driver: Driver<'a, RobotPose>,
     clock: &'a dyn Clock,
     sinks: &'a mut [Box<dyn CommandSink>],
     recorder: Option<&'a mut Recorder<W>>,
-    /// The robot's pose: dead reckoning of the commands, scan matching, odometry.
-    poses: RobotPose,
     config: &'a LoopConfig,
-    last_stamp: Stamp,
-    /// The time of the event being handled: a timer instant, or when a datum arrived
-    /// (never before the event before it). A recording logs each datum at it, so that
-    /// a replay handles them as this loop did.
-    event: Stamp,
     summary: RunSummary,
     scan_period_s: f64,
     /// Where the distance driven was last measured to.
@@ -189,31 +187,16 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
         Stamp::from_ns(self.clock.now_ns())
     }
 
-    /// A data stamp the pipeline accepts: not before the last tick.
-    fn pipeline_stamp(&mut self, stamp: Stamp) -> Stamp {
-        if stamp < self.last_stamp {
-            self.summary.clamped_stamps += 1;
-            self.last_stamp
-        } else {
-            stamp
-        }
-    }
-
     fn scan(&mut self, mut scan: LaserScan) -> Result<(), Ending> {
         scan.round_to_message();
         if let Some(r) = self.recorder.as_deref_mut() {
-            r.scan(&scan, self.scan_period_s, self.event)
+            r.scan(&scan, self.scan_period_s, self.driver.event())
                 .map_err(recording_failed)?;
         }
-        let first = self.pipeline.is_first_lasers(&scan.frame_id);
-        let people = crate::ego::moving_people(self.pipeline.tracker().tracks());
-        let Some(pose) = self.poses.for_scan(&scan, first, people) else {
-            return Ok(());
-        };
-        scan.stamp = self.pipeline_stamp(scan.stamp);
-        let tick = self.pipeline.on_scan(&scan, pose);
-        self.summary.scans += 1;
-        self.emit(&tick, pose)
+        match self.driver.scan(&mut scan) {
+            Some(driven) => self.emit(&driven),
+            None => Ok(()),
+        }
     }
 
     fn camera(
@@ -222,37 +205,36 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
         boxes: &[PixelBox],
         frame: Option<EncodedFrame>,
     ) -> Result<(), Ending> {
-        let Some(pose) = self.poses.between_scans(stamp) else {
+        let Some(pose) = self.driver.camera_pose(stamp) else {
             return Ok(());
         };
         if let (Some(r), Some(frame)) = (self.recorder.as_deref_mut(), frame) {
-            r.camera(stamp, self.event, frame)
+            r.camera(stamp, self.driver.event(), frame)
                 .map_err(recording_failed)?;
         }
-        let stamp = self.pipeline_stamp(stamp);
-        let tick = self.pipeline.on_camera_boxes(stamp, boxes, pose);
-        self.summary.frames += 1;
-        self.emit(&tick, pose)
+        let driven = self.driver.camera(stamp, boxes, pose);
+        self.emit(&driven)
     }
 
     /// A tick of the control timer at its instant `at`.
     fn timer(&mut self, at: Stamp) -> Result<(), Ending> {
-        self.event = self.event.max(at);
-        let stamp = self.pipeline_stamp(at);
-        let pose = self.poses.at_timer(stamp);
-        let tick = self.pipeline.on_timer(stamp, pose);
-        self.emit(&tick, pose)
+        match self.driver.timer(at) {
+            Some(driven) => self.emit(&driven),
+            None => Ok(()),
+        }
     }
 
     /// Sends a tick's command to every output and drives it in the dead reckoning.
-    fn emit(&mut self, tick: &Tick, pose: Pose2<World, Robot>) -> Result<(), Ending> {
-        self.last_stamp = self.last_stamp.max(tick.stamp);
+    fn emit(&mut self, driven: &Driven) -> Result<(), Ending> {
+        let (tick, pose) = (&driven.tick, driven.world_from_robot);
         self.summary.ticks += 1;
-        let now = self.event;
-        let here = self.poses.dead_reckoned(now).translation();
+        let here = self
+            .driver
+            .poses()
+            .dead_reckoned(self.driver.event())
+            .translation();
         self.summary.distance_m += self.travelled_to.distance_m(here);
         self.travelled_to = here;
-        self.poses.commanded(now, tick.command);
         let input = match tick.input {
             TickInput::Scan => "scan",
             TickInput::Camera => "camera",
@@ -336,7 +318,8 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
             .config
             .duration
             .map(|d| start.saturating_add_ns(i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)));
-        let mut timer = ControlTimer::new(start, period_ns);
+        self.driver
+            .start_timer(ControlTimer::new(start, period_ns), start);
         let mut camera_alive = true;
         // When the clock last moved (wall time), and whether the stop for a stalled
         // clock has gone out.
@@ -359,13 +342,14 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
             if end.is_some_and(|end| now >= end) {
                 return Ending::Duration;
             }
-            if let Some(at) = timer.due(now) {
+            if let Some(at) = self.driver.due(now) {
                 if let Err(e) = self.timer(at) {
                     return e;
                 }
                 continue;
             }
-            let wait_ns = timer.next().ns_since(now).clamp(0, period_ns);
+            let next = self.driver.next_instant().unwrap_or(now);
+            let wait_ns = next.ns_since(now).clamp(0, period_ns);
             let wait = Duration::from_nanos(wait_ns as u64);
             let input = match inputs.recv_timeout(wait) {
                 Ok(input) => input,
@@ -374,13 +358,13 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
             };
             // The datum is handled at its arrival, after every timer instant up to it
             // (as a replay of the recording handles it).
-            let arrived = self.now().max(self.event);
-            while let Some(at) = timer.due(arrived) {
+            let arrived = self.driver.arrival(self.now());
+            while let Some(at) = self.driver.due(arrived) {
                 if let Err(e) = self.timer(at) {
                     return e;
                 }
             }
-            self.event = arrived;
+            self.driver.arrived(arrived);
             if let Err(ending) = self.input(input, &mut camera_alive) {
                 return ending;
             }
@@ -434,7 +418,7 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
             }
             Input::CameraEnded(why) => {
                 *camera_alive = false;
-                self.pipeline.camera_gone();
+                self.driver.pipeline_mut().camera_gone();
                 match why {
                     None => tracing::info!("the camera's frames ended; laser only from now on"),
                     Some(e) => {
@@ -449,7 +433,9 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
                 world_from_robot,
                 moving,
             } => {
-                self.poses.odometry(stamp, world_from_robot, moving);
+                self.driver
+                    .poses_mut()
+                    .odometry(stamp, world_from_robot, moving);
                 Ok(())
             }
         }
@@ -458,7 +444,7 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
     /// The final stop to every output and the recording (an output that panics on
     /// it does not keep the others from theirs).
     fn finish(&mut self, ending: &Ending) {
-        let stamp = self.now().max(self.last_stamp);
+        let stamp = self.now().max(self.driver.last_stamp());
         let line = CommandLine::final_stop(stamp.ns(), ending.name());
         for sink in self.sinks.iter_mut() {
             let sent =
@@ -481,9 +467,10 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
                 .final_stop_failures
                 .push(("recording".into(), e.into()));
         }
-        let here = self.poses.dead_reckoned(stamp).translation();
+        let poses = self.driver.poses_mut();
+        let here = poses.dead_reckoned(stamp).translation();
         self.summary.distance_m += self.travelled_to.distance_m(here);
-        self.poses.commanded(stamp, Twist::STOP);
+        poses.commanded(stamp, Twist::STOP);
     }
 }
 
@@ -526,23 +513,22 @@ pub fn run<W: std::io::Write + std::io::Seek + Send + 'static>(
         pipeline.config().limits.max_speed_mps,
         pipeline.config().follower.follow_distance_m,
     );
+    let poses = RobotPose::new(
+        start,
+        config
+            .scan_odometry
+            .clone()
+            .map(|c| ScanOdometry::new(c, pipeline_mount)),
+        config.odometry_input,
+    );
+    let mut driver = Driver::new(pipeline, poses);
+    driver.arrived(start);
     let mut live = Live {
-        pipeline,
+        driver,
         clock,
         sinks,
         recorder,
-        poses: RobotPose::new(
-            start,
-            config
-                .scan_odometry
-                .clone()
-                .map(|c| ScanOdometry::new(c, pipeline_mount)),
-            config.odometry_input,
-        ),
         config,
-        // No tick yet: no datum is too old.
-        last_stamp: Stamp::from_ns(i64::MIN),
-        event: start,
         summary: RunSummary {
             ending: Ending::InputsClosed,
             ticks: 0,
@@ -574,8 +560,12 @@ pub fn run<W: std::io::Write + std::io::Seek + Send + 'static>(
     let mut summary = live.summary;
     summary.ending = ending;
     summary.cannot_keep_up = live.monitor.pull_away_warnings;
-    summary.odometry_messages = live.poses.odometry_messages;
-    summary.skipped_stale_odometry = live.poses.skipped_stale_odometry;
+    let counts = live.driver.counts();
+    (summary.scans, summary.frames, summary.clamped_stamps) =
+        (counts.scans, counts.frames, counts.clamped);
+    let poses = live.driver.poses();
+    summary.odometry_messages = poses.odometry_messages;
+    summary.skipped_stale_odometry = poses.skipped_stale_odometry;
     summary
 }
 
@@ -803,7 +793,7 @@ mod tests {
         let feeder = std::thread::spawn(move || {
             let odometry = |stamp| Input::Odometry {
                 stamp,
-                world_from_robot: Pose2::new(2.0, 1.0, 0.5),
+                world_from_robot: tether_core::Pose2::new(2.0, 1.0, 0.5),
                 moving: Twist::STOP,
             };
             tx.send(odometry(now())).unwrap();

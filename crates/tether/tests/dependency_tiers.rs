@@ -350,3 +350,58 @@ fn files_stay_short_and_commands_share_nothing() {
         }
     }
 }
+
+/// One driver of the pipeline (issue 33): outside tests, benchmarks and the pipeline's
+/// own crate, only `tether-live`'s `driver.rs` hands the pipeline its scans, camera
+/// boxes and timer ticks, so the rules of time and of the robot's pose are the same in
+/// `run`, `ros2`, `replay`, `track`, `eval-track` and the simulator's closed loop.
+#[test]
+fn only_the_driver_ticks_the_pipeline() {
+    let crates = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut files = Vec::new();
+    rust_files(&crates, &mut files);
+    let mut callers = Vec::new();
+    for file in &files {
+        let path = file.to_string_lossy().replace('\\', "/");
+        if [
+            "/tests/",
+            "/benches/",
+            "/examples/",
+            "/fuzz/",
+            "tether-pipeline/",
+        ]
+        .iter()
+        .any(|part| path.contains(part))
+        {
+            continue;
+        }
+        let text = std::fs::read_to_string(file).unwrap();
+        // The unit tests at the end of a file drive pipelines of their own.
+        let library = text.split("#[cfg(test)]").next().unwrap_or_default();
+        for (n, line) in library.lines().enumerate() {
+            let code = line.split("//").next().unwrap_or_default();
+            let ticks = [
+                ".on_scan(",
+                ".on_timer(",
+                ".on_camera_boxes(",
+                ".on_camera(",
+            ]
+            .iter()
+            .any(|call| code.contains(call));
+            // `TrackEval::on_scan` takes the driver's steps; it is not the pipeline's.
+            if ticks && !code.contains("eval.on_scan(") {
+                callers.push(format!("{path}:{}: {}", n + 1, line.trim()));
+            }
+        }
+    }
+    assert!(
+        callers
+            .iter()
+            .all(|c| c.contains("tether-live/src/driver.rs")),
+        "the pipeline ticked outside the driver: {callers:#?}"
+    );
+    assert!(
+        !callers.is_empty(),
+        "the driver no longer ticks the pipeline?"
+    );
+}

@@ -101,7 +101,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         &mut pipeline,
         None,
-        poses.poses(),
+        &mut poses,
         &mut |step| {
             match step {
                 Step::Scan(s) => eval.on_scan(&s),

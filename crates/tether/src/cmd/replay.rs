@@ -108,7 +108,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         &mut pipeline,
         boxes.as_mut().map(|b| b as &mut CameraBoxes<'_>),
-        poses.poses(),
+        &mut poses,
         &mut |step| {
             let (tick, world_from_robot, tracks) = match step {
                 Step::Scan(s) => {

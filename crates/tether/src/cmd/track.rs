@@ -133,7 +133,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         &mut pipeline,
         boxes.as_mut().map(|b| b as &mut CameraBoxes<'_>),
-        poses.poses(),
+        &mut poses,
         &mut |step| {
             let (scan, tick, world_from_robot) = match step {
                 Step::Scan(ScanStep {
