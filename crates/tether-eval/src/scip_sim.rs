@@ -5,6 +5,7 @@
 //! The simulated base keeps a command until the next one and stops when the stream
 //! ends.
 
+use std::collections::VecDeque;
 use std::io::{BufRead, Write};
 use std::sync::{Arc, Mutex};
 
@@ -183,15 +184,28 @@ fn write_truth(out: &mut dyn Write, truth: &Truth) -> std::io::Result<()> {
     out.flush()
 }
 
+/// One laser a [`SimulatedScans`] serves: the first (`frame` `None`) or an extra one,
+/// its beam count, and the scans the simulation made for it that are not served yet.
+struct Served {
+    frame: Option<String>,
+    beams: usize,
+    queue: VecDeque<Vec<u32>>,
+}
+
+/// The most scans kept for a laser not read as fast as the others (or not at all: no
+/// client on its port); the oldest go first.
+const MAX_QUEUED_SCANS: usize = 4;
+
 /// Laser scans of a scenario, in millimetres for the emulator; the robot stands still
-/// or drives the commands of a [`CommandInbox`].
+/// or drives the commands of a [`CommandInbox`]. One simulation may serve several of
+/// the robot's lasers ([`SimulatedScans::with_extra_laser`], [`SimulatedScans::shared`]):
+/// one world and one robot, seen by each scanner.
 pub struct SimulatedScans {
     scenario: Scenario,
     seed: u64,
     sim: Simulation,
-    beams: usize,
-    /// The extra laser served (`None`: the first).
-    frame: Option<String>,
+    /// The lasers served; the truth is written at the first one's scans.
+    served: Vec<Served>,
     commands: Option<(CommandInbox, u64)>,
     truth: Option<Box<dyn Write + Send>>,
 }
@@ -209,13 +223,45 @@ impl SimulatedScans {
         self.truth = Some(out);
         self
     }
-}
 
-/// What the emulator sends for a beam without return: an error code (below `DMIN`).
-const NO_ECHO_CODE_MM: u32 = 1;
+    /// Also serves the scenario's extra laser of `frame` from this simulation; its
+    /// emulator configuration. Its scans come from [`SimulatedScans::shared`].
+    pub fn with_extra_laser(mut self, frame: &str) -> anyhow::Result<(Self, EmulatorConfig)> {
+        let laser = laser_of(&self.scenario, Some(frame))?;
+        let config = emulator_config(laser);
+        anyhow::ensure!(
+            self.served
+                .iter()
+                .all(|s| s.frame.as_deref() != Some(frame)),
+            "the laser of frame {frame:?} is served twice"
+        );
+        self.served.push(Served {
+            frame: Some(frame.to_owned()),
+            beams: laser.geometry.beam_count(),
+            queue: VecDeque::new(),
+        });
+        Ok((self, config))
+    }
 
-impl ScanSource for SimulatedScans {
-    fn scan(&mut self, _scan_index: u64, ranges_mm: &mut Vec<u32>) {
+    /// One [`ScanSource`] for each laser served, in the order they were added (the
+    /// first laser, or the one [`simulated_scans`] was asked for, first), all from this
+    /// simulation.
+    pub fn shared(self) -> Vec<SharedLaser> {
+        let beams: Vec<usize> = self.served.iter().map(|s| s.beams).collect();
+        let scans = Arc::new(Mutex::new(self));
+        beams
+            .into_iter()
+            .enumerate()
+            .map(|(index, beams)| SharedLaser {
+                scans: Arc::clone(&scans),
+                index,
+                beams,
+            })
+            .collect()
+    }
+
+    /// Takes the newest command, if a new one came.
+    fn take_command(&mut self) {
         if let Some((inbox, seen)) = &mut self.commands
             && let Ok(slot) = inbox.lock()
             && slot.0 != *seen
@@ -223,32 +269,57 @@ impl ScanSource for SimulatedScans {
             *seen = slot.0;
             self.sim.set_command(slot.1);
         }
+    }
+
+    /// The next scan of the `k`-th laser served: one the simulation made already, or the
+    /// simulation runs on to it (keeping the other lasers' scans for them).
+    fn next_scan(&mut self, k: usize, ranges_mm: &mut Vec<u32>) {
+        self.take_command();
+        let beams = self.served.get(k).map_or(0, |s| s.beams);
+        if let Some(scan) = self.served.get_mut(k).and_then(|s| s.queue.pop_front()) {
+            ranges_mm.extend(scan);
+            return;
+        }
         // At most two passes: the scenario may end and start over once.
         for _ in 0..2 {
             while let Some(event) = self.sim.advance() {
-                // The emulated Hokuyo is one laser: the first, or the extra one asked for.
-                let scan = match (&self.frame, &event.data) {
-                    (None, data) => data.first_laser_scan(),
-                    (Some(f), SensorData::Scan(scan)) if scan.frame_id == *f => Some(scan),
-                    _ => None,
+                let Some(j) = self.served.iter().position(|s| match &s.frame {
+                    None => event.data.first_laser_scan().is_some(),
+                    Some(f) => matches!(&event.data, SensorData::Scan(scan) if scan.frame_id == *f),
+                }) else {
+                    continue;
                 };
-                if let Some(scan) = scan {
-                    if let Some(out) = self.truth.as_mut()
-                        && let Err(e) = write_truth(out.as_mut(), &event.truth)
-                    {
-                        tracing::error!("writing the ground truth failed ({e}); no more of it");
-                        self.truth = None;
-                    }
-                    ranges_mm.extend(scan.ranges_m().iter().map(|&r| {
+                let SensorData::Scan(scan) = &event.data else {
+                    continue;
+                };
+                if j == 0
+                    && let Some(out) = self.truth.as_mut()
+                    && let Err(e) = write_truth(out.as_mut(), &event.truth)
+                {
+                    tracing::error!("writing the ground truth failed ({e}); no more of it");
+                    self.truth = None;
+                }
+                let mut mm: Vec<u32> = scan
+                    .ranges_m()
+                    .iter()
+                    .map(|&r| {
                         if r.is_finite() {
                             (f64::from(r) * 1000.0).round().max(0.0) as u32
                         } else {
                             NO_ECHO_CODE_MM
                         }
-                    }));
-                    ranges_mm.resize(self.beams, NO_ECHO_CODE_MM);
+                    })
+                    .collect();
+                mm.resize(self.served[j].beams, NO_ECHO_CODE_MM);
+                if j == k {
+                    ranges_mm.extend(mm);
                     return;
                 }
+                let queue = &mut self.served[j].queue;
+                if queue.len() >= MAX_QUEUED_SCANS {
+                    queue.pop_front();
+                }
+                queue.push_back(mm);
             }
             tracing::warn!(
                 "scenario `{}` ended after {:.1} s of scans: it starts over (the people and \
@@ -260,27 +331,46 @@ impl ScanSource for SimulatedScans {
                 Ok(sim) => self.sim = sim,
                 Err(_) => break,
             }
+            for served in &mut self.served {
+                served.queue.clear();
+            }
         }
-        ranges_mm.resize(self.beams, NO_ECHO_CODE_MM);
+        ranges_mm.resize(beams, NO_ECHO_CODE_MM);
     }
 }
 
-/// The scans of `scenario` (robot still) and the emulator configuration of its laser
-/// (step geometry, range limits, scan rate): the first laser's, or with `frame` the
-/// extra laser's of that frame.
-pub fn simulated_scans(
-    scenario: &Scenario,
-    seed: u64,
+/// What the emulator sends for a beam without return: an error code (below `DMIN`).
+const NO_ECHO_CODE_MM: u32 = 1;
+
+impl ScanSource for SimulatedScans {
+    fn scan(&mut self, _scan_index: u64, ranges_mm: &mut Vec<u32>) {
+        self.next_scan(0, ranges_mm);
+    }
+}
+
+/// One laser of a simulation that serves several ([`SimulatedScans::shared`]).
+pub struct SharedLaser {
+    scans: Arc<Mutex<SimulatedScans>>,
+    index: usize,
+    beams: usize,
+}
+
+impl ScanSource for SharedLaser {
+    fn scan(&mut self, _scan_index: u64, ranges_mm: &mut Vec<u32>) {
+        match self.scans.lock() {
+            Ok(mut scans) => scans.next_scan(self.index, ranges_mm),
+            // Another laser's server panicked inside the simulation: no returns.
+            Err(_) => ranges_mm.resize(self.beams, NO_ECHO_CODE_MM),
+        }
+    }
+}
+
+/// The first laser of `scenario` (`frame` `None`) or its extra laser of `frame`.
+fn laser_of<'s>(
+    scenario: &'s Scenario,
     frame: Option<&str>,
-) -> anyhow::Result<(SimulatedScans, EmulatorConfig)> {
-    anyhow::ensure!(
-        scenario.laser_sim.enabled,
-        "scenario `{}` has no simulated laser (laser_sim.enabled = false)",
-        scenario.name
-    );
-    let sim = Simulation::new(scenario, seed)
-        .with_context(|| format!("building scenario `{}`", scenario.name))?;
-    let laser = match frame {
+) -> anyhow::Result<&'s tether_core::LaserModel> {
+    Ok(match frame {
         None => &scenario.laser,
         Some(f) => match scenario.extra_lasers.iter().find(|l| l.frame_id == f) {
             Some(extra) => &extra.laser,
@@ -299,8 +389,12 @@ pub fn simulated_scans(
                 }
             ),
         },
-    };
-    let config = EmulatorConfig {
+    })
+}
+
+/// The emulator configuration of `laser`: step geometry, range limits, scan rate.
+fn emulator_config(laser: &tether_core::LaserModel) -> EmulatorConfig {
+    EmulatorConfig {
         geometry: laser.geometry,
         // A URG-04LX accepts steps up to 768, 43 past its last measured one.
         max_step: (laser.geometry.last_step + 43).min(9999) as u16,
@@ -308,17 +402,38 @@ pub fn simulated_scans(
         range_max_mm: (laser.range_max_m * 1000.0).round() as u32,
         scan_rpm: (60.0 / laser.scan_period_s).round().max(1.0) as u32,
         ..EmulatorConfig::default()
-    };
+    }
+}
+
+/// The scans of `scenario` (robot still) and the emulator configuration of its laser
+/// (step geometry, range limits, scan rate): the first laser's, or with `frame` the
+/// extra laser's of that frame.
+pub fn simulated_scans(
+    scenario: &Scenario,
+    seed: u64,
+    frame: Option<&str>,
+) -> anyhow::Result<(SimulatedScans, EmulatorConfig)> {
+    anyhow::ensure!(
+        scenario.laser_sim.enabled,
+        "scenario `{}` has no simulated laser (laser_sim.enabled = false)",
+        scenario.name
+    );
+    let sim = Simulation::new(scenario, seed)
+        .with_context(|| format!("building scenario `{}`", scenario.name))?;
+    let laser = laser_of(scenario, frame)?;
     let scans = SimulatedScans {
         scenario: scenario.clone(),
         seed,
         sim,
-        beams: laser.geometry.beam_count(),
-        frame: frame.map(str::to_owned),
+        served: vec![Served {
+            frame: frame.map(str::to_owned),
+            beams: laser.geometry.beam_count(),
+            queue: VecDeque::new(),
+        }],
         commands: None,
         truth: None,
     };
-    Ok((scans, config))
+    Ok((scans, emulator_config(laser)))
 }
 
 #[cfg(test)]
@@ -346,5 +461,54 @@ mod tests {
         ] {
             assert_eq!(v(bad), None, "{bad}");
         }
+    }
+
+    /// The first `n` scans a single-laser emulator of `frame` serves.
+    fn alone(frame: Option<&str>, n: usize) -> Vec<Vec<u32>> {
+        let scenario = Scenario::resolve("all_round").unwrap().0;
+        let (mut scans, _) = simulated_scans(&scenario, 4, frame).unwrap();
+        (0..n)
+            .map(|i| {
+                let mut r = Vec::new();
+                scans.scan(i as u64, &mut r);
+                r
+            })
+            .collect()
+    }
+
+    /// Two scanners served from one simulation get the scans each would get alone (the
+    /// same world, the same robot), however their reads interleave; a scanner nobody
+    /// reads keeps only its newest few.
+    #[test]
+    fn one_simulation_serves_each_scanner_its_own_scans() {
+        let scenario = Scenario::resolve("all_round").unwrap().0;
+        let with_rear = || {
+            let (scans, _) = simulated_scans(&scenario, 4, None).unwrap();
+            scans.with_extra_laser("rear_laser").unwrap().0
+        };
+        assert!(with_rear().with_extra_laser("rear_laser").is_err());
+        assert!(with_rear().with_extra_laser("no_such_laser").is_err());
+        let mut lasers = with_rear().shared();
+        let (front, rear) = (alone(None, 5), alone(Some("rear_laser"), 24));
+        let mut next = |k: usize| {
+            let mut r = Vec::new();
+            lasers[k].scan(0, &mut r);
+            r
+        };
+        // Front three ahead, then the rear catches up, then in turns.
+        let mut got = [Vec::new(), Vec::new()];
+        for k in [0, 0, 0, 1, 1, 1, 1, 0, 1, 0, 1] {
+            got[k].push(next(k));
+        }
+        assert_eq!(got[0], front[..5]);
+        assert_eq!(got[1], rear[..6]);
+        assert_ne!(front[0], rear[0]);
+        // Ten front scans with nobody reading the rear: it keeps its newest four.
+        for _ in 0..10 {
+            next(0);
+        }
+        let kept = next(1);
+        let at = rear.iter().position(|r| *r == kept);
+        assert!(at.is_some_and(|i| i > 7), "served rear scan {at:?}");
     }
 }

@@ -1,12 +1,17 @@
 //! `tether run` with two scanners (`[[laser]]`, design 5.7): the built-in `all_round`
-//! robot's front and rear 180-degree scanners, each a `tether urg-emulator` on its own
-//! loopback TCP port (the same scenario and seed; the rear one serves its extra laser,
-//! `--laser rear_laser`), both driven by the commands `tether run` prints. Its target
+//! robot's front and rear 180-degree scanners, served by one `tether urg-emulator` on
+//! two loopback TCP ports (the rear one with `--extra-tcp rear_laser=ADDR`): one
+//! simulated robot carries both, driven by the commands `tether run` prints. Its target
 //! walks all the way round the robot: one track, followed, from either scanner's view.
 //!
 //! Real time on a possibly loaded machine: the bars are loose, every wait has a limit
 //! that fails with what the processes said, and the processes are killed whatever
-//! happens.
+//! happens. The two 180-degree scanners leave a blind band beside the robot (between
+//! their mounts); when the person walks along it for over a second while the robot,
+//! with them closer than the follow distance, hardly turns, their track is lost and a
+//! new one takes them up. How long that takes depends on when the emulated base took
+//! each command: with three CPU-bound processes beside the test it happened in about one
+//! run in ten (`.config/nextest.toml` runs it with nothing beside it).
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly on bad data")]
 
@@ -24,15 +29,17 @@ use common::run::{
 use common::scratch;
 use tether_core::LaserMount;
 
-/// The emulator of one of `all_round`'s scanners (`laser`: an extra one's frame) on
-/// `address`, its robot driven by its stdin.
-fn emulator(dir: &Path, laser: Option<&str>, address: &str) -> Proc {
-    let name = format!("urg-emulator-{}", laser.unwrap_or("front"));
-    let truth = dir.join(format!("{name}.truth.jsonl"));
-    let mut args = vec![
+/// The emulator of `all_round`'s two scanners, the front one on `front`, the rear one
+/// on `rear`, its robot driven by its stdin.
+fn emulator(dir: &Path, front: &str, rear: &str) -> Proc {
+    let truth = dir.join("urg-emulator.truth.jsonl");
+    let rear = format!("rear_laser={rear}");
+    let args = vec![
         "urg-emulator",
         "--tcp",
-        address,
+        front,
+        "--extra-tcp",
+        rear.as_str(),
         "--scenario",
         "all_round",
         "--seed",
@@ -41,11 +48,8 @@ fn emulator(dir: &Path, laser: Option<&str>, address: &str) -> Proc {
         "--truth",
         truth.to_str().unwrap(),
     ];
-    if let Some(frame) = laser {
-        args.extend(["--laser", frame]);
-    }
-    let mut emu = spawn(&name, dir, &args, Stdio::piped());
-    assert_eq!(announced_endpoint(&mut emu), address);
+    let mut emu = spawn("urg-emulator", dir, &args, Stdio::piped());
+    assert_eq!(announced_endpoint(&mut emu), front);
     emu
 }
 
@@ -67,8 +71,7 @@ fn a_robot_with_two_scanners_follows_its_person_all_the_way_round() {
     let dir = scratch("live-two-lasers");
     let scenario = tether_sim::Scenario::resolve("all_round").unwrap().0;
     let (front, rear) = (free_loopback_address(), free_loopback_address());
-    let mut front_emu = emulator(&dir, None, &front);
-    let mut rear_emu = emulator(&dir, Some("rear_laser"), &rear);
+    let mut emu = emulator(&dir, &front, &rear);
     let config = dir.join("robot.toml");
     std::fs::write(
         &config,
@@ -89,10 +92,7 @@ fn a_robot_with_two_scanners_follows_its_person_all_the_way_round() {
         ),
     )
     .unwrap();
-    let feeds = vec![
-        front_emu.child.stdin.take().unwrap(),
-        rear_emu.child.stdin.take().unwrap(),
-    ];
+    let feeds = vec![emu.child.stdin.take().unwrap()];
     let (mut run, lines) = run_feeding(&dir, &config, &["--duration", "24"], feeds);
     let status = run.wait_or_fail(
         Duration::from_secs(90),
@@ -110,7 +110,7 @@ fn a_robot_with_two_scanners_follows_its_person_all_the_way_round() {
         .unwrap_or_else(|| panic!("no count of scans: {stderr}"));
     assert!(scans > 400, "{scans} scans");
     assert_final_stop(&lines, "duration", &stderr);
-    drop((front_emu, rear_emu));
+    drop(emu);
 
     // One track from the first lock to the end, followed round the robot.
     let lines: Vec<serde_json::Value> = lines.lock().unwrap().iter().map(|l| json(l)).collect();
@@ -149,8 +149,8 @@ fn a_robot_with_two_scanners_follows_its_person_all_the_way_round() {
         "never beside or behind"
     );
 
-    // The emulators' truth: the robot kept clear of the person and hit nothing.
-    let truth = emulator_truth(&dir.join("urg-emulator-front.truth.jsonl"));
+    // The emulator's truth: the robot kept clear of the person and hit nothing.
+    let truth = emulator_truth(&dir.join("urg-emulator.truth.jsonl"));
     let closest = truth
         .iter()
         .map(gap_to_target)
@@ -166,14 +166,4 @@ fn a_robot_with_two_scanners_follows_its_person_all_the_way_round() {
     assert!(driven > 3.0, "the robot drove only {driven:.2} m");
     assert!(closest > 0.3, "the robot came within {closest:.2} m");
     assert_eq!(truth.last().unwrap()["collisions"], 0);
-    // The two emulators drove the same commands, each taking the newest one at its own
-    // scans (up to 100 ms apart): their robots stay together, so that the two scanners
-    // see one world, though not exactly (0.04-0.29 m apart at the end of 12.9 m here,
-    // most of it from the robot's quick turns when the person passes behind it).
-    let rear = emulator_truth(&dir.join("urg-emulator-rear_laser.truth.jsonl"));
-    let rear_end = rear.last().unwrap();
-    let ((x0, y0), (x1, y1)) = (xy(&truth.last().unwrap()["robot"]), xy(&rear_end["robot"]));
-    let apart = (x1 - x0).hypot(y1 - y0);
-    eprintln!("the emulators' robots ended {apart:.2} m apart");
-    assert!(apart < 0.6, "{x0} {y0} / {x1} {y1}");
 }

@@ -9,7 +9,9 @@
 //! run | tether urg-emulator --commands-stdin` closes the loop without hardware. The
 //! simulated base keeps a command until the next one, stops when none came for its
 //! `command_timeout_s`, and stops when stdin ends. `--truth FILE` writes the ground
-//! truth of every scan as a JSON line.
+//! truth of every scan as a JSON line. `--extra-tcp FRAME=ADDR` serves more of the
+//! scenario's lasers from the same simulation, each on a TCP port of its own: one robot
+//! carrying several scanners, as `tether run` with several `[[laser]]` tables sees it.
 
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -38,10 +40,15 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Serve the scans of the scenario's extra laser of this frame (its
-    /// `[[extra_lasers]]` entry) instead of its first laser's: one emulator per scanner
-    /// of a robot with several, each started with the same scenario and seed.
+    /// `[[extra_lasers]]` entry) instead of its first laser's. For a robot with several
+    /// scanners, `--extra-tcp` serves the others from the same simulation.
     #[arg(long, value_name = "FRAME")]
     pub laser: Option<String>,
+    /// Also serve the scenario's extra laser of frame FRAME on the TCP address ADDR,
+    /// from the same simulation (repeatable): one robot carrying every scanner, driven
+    /// by the one command stream, so that the scanners see one world.
+    #[arg(long, value_name = "FRAME=ADDR", value_parser = frame_at_address)]
+    pub extra_tcp: Vec<(String, String)>,
     /// Boot in SCIP 1.1, as older URG-04LX firmware does (the host must send SCIP2.0).
     #[arg(long)]
     pub scip1: bool,
@@ -81,6 +88,18 @@ pub struct Args {
     /// `y`).
     #[arg(long, value_name = "FILE")]
     pub truth: Option<PathBuf>,
+}
+
+/// `FRAME=ADDR` of `--extra-tcp`.
+fn frame_at_address(text: &str) -> Result<(String, String), String> {
+    match text.split_once('=') {
+        Some((frame, address)) if !frame.is_empty() && !address.is_empty() => {
+            Ok((frame.to_owned(), address.to_owned()))
+        }
+        _ => Err(format!(
+            "{text:?} is not FRAME=ADDR (e.g. rear_laser=127.0.0.1:10941)"
+        )),
+    }
 }
 
 /// Serves `source` on the endpoint the arguments name until the process is stopped.
@@ -168,8 +187,38 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seed: args.seed,
     };
     let name = scenario.name.clone();
-    serve(&args, config, scans, |endpoint| {
-        // The emulator serves on whether or not anybody reads where it listens.
+    if args.extra_tcp.is_empty() {
+        return serve(&args, config, scans, |endpoint| {
+            // The emulator serves on whether or not anybody reads where it listens.
+            tether::outln!("URG-04LX emulator (SCIP 2.0, scenario `{name}`) on {endpoint}").ok();
+        });
+    }
+    // One simulation for every scanner: each extra one listens before the first
+    // announces itself, so that a client reading the first line may connect to all.
+    let mut configs = Vec::new();
+    for (frame, _) in &args.extra_tcp {
+        let (with_extra, extra_config) = scans.with_extra_laser(frame)?;
+        scans = with_extra;
+        configs.push(extra_config);
+    }
+    let mut sources = scans.shared().into_iter();
+    let first = sources.next().context("no laser to serve")?;
+    let mut extras = Vec::new();
+    for (((frame, address), extra_config), source) in
+        args.extra_tcp.iter().zip(configs).zip(sources)
+    {
+        let server = EmulatorServer::tcp(Emulator::new(extra_config, source), address.as_str())
+            .with_context(|| format!("listening on {address} for the laser {frame}"))?;
+        extras.push((frame.clone(), server));
+    }
+    serve(&args, config, first, |endpoint| {
         tether::outln!("URG-04LX emulator (SCIP 2.0, scenario `{name}`) on {endpoint}").ok();
+        for (frame, server) in &extras {
+            tether::outln!(
+                "URG-04LX emulator (SCIP 2.0, scenario `{name}`, laser {frame}) on {}",
+                server.endpoint()
+            )
+            .ok();
+        }
     })
 }
