@@ -136,6 +136,22 @@ impl PixelBox {
     }
 }
 
+/// The `frame_id` of the first camera's frames (a robot's only camera, or the one the
+/// `[[extra_cameras]]` do not name).
+pub const FIRST_CAMERA_FRAME: &str = <Camera as crate::Frame>::NAME;
+
+/// A camera besides a robot's first (`[[extra_cameras]]`, design 5.7): the `frame_id`
+/// its frames carry and its model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, crate::ConfigDocs)]
+#[serde(deny_unknown_fields)]
+pub struct ExtraCamera {
+    /// The `frame_id` its frames carry (e.g. `rear_camera`).
+    pub frame_id: String,
+    /// Its intrinsics and mount (`[extra_cameras.camera]`, the keys of `[camera]`).
+    #[serde(default)]
+    pub camera: CameraModel,
+}
+
 /// The camera: intrinsics plus mounting.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, crate::ConfigDocs)]
 #[serde(deny_unknown_fields, default)]

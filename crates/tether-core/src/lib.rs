@@ -30,7 +30,10 @@ pub mod laser;
 pub mod scan;
 pub mod time;
 
-pub use camera::{CameraIntrinsics, CameraModel, CameraModelError, CameraMount, PixelBox};
+pub use camera::{
+    CameraIntrinsics, CameraModel, CameraModelError, CameraMount, ExtraCamera, FIRST_CAMERA_FRAME,
+    PixelBox,
+};
 pub use config_docs::ConfigDocs;
 pub use frame::{Camera, Frame, Laser, Robot, World};
 pub use gaussian::{Cov2, CovError, Gaussian2};

@@ -161,6 +161,7 @@ pub fn config_for(scenario: &Scenario, base: &PipelineConfig) -> PipelineConfig 
     c.laser = scenario.laser.clone();
     c.extra_lasers.clone_from(&scenario.extra_lasers);
     c.camera = scenario.camera;
+    c.extra_cameras.clone_from(&scenario.extra_cameras);
     c.follower.follow_distance_m = scenario.robot.follow_distance_m;
     c.limits.track_width_m = scenario.robot.track_width_m;
     c.limits.max_wheel_speed_mps = scenario.robot.max_wheel_speed_mps;
@@ -275,7 +276,11 @@ fn feed(
                 return None;
             }
             let pose = driver.camera_pose(stamp)?;
-            Some(driver.camera(stamp, &frame.boxes, pose).tick)
+            Some(
+                driver
+                    .camera(stamp, &frame.frame_id, &frame.boxes, pose)
+                    .tick,
+            )
         }
         SensorData::Timer => driver.timer(stamp).map(|d| d.tick),
     }

@@ -503,7 +503,9 @@ pub fn run(
                     errors.push((t_ns, (attach.distance_m(target.position) - d0).abs()));
                 }
             }
-            SensorData::Camera(frame) => {
+            // The graph has one detections topic: the first camera's (a scenario's
+            // `[[extra_cameras]]` are simulated, not published).
+            SensorData::Camera(frame) if frame.frame_id == tether_core::FIRST_CAMERA_FRAME => {
                 let (boxes, truth) = camera_messages(&frame, &event.camera_truth, stamp);
                 for (topic, publisher, message) in [
                     ("/detections", &out.detections, boxes),
@@ -517,6 +519,7 @@ pub fn run(
                 }
                 summary.camera_frames_published += 1;
             }
+            SensorData::Camera(_) => {}
         }
         summary.simulated_s = t_ns as f64 * 1e-9;
     }

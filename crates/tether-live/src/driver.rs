@@ -292,18 +292,19 @@ impl<'p, P: PoseSource> Driver<'p, P> {
         pose
     }
 
-    /// A camera frame's `boxes`, stamped `stamp`, at the pose [`Driver::camera_pose`]
-    /// gave.
+    /// A frame's `boxes` of the camera of `frame_id` (`camera`: the first), stamped
+    /// `stamp`, at the pose [`Driver::camera_pose`] gave.
     pub fn camera(
         &mut self,
         stamp: Stamp,
+        frame_id: &str,
         boxes: &[PixelBox],
         world_from_robot: Pose2<World, Robot>,
     ) -> Driven {
         let stamp = self.stamp(stamp);
         let tick = self
             .pipeline
-            .on_camera_boxes(stamp, boxes, world_from_robot);
+            .on_camera_boxes_from(frame_id, stamp, boxes, world_from_robot);
         self.counts.frames += 1;
         self.ticked(stamp, tick, world_from_robot)
     }

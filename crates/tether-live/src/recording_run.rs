@@ -307,7 +307,12 @@ impl Run<'_, '_, '_, '_> {
             return Ok(());
         };
         let boxes = camera(image)?;
-        let driven = self.driver.camera(stamp, &boxes, world_from_robot);
+        let driven = self.driver.camera(
+            stamp,
+            tether_core::FIRST_CAMERA_FRAME,
+            &boxes,
+            world_from_robot,
+        );
         on_step(Step::Camera(CameraStep {
             stamp: driven.stamp,
             tick: &driven.tick,

@@ -212,7 +212,9 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
             r.camera(stamp, self.driver.event(), frame)
                 .map_err(recording_failed)?;
         }
-        let driven = self.driver.camera(stamp, boxes, pose);
+        let driven = self
+            .driver
+            .camera(stamp, tether_core::FIRST_CAMERA_FRAME, boxes, pose);
         self.emit(&driven)
     }
 

@@ -28,7 +28,8 @@ use tether_control::{
 };
 pub use tether_core::ExtraLaser;
 use tether_core::{
-    CameraModel, Cov2, Gaussian2, Laser, LaserModel, Point2, Pose2, Robot, Stamp, Vector2, World,
+    CameraModel, Cov2, ExtraCamera, FIRST_CAMERA_FRAME, Gaussian2, Laser, LaserModel, Point2,
+    Pose2, Robot, Stamp, Vector2, World,
 };
 use tether_fusion::{
     Bearing, ClutterConfig, ClutterMap, FusionRule, Gate, Observation, Refusal, SomebodyElse,
@@ -125,8 +126,13 @@ pub struct PipelineConfig {
     /// each taking the scans of its `frame_id` (design 5.7).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub extra_lasers: Vec<ExtraLaser>,
-    /// The camera (intrinsics, mounting).
+    /// The camera (intrinsics, mounting); with `extra_cameras`, the one whose frames
+    /// carry a frame none of them names (`camera`).
     pub camera: CameraModel,
+    /// More cameras on the robot (`[[extra_cameras]]`: a rear one, side ones), each
+    /// taking the frames of its `frame_id` (design 5.7).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub extra_cameras: Vec<ExtraCamera>,
     /// Leg detection.
     pub legs: LegsConfig,
     /// The monocular person model of the camera.
@@ -355,6 +361,25 @@ impl Pipeline {
             .camera
             .validate()
             .map_err(|e| config_err("camera", e))?;
+        for (k, extra) in config.extra_cameras.iter().enumerate() {
+            let named = config.extra_cameras[..k]
+                .iter()
+                .any(|other| other.frame_id == extra.frame_id);
+            if extra.frame_id.is_empty() || extra.frame_id == FIRST_CAMERA_FRAME || named {
+                return Err(config_err(
+                    "extra_cameras",
+                    format!(
+                        "`frame_id` {:?} must name one camera's frames, not `{FIRST_CAMERA_FRAME}` \
+                         (the first camera's) nor another's",
+                        extra.frame_id
+                    ),
+                ));
+            }
+            extra
+                .camera
+                .validate()
+                .map_err(|e| config_err("extra_cameras", e))?;
+        }
         config
             .limits
             .validate()
@@ -493,19 +518,49 @@ impl Pipeline {
         true
     }
 
-    /// One camera frame's upper-body boxes, with the robot's pose at the frame's stamp:
-    /// the monocular model ([`vision::person_from_box`]), then [`Pipeline::on_camera`].
+    /// One frame's upper-body boxes of the first camera, with the robot's pose at the
+    /// frame's stamp: [`Pipeline::on_camera_boxes_from`] its frame.
     pub fn on_camera_boxes(
         &mut self,
         stamp: Stamp,
         boxes: &[tether_core::PixelBox],
         world_from_robot: Pose2<World, Robot>,
     ) -> Tick {
+        self.on_camera_boxes_from(FIRST_CAMERA_FRAME, stamp, boxes, world_from_robot)
+    }
+
+    /// One camera frame's upper-body boxes, from the camera whose frames carry
+    /// `frame_id` (`[[extra_cameras]]`; any other frame is the first camera's), with the
+    /// robot's pose at the frame's stamp: the monocular model of that camera
+    /// ([`vision::person_from_box`]), then [`Pipeline::on_camera`].
+    pub fn on_camera_boxes_from(
+        &mut self,
+        frame_id: &str,
+        stamp: Stamp,
+        boxes: &[tether_core::PixelBox],
+        world_from_robot: Pose2<World, Robot>,
+    ) -> Tick {
+        let camera = self.camera_of(frame_id);
         let people: Vec<vision::VisionPerson> = boxes
             .iter()
-            .filter_map(|b| self.vision_person(stamp, b, world_from_robot))
+            .filter_map(|b| self.vision_person(&camera, stamp, b, world_from_robot))
             .collect();
         self.on_camera(stamp, &people, world_from_robot)
+    }
+
+    /// The model of the camera whose frames carry `frame_id`.
+    pub fn camera_of(&self, frame_id: &str) -> CameraModel {
+        self.config
+            .extra_cameras
+            .iter()
+            .find(|c| c.frame_id == frame_id)
+            .map_or(self.config.camera, |c| c.camera)
+    }
+
+    /// Every camera's model, the first one first.
+    fn cameras(&self) -> impl Iterator<Item = CameraModel> + '_ {
+        std::iter::once(self.config.camera)
+            .chain(self.config.extra_cameras.iter().map(|c| c.camera))
     }
 
     /// The monocular model for one box, with the head height learned for the track the
@@ -514,11 +569,12 @@ impl Pipeline {
     /// makes, which matters when the laser loses them.
     fn vision_person(
         &mut self,
+        camera: &CameraModel,
         stamp: Stamp,
         b: &tether_core::PixelBox,
         world_from_robot: Pose2<World, Robot>,
     ) -> Option<vision::VisionPerson> {
-        let camera = self.config.camera;
+        let camera = *camera;
         let base = vision::vision_person(&camera, &self.config.vision, b)?;
         let world_from_camera = world_from_robot * camera.robot_from_camera();
         let camera_from_world = world_from_camera.inverse();
@@ -870,22 +926,31 @@ impl Pipeline {
             .update_with_view(stamp, self.tracker.tracks(), &view);
     }
 
-    /// Whether the camera, in use, would see a person at a world point: in front of it
-    /// (0.3 m at least), within the monocular model's range and the horizontal field of
-    /// view (design 2.2, 3.2).
+    /// Whether a camera, in use, would see a person at a world point: in front of one
+    /// of them (0.3 m at least), within the monocular model's range and its horizontal
+    /// field of view (design 2.2, 3.2).
     fn camera_sees(
         &self,
         world_from_robot: Pose2<World, Robot>,
     ) -> impl Fn(Point2<World>) -> bool + use<> {
-        let camera = self.config.camera;
-        let half_fov = 0.5 * camera.horizontal_fov_rad();
         let max_range = self.config.vision.max_range_m;
-        let world_from_camera = world_from_robot * camera.robot_from_camera();
-        let camera_from_world = world_from_camera.inverse();
         let use_vision = self.config.fusion.use_vision;
+        let views: Vec<(Pose2<tether_core::Camera, World>, f64)> = self
+            .cameras()
+            .map(|camera| {
+                let world_from_camera = world_from_robot * camera.robot_from_camera();
+                (
+                    world_from_camera.inverse(),
+                    0.5 * camera.horizontal_fov_rad(),
+                )
+            })
+            .collect();
         move |p: Point2<World>| {
-            let q = camera_from_world * p;
-            use_vision && q.x > 0.3 && q.range_m() <= max_range && q.bearing_rad().abs() <= half_fov
+            use_vision
+                && views.iter().any(|(camera_from_world, half_fov)| {
+                    let q = *camera_from_world * p;
+                    q.x > 0.3 && q.range_m() <= max_range && q.bearing_rad().abs() <= *half_fov
+                })
         }
     }
 }

@@ -20,6 +20,14 @@ pub struct CameraFrame {
     pub stamp: Stamp,
     /// Detected boxes, sorted by their left edge, px.
     pub boxes: Vec<PixelBox>,
+    /// The camera's frame: `camera` for the first, an `[[extra_cameras]]` entry's
+    /// `frame_id` for the others.
+    #[serde(default = "first_camera_frame")]
+    pub frame_id: String,
+}
+
+fn first_camera_frame() -> String {
+    tether_core::FIRST_CAMERA_FRAME.to_owned()
 }
 
 /// Ground truth about one person in one frame.
@@ -257,6 +265,7 @@ impl SimCamera {
             CameraFrame {
                 stamp,
                 boxes: found.into_iter().map(|(b, _)| b).collect(),
+                frame_id: first_camera_frame(),
             },
             CameraTruth {
                 people: views,

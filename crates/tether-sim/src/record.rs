@@ -229,7 +229,7 @@ impl RunRecorder {
                     frame.boxes.iter().map(|b| [b.x, b.y, b.w, b.h]).collect();
                 let line = json!({
                     "stamp_ns": frame.stamp.ns(),
-                    "frame_id": <tether_core::Camera as Frame>::NAME,
+                    "frame_id": frame.frame_id,
                     "width_px": self.width_px,
                     "height_px": self.height_px,
                     "boxes": boxes,

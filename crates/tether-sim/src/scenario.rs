@@ -9,7 +9,7 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use tether_core::{CameraModel, ExtraLaser, LaserModel, Point2, World};
+use tether_core::{CameraModel, ExtraCamera, ExtraLaser, LaserModel, Point2, World};
 use thiserror::Error;
 
 use crate::geometry::Segment;
@@ -102,6 +102,12 @@ pub struct Scenario {
     /// The camera's model (intrinsics, mounting); every field optional.
     #[serde(default)]
     pub camera: CameraModel,
+    /// More cameras on the robot (`[[extra_cameras]]`: a rear one, side ones), each
+    /// with the `frame_id` its frames carry and its model; each detects as `camera_sim`
+    /// says, with random numbers of its own, at the same rate, its frames spread between
+    /// the first camera's (design 5.7, 7).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub extra_cameras: Vec<ExtraCamera>,
     /// Simulation-only behaviour of the upper-body detector.
     #[serde(default)]
     pub camera_sim: CameraSimSpec,

@@ -152,6 +152,17 @@ struct ExtraSimLaser {
     next_index: i64,
 }
 
+/// A camera besides the first (`Scenario::extra_cameras`): its simulated detector, the
+/// frame its frames carry, and when its next frame is due (the first camera's rate,
+/// offset between its frames).
+#[derive(Debug)]
+struct ExtraSimCamera {
+    camera: SimCamera,
+    frame_id: String,
+    offset_ns: f64,
+    next_index: i64,
+}
+
 /// A running simulation.
 #[derive(Debug)]
 pub struct Simulation {
@@ -162,6 +173,7 @@ pub struct Simulation {
     laser: Option<SimLaser>,
     extra_lasers: Vec<ExtraSimLaser>,
     camera: Option<SimCamera>,
+    extra_cameras: Vec<ExtraSimCamera>,
     now: Stamp,
     end: Stamp,
     next_scan_index: i64,
@@ -281,6 +293,27 @@ impl Simulation {
                 SimRng::stream(seed, "camera"),
             )
         });
+        let n_cameras = scenario.extra_cameras.len();
+        let extra_cameras = camera
+            .as_ref()
+            .map(|first| {
+                scenario
+                    .extra_cameras
+                    .iter()
+                    .enumerate()
+                    .map(|(k, extra)| ExtraSimCamera {
+                        camera: SimCamera::new(
+                            extra.camera,
+                            scenario.camera_sim.clone(),
+                            SimRng::stream(seed, &format!("camera/{}", extra.frame_id)),
+                        ),
+                        frame_id: extra.frame_id.clone(),
+                        offset_ns: first.period_ns() * (k as f64 + 1.0) / (n_cameras as f64 + 1.0),
+                        next_index: 0,
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
         let end = Stamp::from_secs_f64(scenario.duration_s).unwrap_or(Stamp::ZERO);
         Ok(Simulation {
             scenario: scenario.clone(),
@@ -290,6 +323,7 @@ impl Simulation {
             laser,
             extra_lasers,
             camera,
+            extra_cameras,
             now: Stamp::ZERO,
             end,
             next_scan_index: 0,
@@ -376,12 +410,24 @@ impl Simulation {
             self.control_period_ns
                 .map(|p| (self.next_timer_index * p, 2)),
         ];
+        let n_lasers = self.extra_lasers.len();
         let extras = self
             .extra_lasers
             .iter()
             .enumerate()
             .map(|(k, e)| (e.next_index * e.period_ns + e.offset_ns, 3 + k));
-        let Some((at, kind)) = candidates.into_iter().flatten().chain(extras).min() else {
+        let period_ns = self.camera.as_ref().map_or(1.0, SimCamera::period_ns);
+        let cameras = self.extra_cameras.iter().enumerate().map(|(k, c)| {
+            let at = (c.next_index as f64 * period_ns + c.offset_ns).round() as i64;
+            (at, 3 + n_lasers + k)
+        });
+        let Some((at, kind)) = candidates
+            .into_iter()
+            .flatten()
+            .chain(extras)
+            .chain(cameras)
+            .min()
+        else {
             self.step_to(self.end);
             return None;
         };
@@ -415,11 +461,30 @@ impl Simulation {
                 self.next_scan_index += 1;
                 self.scan_event(None)
             }
+            k if k >= 3 + n_lasers => self.extra_camera_event(k - 3 - n_lasers),
             k => {
                 self.extra_lasers.get_mut(k - 3)?.next_index += 1;
                 self.scan_event(Some(k - 3))
             }
         }
+    }
+
+    /// The frame of the `k`-th extra camera now (the truth of its people's views is
+    /// kept for the first camera only).
+    fn extra_camera_event(&mut self, k: usize) -> Option<Event> {
+        let truth = self.truth();
+        let extra = self.extra_cameras.get_mut(k)?;
+        extra.next_index += 1;
+        let (mut frame, _) =
+            extra
+                .camera
+                .frame(self.now, truth.world_from_robot, &self.world, &self.people);
+        frame.frame_id.clone_from(&extra.frame_id);
+        Some(Event {
+            data: SensorData::Camera(frame),
+            truth,
+            camera_truth: None,
+        })
     }
 
     /// The scan of the first laser (`None`) or of the extra laser `extra` now, with the

@@ -126,6 +126,7 @@ impl Scenario {
             extra_lasers: Vec::new(),
             laser_sim: LaserSimSpec::default(),
             camera: Default::default(),
+            extra_cameras: Vec::new(),
             camera_sim: Default::default(),
             people: Vec::new(),
         }

@@ -281,6 +281,28 @@ impl Scenario {
                 e.to_string(),
             );
         }
+        for (i, extra) in self.extra_cameras.iter().enumerate() {
+            if let Err(e) = extra.camera.validate() {
+                let mut field = path!["extra_cameras", i, "camera"];
+                let key = e.field.split('/').next().unwrap_or(e.field);
+                field.extend(dotted("x", key).into_iter().skip(1));
+                problems.bad(field, e.to_string());
+            }
+            let first = tether_core::FIRST_CAMERA_FRAME;
+            let taken = self.extra_cameras[..i]
+                .iter()
+                .any(|other| other.frame_id == extra.frame_id);
+            if extra.frame_id.is_empty() || extra.frame_id == first || taken {
+                problems.bad(
+                    path!["extra_cameras", i, "frame_id"],
+                    format!(
+                        "{:?} must name this camera's frames alone: not empty, not the first \
+                         camera's `{first}` and not another's",
+                        extra.frame_id
+                    ),
+                );
+            }
+        }
     }
 
     /// `laser_sim`: probabilities in [0, 1], a valid noise model, spells and phantoms of
