@@ -26,11 +26,11 @@ use thiserror::Error;
 use tether_control::{
     MotionLimits, MotionState, SafetyConfig, SpringConfig, StopReason, Twist, VirtualSpring,
 };
-pub use tether_core::ExtraLaser;
 use tether_core::{
-    CameraModel, Cov2, ExtraCamera, FIRST_CAMERA_FRAME, Gaussian2, Laser, LaserModel, Point2,
-    Pose2, Robot, Stamp, Vector2, World,
+    CameraModel, Cov2, FIRST_CAMERA_FRAME, Gaussian2, Laser, LaserModel, Point2, Pose2, Robot,
+    Stamp, Vector2, World,
 };
+pub use tether_core::{ExtraCamera, ExtraLaser};
 use tether_fusion::{
     Bearing, ClutterConfig, ClutterMap, FusionRule, Gate, Observation, Refusal, SomebodyElse,
     TargetConfig, TargetSelector, TargetState, Tracker, TrackerConfig, Transition, View,

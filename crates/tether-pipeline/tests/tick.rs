@@ -544,3 +544,47 @@ fn a_lost_target_is_searched_for_only_when_asked_and_within_bounds() {
         }
     }
 }
+
+/// A rear camera (`[[extra_cameras]]`): a box in its frame is a person behind the robot,
+/// the same box in the first camera's a person in front; its `frame_id` must be its own.
+#[test]
+fn each_cameras_boxes_are_read_through_its_own_model() {
+    use tether_pipeline::ExtraCamera;
+    let mut config = PipelineConfig::default();
+    let mut rear = config.camera;
+    rear.mount.x_m = -0.1;
+    rear.mount.yaw_rad = std::f64::consts::PI;
+    config.extra_cameras.push(ExtraCamera {
+        frame_id: "rear_camera".into(),
+        camera: rear,
+    });
+    let i = config.camera.intrinsics;
+    // A person about 2.5 m away, straight ahead of the camera.
+    let b = tether_core::PixelBox {
+        x: i.cx_px - 40.0,
+        y: i.cy_px - 60.0,
+        w: 80.0,
+        h: 110.0,
+    };
+    let seen = |frame: &str| {
+        let mut pipeline = Pipeline::new(config.clone(), None).unwrap();
+        let tick = pipeline.on_camera_boxes_from(frame, Stamp::from_ns(1), &[b], Pose2::IDENTITY);
+        let [person] = tick.vision_people.as_slice() else {
+            panic!("{:?}", tick.vision_people);
+        };
+        person.mean
+    };
+    let (ahead, behind) = (seen("camera"), seen("rear_camera"));
+    assert!(ahead.x > 1.0 && behind.x < -1.0, "{ahead:?} {behind:?}");
+    assert!((ahead.x + behind.x).abs() < 0.25 && (ahead.y + behind.y).abs() < 0.05);
+    // A frame no extra camera names is the first camera's.
+    assert_eq!(seen("front_camera"), ahead);
+    for taken in ["camera", "", "rear_camera"] {
+        let mut twice = config.clone();
+        twice.extra_cameras.push(ExtraCamera {
+            frame_id: taken.into(),
+            camera: rear,
+        });
+        assert!(Pipeline::new(twice, None).is_err(), "{taken:?}");
+    }
+}

@@ -127,6 +127,29 @@ fn sensor_models_are_checked() {
     assert!(err_of(&src).contains("field `camera_sim.rate_hz`"));
 }
 
+#[test]
+fn extra_cameras_name_their_frames_alone_and_are_checked() {
+    let rear = "[[extra_cameras]]\nframe_id = \"rear_camera\"\ncamera = { mount = { x_m = -0.1, \
+                yaw_rad = 3.14159 } }\n";
+    let ok = Scenario::from_toml_str(&format!("{BASE}\n{rear}"), "ok.toml").unwrap();
+    assert_eq!(ok.extra_cameras[0].frame_id, "rear_camera");
+    let e = err_of(&format!("{BASE}\n{rear}\n{rear}"));
+    assert!(e.contains("field `extra_cameras[1].frame_id`"), "{e}");
+    let e = err_of(&format!(
+        "{BASE}\n{}",
+        rear.replace("rear_camera", "camera")
+    ));
+    assert!(e.contains("field `extra_cameras[0].frame_id`"), "{e}");
+    let bad = rear.replace("x_m = -0.1", "tilt_rad = 2.0");
+    let e = err_of(&format!("{BASE}\n{bad}"));
+    assert!(
+        e.contains("field `extra_cameras[0].camera.mount.tilt_rad`"),
+        "{e}"
+    );
+    let e = err_of(&format!("{BASE}\n[[extra_lasers]]\nframe_id = \"laser\"\n"));
+    assert!(e.contains("field `extra_lasers[0].frame_id`"), "{e}");
+}
+
 /// The byte ranges of the numbers in a TOML text (runs of digits, signs, points
 /// and exponents that start with a digit or a minus).
 fn number_spans(src: &str) -> Vec<std::ops::Range<usize>> {

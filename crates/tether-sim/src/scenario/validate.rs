@@ -260,21 +260,14 @@ impl Scenario {
                 field.extend(dotted("x", laser_error_field(&e)).into_iter().skip(1));
                 problems.bad(field, e.to_string());
             }
-            let first = <tether_core::Laser as tether_core::Frame>::NAME;
-            let taken = self.extra_lasers[..i]
-                .iter()
-                .any(|other| other.frame_id == extra.frame_id);
-            if extra.frame_id.is_empty() || extra.frame_id == first || taken {
-                problems.bad(
-                    path!["extra_lasers", i, "frame_id"],
-                    format!(
-                        "{:?} must name this laser's scans alone: not empty, not the first \
-                         laser's `{first}` and not another's",
-                        extra.frame_id
-                    ),
-                );
-            }
         }
+        let frames: Vec<&str> = self
+            .extra_lasers
+            .iter()
+            .map(|l| l.frame_id.as_str())
+            .collect();
+        let first = <tether_core::Laser as tether_core::Frame>::NAME;
+        check_frame_ids(problems, "extra_lasers", &frames, first, "laser's scans");
         if let Err(e) = self.camera.validate() {
             problems.bad(
                 dotted("camera", e.field.split('/').next().unwrap_or(e.field)),
@@ -288,21 +281,14 @@ impl Scenario {
                 field.extend(dotted("x", key).into_iter().skip(1));
                 problems.bad(field, e.to_string());
             }
-            let first = tether_core::FIRST_CAMERA_FRAME;
-            let taken = self.extra_cameras[..i]
-                .iter()
-                .any(|other| other.frame_id == extra.frame_id);
-            if extra.frame_id.is_empty() || extra.frame_id == first || taken {
-                problems.bad(
-                    path!["extra_cameras", i, "frame_id"],
-                    format!(
-                        "{:?} must name this camera's frames alone: not empty, not the first \
-                         camera's `{first}` and not another's",
-                        extra.frame_id
-                    ),
-                );
-            }
         }
+        let frames: Vec<&str> = self
+            .extra_cameras
+            .iter()
+            .map(|c| c.frame_id.as_str())
+            .collect();
+        let first = tether_core::FIRST_CAMERA_FRAME;
+        check_frame_ids(problems, "extra_cameras", &frames, first, "camera's frames");
     }
 
     /// `laser_sim`: probabilities in [0, 1], a valid noise model, spells and phantoms of
@@ -642,4 +628,21 @@ fn dotted(root: &str, field: &str) -> Vec<FieldSeg> {
         .chain(field.split('.'))
         .map(FieldSeg::from)
         .collect()
+}
+
+/// The `frame_id`s of a list of extra sensors (`list`, e.g. `extra_lasers`): each names
+/// its sensor's data (`what`) alone, neither empty, nor the first sensor's `first`, nor
+/// another entry's.
+fn check_frame_ids(problems: &mut Problems, list: &str, frames: &[&str], first: &str, what: &str) {
+    for (i, frame) in frames.iter().enumerate() {
+        if frame.is_empty() || *frame == first || frames[..i].contains(frame) {
+            problems.bad(
+                path![list, i, "frame_id"],
+                format!(
+                    "{frame:?} must name this {what} alone: not empty, not the first's \
+                     `{first}` and not another's"
+                ),
+            );
+        }
+    }
 }
