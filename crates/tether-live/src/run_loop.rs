@@ -226,7 +226,8 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
         }
     }
 
-    /// Sends a tick's command to every output and drives it in the dead reckoning.
+    /// Sends a tick's command to every output (the driver has already handed it to the
+    /// dead reckoning).
     fn emit(&mut self, driven: &Driven) -> Result<(), Ending> {
         let (tick, pose) = (&driven.tick, driven.world_from_robot);
         self.summary.ticks += 1;
