@@ -10,8 +10,8 @@
 //! `world_from_laser = world_from_robot * robot_from_laser`. With scan matching, the
 //! first laser's scans are matched; another scanner's take the pose of the last match.
 //!
-//! With a control period ([`Options::control_period`]) the run is the live loop's
-//! (design 6): the pipeline also ticks at the control timer's instants
+//! The run is the live loop's (design 6), at its control period
+//! ([`Options::control_period`]): the pipeline also ticks at the control timer's instants
 //! ([`crate::control_timer`]) between the data, each datum is handled when it was
 //! logged (its arrival; [`arrival`]: its stamp when the recording was written after the
 //! fact) after the instants up to it, and a datum stamped before the last
@@ -133,14 +133,23 @@ impl PoseSource for RecordingPoses<'_> {
 }
 
 /// How a run over a recording goes besides its poses.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy)]
 pub struct Options<'a> {
     /// A topic whose messages are handed over as [`Step::Labels`], in log order.
     pub labels_topic: Option<&'a str>,
     /// The live loop's control period: the pipeline also ticks on the control timer
-    /// ([`Step::Timer`]) and each datum is handled at its log time; `None`: each datum
-    /// at its own stamp, no timer.
-    pub control_period: Option<Duration>,
+    /// ([`Step::Timer`]) between the data, each handled when it arrived.
+    pub control_period: Duration,
+}
+
+impl Default for Options<'_> {
+    /// No labels; the live loop's period ([`crate::control_timer::CONTROL_PERIOD`]).
+    fn default() -> Self {
+        Options {
+            labels_topic: None,
+            control_period: crate::control_timer::CONTROL_PERIOD,
+        }
+    }
 }
 
 /// One tick of the control timer.
@@ -191,7 +200,7 @@ pub enum Step<'a> {
     Scan(ScanStep<'a>),
     /// A camera frame went through the pipeline.
     Camera(CameraStep<'a>),
-    /// The control timer ticked (with [`Options::control_period`]).
+    /// The control timer ticked (every [`Options::control_period`]).
     Timer(TimerStep<'a>),
     /// A message of the labels topic.
     Labels(LabelMessage),
@@ -218,7 +227,7 @@ pub struct RunCounts {
     /// Scans and frames before the first odometry message (with an odometry topic),
     /// left out: the robot's pose was not known yet.
     pub waiting_for_odom: usize,
-    /// Timer ticks (with [`Options::control_period`]).
+    /// Timer ticks (every [`Options::control_period`]).
     pub timer_ticks: usize,
     /// Data processed at the last tick's time because they were stamped before it.
     pub clamped: usize,
@@ -245,7 +254,7 @@ struct Run<'p, 'c, 'q, 'k> {
     driver: Driver<'p, RecordingPoses<'k>>,
     camera: Option<&'c mut CameraBoxes<'q>>,
     counts: RunCounts,
-    period: Option<Duration>,
+    period: Duration,
 }
 
 type OnStep<'s> = dyn FnMut(Step<'_>) -> anyhow::Result<()> + 's;
@@ -259,9 +268,6 @@ impl Run<'_, '_, '_, '_> {
         times: LogTimes,
         on_step: &mut OnStep<'_>,
     ) -> anyhow::Result<()> {
-        let Some(period) = self.period else {
-            return Ok(());
-        };
         let arrival = arrival(stamp, times.log);
         if !self.driver.has_timer() {
             // The timer runs from the recording's first message when that is the clock
@@ -272,7 +278,7 @@ impl Run<'_, '_, '_, '_> {
             } else {
                 arrival
             };
-            let period_ns = i64::try_from(period.as_nanos()).unwrap_or(i64::MAX);
+            let period_ns = i64::try_from(self.period.as_nanos()).unwrap_or(i64::MAX);
             self.driver.start_timer(
                 ControlTimer::new(start, period_ns),
                 Stamp::from_ns(i64::MIN),
@@ -445,7 +451,7 @@ mod tests {
         };
         let options = Options {
             labels_topic: None,
-            control_period: Some(Duration::from_millis(50)),
+            control_period: Duration::from_millis(50),
         };
         let mut steps = Vec::new();
         let counts = run_recording(

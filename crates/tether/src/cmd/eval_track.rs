@@ -97,7 +97,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &topics,
         Options {
             labels_topic: Some(&args.labels_topic),
-            control_period: Some(tether_live::control_timer::CONTROL_PERIOD),
+            ..Options::default()
         },
         &mut pipeline,
         None,

@@ -104,7 +104,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &topics,
         Options {
             labels_topic: None,
-            control_period: Some(CONTROL_PERIOD),
+            ..Options::default()
         },
         &mut pipeline,
         boxes.as_mut().map(|b| b as &mut CameraBoxes<'_>),

@@ -129,7 +129,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &topics,
         Options {
             labels_topic: None,
-            control_period: Some(tether_live::control_timer::CONTROL_PERIOD),
+            ..Options::default()
         },
         &mut pipeline,
         boxes.as_mut().map(|b| b as &mut CameraBoxes<'_>),

@@ -187,14 +187,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seed: args.seed,
     };
     let name = scenario.name.clone();
-    if args.extra_tcp.is_empty() {
-        return serve(&args, config, scans, |endpoint| {
-            // The emulator serves on whether or not anybody reads where it listens.
-            tether::outln!("URG-04LX emulator (SCIP 2.0, scenario `{name}`) on {endpoint}").ok();
-        });
-    }
-    // One simulation for every scanner: each extra one listens before the first
-    // announces itself, so that a client reading the first line may connect to all.
+    // One simulation for every scanner (`--extra-tcp`): each extra one listens before
+    // the first announces itself, so that a client reading the first line may connect
+    // to all.
     let mut configs = Vec::new();
     for (frame, _) in &args.extra_tcp {
         let (with_extra, extra_config) = scans.with_extra_laser(frame)?;
@@ -212,6 +207,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         extras.push((frame.clone(), server));
     }
     serve(&args, config, first, |endpoint| {
+        // The emulator serves on whether or not anybody reads where it listens.
         tether::outln!("URG-04LX emulator (SCIP 2.0, scenario `{name}`) on {endpoint}").ok();
         for (frame, server) in &extras {
             tether::outln!(
