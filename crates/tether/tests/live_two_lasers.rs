@@ -6,12 +6,10 @@
 //!
 //! Real time on a possibly loaded machine: the bars are loose, every wait has a limit
 //! that fails with what the processes said, and the processes are killed whatever
-//! happens. The two 180-degree scanners leave a blind band beside the robot (between
-//! their mounts); when the person walks along it for over a second while the robot,
-//! with them closer than the follow distance, hardly turns, their track is lost and a
-//! new one takes them up. How long that takes depends on when the emulated base took
-//! each command: with three CPU-bound processes beside the test it happened in about one
-//! run in ten (`.config/nextest.toml` runs it with nothing beside it).
+//! happens. The scanners have their full 240 degrees here ([`overlapping_scanners`]):
+//! `all_round`'s 180-degree ones leave a blind band beside the robot, where the person
+//! was lost in about one run in ten (one in four in clean-clone CI runs, even with
+//! nothing beside the test).
 
 #![allow(clippy::unwrap_used, reason = "a test should fail loudly on bad data")]
 
@@ -29,11 +27,33 @@ use common::run::{
 use common::scratch;
 use tether_core::LaserMount;
 
-/// The emulator of `all_round`'s two scanners, the front one on `front`, the rear one
-/// on `rear`, its robot driven by its stdin.
+/// `all_round` with each scanner's full 240 degrees (URG-04LX steps 44-725) instead of
+/// 180: the two fields overlap beside the robot. With 180 degrees the scanners, 0.1 m
+/// ahead of and behind the axle, leave a band beside it that neither sees; a person
+/// walking along it for over a second while the robot hardly turns comes back as a new
+/// track (docs/measured.md), which is the follower's weakness (issue 32), not what this
+/// test is about.
+fn overlapping_scanners(dir: &Path) -> std::path::PathBuf {
+    let shown = std::process::Command::new(env!("CARGO_BIN_EXE_tether"))
+        .args(["scenarios", "--show", "all_round"])
+        .output()
+        .unwrap();
+    assert!(shown.status.success());
+    let text = String::from_utf8(shown.stdout).unwrap();
+    let half = "first_step = 128, front_step = 384, last_step = 640";
+    assert_eq!(text.matches(half).count(), 2, "{text}");
+    let path = dir.join("all_round_240.toml");
+    let full = "first_step = 44, front_step = 384, last_step = 725";
+    std::fs::write(&path, text.replace(half, full)).unwrap();
+    path
+}
+
+/// The emulator of `all_round`'s two scanners ([`overlapping_scanners`]), the front one
+/// on `front`, the rear one on `rear`, its robot driven by its stdin.
 fn emulator(dir: &Path, front: &str, rear: &str) -> Proc {
     let truth = dir.join("urg-emulator.truth.jsonl");
     let rear = format!("rear_laser={rear}");
+    let scenario = overlapping_scanners(dir);
     let args = vec![
         "urg-emulator",
         "--tcp",
@@ -41,7 +61,7 @@ fn emulator(dir: &Path, front: &str, rear: &str) -> Proc {
         "--extra-tcp",
         rear.as_str(),
         "--scenario",
-        "all_round",
+        scenario.to_str().unwrap(),
         "--seed",
         "1",
         "--commands-stdin",
