@@ -405,7 +405,7 @@ pub fn score_recording(
 ) -> anyhow::Result<RecordingScore> {
     let topics = Topics {
         scan: scan_topic.to_owned(),
-        image: None,
+        images: Vec::new(),
         odom: None,
     };
     let mut stamps: Vec<Stamp> = Vec::new();

@@ -40,8 +40,8 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use tether_control::{LimitsError, SafetyConfigError, SpringConfigError, SpringGains};
 use tether_core::{
-    CameraIntrinsics, CameraModel, CameraModelError, CameraMount, ExtraLaser, LaserModelError,
-    LaserMount,
+    CameraIntrinsics, CameraModel, CameraModelError, CameraMount, ExtraCamera, ExtraLaser,
+    LaserModelError, LaserMount,
 };
 use tether_pipeline::PipelineConfig;
 
@@ -116,8 +116,9 @@ pub struct RobotConfig {
     /// The laser scanner: where it is plugged in and where it sits (`[laser]`), or the
     /// scanners (`[[laser]]` each; design 5.7).
     pub laser: Lasers,
-    /// The camera, if the robot has one.
-    pub camera: Option<CameraSection>,
+    /// The camera, if the robot has one (`[camera]`), or the cameras (`[[camera]]`
+    /// each; design 5.7).
+    pub camera: Option<Cameras>,
     /// How the robot follows.
     pub follow: FollowSection,
     /// Where the commands go besides stdout.
@@ -230,6 +231,10 @@ pub struct CameraSection {
     /// Where the camera sits: the lens' offset and yaw as for the laser, its height
     /// and its upward tilt.
     pub mount: CameraMountSection,
+    /// The `frame_id` of its frames: `camera` for the first when left out; each
+    /// further `[[camera]]` names its own (e.g. `rear_camera`).
+    #[serde(default)]
+    pub frame_id: Option<String>,
     /// Cascade XML (default: Debian's `haarcascade_upperbody.xml` of `opencv-data`).
     pub cascade: Option<PathBuf>,
     /// Pyramid scale factor of the detector (default 1.1).
@@ -375,6 +380,7 @@ pub struct OutputSection {
 pub const OWNED_ELSEWHERE: &[(&str, &str)] = &[
     ("pipeline.laser.mount", "laser.mount"),
     ("pipeline.camera", "camera.intrinsics and camera.mount"),
+    ("pipeline.extra_cameras", "[[camera]]"),
     ("pipeline.limits.track_width_m", "robot.track_width_m"),
     ("pipeline.limits.max_speed_mps", "robot.max_speed_mps"),
     (
@@ -514,27 +520,28 @@ impl LaserSection {
 }
 
 impl CameraSection {
-    /// Checks `[camera]`.
-    fn validate(&self) -> Result<(), (String, String)> {
+    /// Checks `[camera]` (or the `[[camera]]` its errors name `key`).
+    fn validate(&self, key: &str) -> Result<(), (String, String)> {
         let c = self;
+        let field = |name: &str| format!("{key}.{name}");
         match (&c.folder, &c.v4l2) {
             (Some(_), Some(_)) => {
                 return Err((
-                    "camera".into(),
+                    key.into(),
                     "has both `folder` and `v4l2`: frames come from one of them".into(),
                 ));
             }
             (None, None) => {
                 return Err((
-                    "camera".into(),
+                    key.into(),
                     "needs `folder = \"DIR\"` (with `fps`) or `v4l2 = \"/dev/video0\"`".into(),
                 ));
             }
             (Some(_), None) => match c.fps {
-                Some(fps) => positive("camera.fps", fps)?,
+                Some(fps) => positive(&field("fps"), fps)?,
                 None => {
                     return Err((
-                        "camera.fps".into(),
+                        field("fps"),
                         "is missing: a folder of frames needs a rate".into(),
                     ));
                 }
@@ -542,12 +549,12 @@ impl CameraSection {
             (None, Some(_)) => {
                 if c.fps.is_some() {
                     return Err((
-                        "camera.fps".into(),
+                        field("fps"),
                         "only applies to `folder` (a V4L2 device runs at its own rate)".into(),
                     ));
                 }
                 if c.repeat {
-                    return Err(("camera.repeat".into(), "only applies to `folder`".into()));
+                    return Err((field("repeat"), "only applies to `folder`".into()));
                 }
             }
         }
@@ -555,24 +562,62 @@ impl CameraSection {
             && !(s.is_finite() && s > 1.0)
         {
             return Err((
-                "camera.scale_factor".into(),
+                field("scale_factor"),
                 format!("= {s}: must be above 1 (OpenCV's default is 1.1)"),
             ));
         }
         let i = &c.intrinsics;
-        positive("camera.intrinsics.fx_px", i.fx_px)?;
-        positive("camera.intrinsics.fy_px", i.fy_px)?;
-        finite("camera.intrinsics.cx_px", i.cx_px)?;
-        finite("camera.intrinsics.cy_px", i.cy_px)?;
-        positive("camera.intrinsics.width_px", f64::from(i.width_px))?;
-        positive("camera.intrinsics.height_px", f64::from(i.height_px))?;
+        positive(&field("intrinsics.fx_px"), i.fx_px)?;
+        positive(&field("intrinsics.fy_px"), i.fy_px)?;
+        finite(&field("intrinsics.cx_px"), i.cx_px)?;
+        finite(&field("intrinsics.cy_px"), i.cy_px)?;
+        positive(&field("intrinsics.width_px"), f64::from(i.width_px))?;
+        positive(&field("intrinsics.height_px"), f64::from(i.height_px))?;
         let m = &c.mount;
-        finite("camera.mount.x_m", m.x_m)?;
-        finite("camera.mount.y_m", m.y_m)?;
-        finite("camera.mount.yaw_rad", m.yaw_rad)?;
-        positive("camera.mount.height_m", m.height_m)?;
-        finite("camera.mount.tilt_rad", m.tilt_rad)?;
+        finite(&field("mount.x_m"), m.x_m)?;
+        finite(&field("mount.y_m"), m.y_m)?;
+        finite(&field("mount.yaw_rad"), m.yaw_rad)?;
+        positive(&field("mount.height_m"), m.height_m)?;
+        finite(&field("mount.tilt_rad"), m.tilt_rad)?;
         Ok(())
+    }
+
+    /// Where its frames come from.
+    pub fn frame_input(&self) -> Option<FrameInput> {
+        match (&self.folder, &self.v4l2) {
+            (Some(path), _) => Some(FrameInput::Folder {
+                path: path.clone(),
+                fps: self.fps.unwrap_or(10.0),
+                repeat: self.repeat,
+            }),
+            (None, Some(device)) => Some(FrameInput::V4l2 {
+                device: device.clone(),
+            }),
+            (None, None) => None,
+        }
+    }
+
+    /// Its model, as the pipeline takes it.
+    pub fn camera_model(&self) -> CameraModel {
+        let i = &self.intrinsics;
+        let m = &self.mount;
+        CameraModel {
+            intrinsics: CameraIntrinsics {
+                fx_px: i.fx_px,
+                fy_px: i.fy_px,
+                cx_px: i.cx_px,
+                cy_px: i.cy_px,
+                width_px: i.width_px,
+                height_px: i.height_px,
+            },
+            mount: CameraMount {
+                x_m: m.x_m,
+                y_m: m.y_m,
+                yaw_rad: m.yaw_rad,
+                height_m: m.height_m,
+                tilt_rad: m.tilt_rad,
+            },
+        }
     }
 }
 
@@ -746,9 +791,9 @@ impl RobotConfig {
             "m/s",
         )?;
         at_most("robot.max_accel_mps2", r.max_accel_mps2, 10.0, "m/s^2")?;
-        self.laser.validate(laser_link)?;
+        self.laser.validate(|l, key| l.validate(laser_link, key))?;
         if let Some(c) = &self.camera {
-            c.validate()?;
+            c.validate(CameraSection::validate)?;
         }
         let f = &self.follow;
         positive("follow.follow_distance_m", f.follow_distance_m)?;
@@ -762,22 +807,6 @@ impl RobotConfig {
     /// Where the (first) laser is.
     pub fn laser_link(&self) -> LaserLink {
         self.laser.link()
-    }
-
-    /// Where the camera frames come from, if there is a camera.
-    pub fn frame_input(&self) -> Option<FrameInput> {
-        let c = self.camera.as_ref()?;
-        match (&c.folder, &c.v4l2) {
-            (Some(path), _) => Some(FrameInput::Folder {
-                path: path.clone(),
-                fps: c.fps.unwrap_or(10.0),
-                repeat: c.repeat,
-            }),
-            (None, Some(device)) => Some(FrameInput::V4l2 {
-                device: device.clone(),
-            }),
-            (None, None) => None,
-        }
     }
 
     /// The pipeline's configuration: `[pipeline]` with the robot's geometry, the
@@ -809,26 +838,16 @@ impl RobotConfig {
         p.follower.bearing_omega_radps = f.bearing_omega_radps;
         p.follower.gains = f.gains;
         match &self.camera {
-            Some(c) => {
-                let i = &c.intrinsics;
-                let m = &c.mount;
-                p.camera = CameraModel {
-                    intrinsics: CameraIntrinsics {
-                        fx_px: i.fx_px,
-                        fy_px: i.fy_px,
-                        cx_px: i.cx_px,
-                        cy_px: i.cy_px,
-                        width_px: i.width_px,
-                        height_px: i.height_px,
-                    },
-                    mount: CameraMount {
-                        x_m: m.x_m,
-                        y_m: m.y_m,
-                        yaw_rad: m.yaw_rad,
-                        height_m: m.height_m,
-                        tilt_rad: m.tilt_rad,
-                    },
-                };
+            Some(cameras) => {
+                p.camera = cameras.camera_model();
+                p.extra_cameras = cameras
+                    .extra()
+                    .iter()
+                    .map(|c| ExtraCamera {
+                        frame_id: c.frame_id.clone().unwrap_or_default(),
+                        camera: c.camera_model(),
+                    })
+                    .collect();
             }
             None => p.fusion.use_vision = false,
         }
@@ -843,8 +862,8 @@ impl RobotConfig {
     }
 }
 
-mod lasers;
+mod sensors;
 #[cfg(test)]
 mod tests;
 
-pub use lasers::{FIRST_LASER_FRAME, Lasers};
+pub use sensors::{Cameras, FIRST_LASER_FRAME, Lasers, SensorTable, Sensors};

@@ -15,10 +15,28 @@ use tether_recording::mcap::McapError;
 use crate::results::ResultWriter;
 use crate::sources::frames::EncodedFrame;
 
-/// Where a live run records its camera frames (`sensor_msgs/msg/CompressedImage`):
-/// `tether replay run.mcap --image-topic /camera/image_raw/compressed` runs the
-/// cascade on them again.
+/// Where a live run records the frames of its first camera, when that names no frame of
+/// its own (`sensor_msgs/msg/CompressedImage`): `tether replay run.mcap --image-topic
+/// /camera/image_raw/compressed` runs the cascade on them again.
 pub const CAMERA_TOPIC: &str = "/camera/image_raw/compressed";
+
+/// Where a live run records the frames of the camera whose frames carry `frame_id`:
+/// `/{frame_id}/image_raw/compressed` (so [`CAMERA_TOPIC`] for `camera`), a topic per
+/// camera as a ROS 2 robot publishes them, each frame's header naming its camera.
+/// Characters a ROS topic name cannot hold become `_`.
+pub fn camera_topic(frame_id: &str) -> String {
+    let name: String = frame_id
+        .trim_matches('/')
+        .chars()
+        .map(
+            |c| match c.is_ascii_alphanumeric() || c == '_' || c == '/' {
+                true => c,
+                false => '_',
+            },
+        )
+        .collect();
+    format!("/{name}/image_raw/compressed")
+}
 
 /// How many messages may wait for the recording's writer thread; past that (a disk
 /// that stalls) messages are dropped and counted rather than holding up the loop.
@@ -40,8 +58,8 @@ enum Record {
     /// A scan, its period, when it arrived.
     Scan(LaserScan, f64, Stamp),
     Tick(Box<Tick>, Pose2<World, Robot>, Twist),
-    /// A frame's stamp, when it arrived, the frame.
-    Camera(Stamp, Stamp, EncodedFrame),
+    /// The camera's frame, the frame's stamp, when it arrived, the frame.
+    Camera(String, Stamp, Stamp, EncodedFrame),
     FinalStop(Stamp),
 }
 
@@ -95,13 +113,14 @@ fn write_all<W: std::io::Write + std::io::Seek>(
                 writer.mcap().write("/odom", tick.stamp, &odom)?;
                 writer.write_tick(&tick)?;
             }
-            Record::Camera(stamp, arrived, frame) => {
+            Record::Camera(frame_id, stamp, arrived, frame) => {
+                let topic = camera_topic(&frame_id);
                 let msg = CompressedImageMsg::new(
-                    Header::new(stamp, "camera"),
+                    Header::new(stamp, &frame_id),
                     frame.format,
                     frame.bytes,
                 );
-                writer.mcap().write(CAMERA_TOPIC, arrived, &msg)?;
+                writer.mcap().write(&topic, arrived, &msg)?;
             }
             Record::FinalStop(stamp) => {
                 let cmd = TwistMsg::unicycle(0.0, 0.0);
@@ -187,15 +206,16 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Recorder<W> {
         self.send(Record::Tick(Box::new(tick.clone()), pose, moving))
     }
 
-    /// A camera frame stamped `stamp` as it arrived (at `arrived`, its log time), on
-    /// [`CAMERA_TOPIC`] (frame `camera`).
+    /// A frame of the camera `frame_id` stamped `stamp` as it arrived (at `arrived`,
+    /// its log time), on that camera's topic ([`camera_topic`]).
     pub(crate) fn camera(
         &mut self,
+        frame_id: &str,
         stamp: Stamp,
         arrived: Stamp,
         frame: EncodedFrame,
     ) -> Result<(), RecordingError> {
-        self.send(Record::Camera(stamp, arrived, frame))
+        self.send(Record::Camera(frame_id.to_owned(), stamp, arrived, frame))
     }
 
     pub(crate) fn final_stop(&mut self, stamp: Stamp) -> Result<(), RecordingError> {
@@ -256,6 +276,19 @@ mod tests {
     #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
 
     use super::*;
+
+    #[test]
+    fn each_camera_records_on_a_topic_of_its_own() {
+        assert_eq!(camera_topic("camera"), CAMERA_TOPIC);
+        assert_eq!(
+            camera_topic("rear_camera"),
+            "/rear_camera/image_raw/compressed"
+        );
+        assert_eq!(
+            camera_topic("/robot/left cam"),
+            "/robot/left_cam/image_raw/compressed"
+        );
+    }
 
     use std::io::{Cursor, Seek, SeekFrom, Write};
     use std::sync::{Arc, Condvar, Mutex};

@@ -27,7 +27,9 @@ use std::time::Duration;
 use tether_scanmatch::MotionPrior;
 
 use tether_control::Twist;
-use tether_core::{GrayImage, Laser, LaserScan, PixelBox, Point2, Pose2, Robot, Stamp, World};
+use tether_core::{
+    CameraIntrinsics, GrayImage, Laser, LaserScan, PixelBox, Point2, Pose2, Robot, Stamp, World,
+};
 use tether_fusion::Track;
 use tether_pipeline::{Pipeline, Tick};
 
@@ -206,8 +208,10 @@ pub enum Step<'a> {
     Labels(LabelMessage),
 }
 
-/// Finds people boxes in a camera frame.
-pub type CameraBoxes<'a> = dyn FnMut(&GrayImage) -> anyhow::Result<Vec<PixelBox>> + 'a;
+/// Finds people boxes in a frame of a camera of the given intrinsics (each frame's
+/// camera is the one its header names: [`Pipeline::camera_of`]).
+pub type CameraBoxes<'a> =
+    dyn FnMut(&GrayImage, &CameraIntrinsics) -> anyhow::Result<Vec<PixelBox>> + 'a;
 
 /// What a run over a recording counted.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -301,7 +305,7 @@ impl Run<'_, '_, '_, '_> {
 
     fn camera(
         &mut self,
-        stamp: Stamp,
+        (stamp, frame_id): (Stamp, &str),
         image: &GrayImage,
         on_step: &mut OnStep<'_>,
     ) -> anyhow::Result<()> {
@@ -312,13 +316,11 @@ impl Run<'_, '_, '_, '_> {
         let Some(world_from_robot) = self.driver.camera_pose(stamp) else {
             return Ok(());
         };
-        let boxes = camera(image)?;
-        let driven = self.driver.camera(
-            stamp,
-            tether_core::FIRST_CAMERA_FRAME,
-            &boxes,
-            world_from_robot,
-        );
+        let intrinsics = self.driver.pipeline().camera_of(frame_id).intrinsics;
+        let boxes = camera(image, &intrinsics)?;
+        let driven = self
+            .driver
+            .camera(stamp, frame_id, &boxes, world_from_robot);
         on_step(Step::Camera(CameraStep {
             stamp: driven.stamp,
             tick: &driven.tick,
@@ -344,7 +346,8 @@ impl Run<'_, '_, '_, '_> {
 }
 
 /// Runs `pipeline` over the recording at `path`: its scans (`topics.scan`), camera
-/// frames (`topics.image`, through `camera`; ignored without it) and odometry
+/// frames (`topics.images`, through `camera`, each frame read through the model of the
+/// camera its header names; ignored without `camera`) and odometry
 /// (`topics.odom`), the robot's pose as `poses` says, as `options` say (labels, the
 /// control timer). `on_step` may stop the run by returning an error.
 pub fn run_recording(
@@ -384,7 +387,11 @@ pub fn run_recording(
                 run.driver.poses_mut().odometry(world_from_robot);
                 Ok(())
             }
-            Sample::Camera { stamp, image } => run.camera(stamp, &image, &mut **on_step),
+            Sample::Camera {
+                stamp,
+                frame_id,
+                image,
+            } => run.camera((stamp, &frame_id), &image, &mut **on_step),
             Sample::Scan(scan) => run.scan(scan, &mut **on_step),
         }
     };
@@ -446,7 +453,7 @@ mod tests {
         let mut pipeline = Pipeline::new(tether_pipeline::PipelineConfig::default(), None).unwrap();
         let topics = Topics {
             scan: "/scan".into(),
-            image: None,
+            images: Vec::new(),
             odom: None,
         };
         let options = Options {

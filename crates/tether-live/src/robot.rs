@@ -251,8 +251,8 @@ struct Started {
     pipeline: Pipeline,
 }
 
-/// The camera's frames and detector, the laser's handshake and stream, the camera
-/// thread and the pipeline (whose laser model takes the sensor's own geometry). On an
+/// The cameras' frames and detectors, the lasers' handshakes and streams, the camera
+/// threads and the pipeline (whose laser model takes the sensor's own geometry). On an
 /// error the threads already started end by themselves (their channel is gone).
 fn start(
     config: &RobotConfig,
@@ -260,15 +260,14 @@ fn start(
     mut pipeline_config: PipelineConfig,
     stop: &Arc<AtomicBool>,
 ) -> Result<Started, StartError> {
-    // The camera side first: a wrong cascade path is found before the laser spins.
-    let camera = match (config.frame_input(), &config.camera) {
-        (Some(input), Some(section)) => Some(CameraSource::open(
-            &input,
-            section,
-            pipeline_config.camera.intrinsics,
-        )?),
-        _ => None,
-    };
+    // The cameras first: a wrong cascade path is found before the laser spins.
+    let mut cameras = Vec::new();
+    for (_, frame_id, section) in config.camera.iter().flat_map(|c| c.keyed()) {
+        if let Some(input) = section.frame_input() {
+            let intrinsics = section.camera_model().intrinsics;
+            cameras.push(CameraSource::open(&input, section, intrinsics, frame_id)?);
+        }
+    }
     let (tx, rx) = mpsc::sync_channel(CHANNEL_DEPTH);
     // The leg model is read once, before the laser spins: a wrong path is found now.
     let leg_model = crate::leg_model::classifier(&pipeline_config.legs)?;
@@ -300,10 +299,14 @@ fn start(
         )?;
         threads.push(("laser", started.thread));
     }
-    if let Some(camera) = camera {
-        let record = config.output.record.is_some();
-        threads.push(("camera", camera.spawn(clock, tx, Arc::clone(stop), record)?));
+    let record = config.output.record.is_some();
+    for camera in cameras {
+        threads.push((
+            "camera",
+            camera.spawn(clock, tx.clone(), Arc::clone(stop), record)?,
+        ));
     }
+    drop(tx);
     let pipeline = Pipeline::new(pipeline_config, leg_model)?;
     Ok(Started {
         rx,

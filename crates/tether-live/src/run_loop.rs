@@ -201,6 +201,7 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
 
     fn camera(
         &mut self,
+        frame_id: &str,
         stamp: Stamp,
         boxes: &[PixelBox],
         frame: Option<EncodedFrame>,
@@ -209,12 +210,10 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
             return Ok(());
         };
         if let (Some(r), Some(frame)) = (self.recorder.as_deref_mut(), frame) {
-            r.camera(stamp, self.driver.event(), frame)
+            r.camera(frame_id, stamp, self.driver.event(), frame)
                 .map_err(recording_failed)?;
         }
-        let driven = self
-            .driver
-            .camera(stamp, tether_core::FIRST_CAMERA_FRAME, boxes, pose);
+        let driven = self.driver.camera(stamp, frame_id, boxes, pose);
         self.emit(&driven)
     }
 
@@ -323,7 +322,8 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
             .map(|d| start.saturating_add_ns(i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)));
         self.driver
             .start_timer(ControlTimer::new(start, period_ns), start);
-        let mut camera_alive = true;
+        // The frames of the cameras that stopped.
+        let mut cameras_gone: Vec<String> = Vec::new();
         // When the clock last moved (wall time), and whether the stop for a stalled
         // clock has gone out.
         let (mut clock_seen, mut clock_moved_at, mut stall_stopped) =
@@ -368,25 +368,26 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
                 }
             }
             self.driver.arrived(arrived);
-            if let Err(ending) = self.input(input, &mut camera_alive) {
+            if let Err(ending) = self.input(input, &mut cameras_gone) {
                 return ending;
             }
         }
     }
 
     /// Handles one input at [`Live::event`].
-    fn input(&mut self, input: Input, camera_alive: &mut bool) -> Result<(), Ending> {
+    fn input(&mut self, input: Input, cameras_gone: &mut Vec<String>) -> Result<(), Ending> {
         match input {
             Input::Scan(scan) => self.scan(scan),
             Input::Camera {
+                frame_id,
                 stamp,
                 boxes,
                 frame,
             } => {
-                if *camera_alive {
-                    self.camera(stamp, &boxes, frame)
-                } else {
+                if cameras_gone.contains(&frame_id) {
                     Ok(())
+                } else {
+                    self.camera(&frame_id, stamp, &boxes, frame)
                 }
             }
             Input::LaserFault(fault) => {
@@ -411,23 +412,25 @@ impl<W: std::io::Write + std::io::Seek + Send + 'static> Live<'_, W> {
                 Ok(())
             }
             Input::LaserFailed(error) => Err(Ending::LaserFailed(error)),
-            Input::CameraFrameBad(why) => {
+            Input::CameraFrameBad { frame_id, why } => {
                 self.summary.bad_frames += 1;
                 let n = self.summary.bad_frames;
                 if n <= 5 || n.is_multiple_of(100) {
-                    tracing::warn!("camera frame skipped ({n} so far): {why}");
+                    tracing::warn!("camera frame skipped ({frame_id:?}; {n} so far): {why}");
                 }
                 Ok(())
             }
-            Input::CameraEnded(why) => {
-                *camera_alive = false;
-                self.driver.pipeline_mut().camera_gone();
+            Input::CameraEnded { frame_id, why } => {
+                let left = self.driver.pipeline_mut().camera_gone_from(&frame_id);
+                let from_now_on = match left {
+                    true => "the other cameras and the laser from now on",
+                    false => "laser only from now on",
+                };
                 match why {
-                    None => tracing::info!("the camera's frames ended; laser only from now on"),
-                    Some(e) => {
-                        tracing::error!("the camera failed ({e}); laser only from now on")
-                    }
+                    None => tracing::info!("camera {frame_id:?}: its frames ended; {from_now_on}"),
+                    Some(e) => tracing::error!("camera {frame_id:?} failed ({e}); {from_now_on}"),
                 }
+                cameras_gone.push(frame_id);
                 Ok(())
             }
             Input::ClockAdvanced => Ok(()),

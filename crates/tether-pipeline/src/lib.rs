@@ -13,6 +13,7 @@
 //! - `per_frame`: the paper's complementary fusion, frame by frame, with no memory: the
 //!   target is the fused laser-vision pair nearest the heading.
 
+mod camera;
 pub mod config_docs;
 mod drive;
 pub mod follow;
@@ -27,8 +28,7 @@ use tether_control::{
     MotionLimits, MotionState, SafetyConfig, SpringConfig, StopReason, Twist, VirtualSpring,
 };
 use tether_core::{
-    CameraModel, Cov2, FIRST_CAMERA_FRAME, Gaussian2, Laser, LaserModel, Point2, Pose2, Robot,
-    Stamp, Vector2, World,
+    CameraModel, Cov2, Gaussian2, Laser, LaserModel, Point2, Pose2, Robot, Stamp, Vector2, World,
 };
 pub use tether_core::{ExtraCamera, ExtraLaser};
 use tether_fusion::{
@@ -340,6 +340,9 @@ pub struct Pipeline {
     trails: follow::Trails,
     motion: MotionState,
     heights: std::collections::BTreeMap<u64, vision::LearnedHeight>,
+    /// Per camera, the first first: whether it is gone for good
+    /// ([`Pipeline::camera_gone_from`]).
+    cameras_gone: Vec<bool>,
     /// Static clutter in the world (scenery; each laser keeps that of its own frame,
     /// the robot's own parts, which move with it).
     clutter_world: ClutterMap<World>,
@@ -361,25 +364,7 @@ impl Pipeline {
             .camera
             .validate()
             .map_err(|e| config_err("camera", e))?;
-        for (k, extra) in config.extra_cameras.iter().enumerate() {
-            let named = config.extra_cameras[..k]
-                .iter()
-                .any(|other| other.frame_id == extra.frame_id);
-            if extra.frame_id.is_empty() || extra.frame_id == FIRST_CAMERA_FRAME || named {
-                return Err(config_err(
-                    "extra_cameras",
-                    format!(
-                        "`frame_id` {:?} must name one camera's frames, not `{FIRST_CAMERA_FRAME}` \
-                         (the first camera's) nor another's",
-                        extra.frame_id
-                    ),
-                ));
-            }
-            extra
-                .camera
-                .validate()
-                .map_err(|e| config_err("extra_cameras", e))?;
-        }
+        camera::check_extra_cameras(&config.extra_cameras)?;
         config
             .limits
             .validate()
@@ -469,6 +454,7 @@ impl Pipeline {
             trails: follow::Trails::default(),
             motion: MotionState::default(),
             heights: std::collections::BTreeMap::new(),
+            cameras_gone: vec![false; 1 + config.extra_cameras.len()],
             stats: PipelineStats::default(),
             config,
         })
@@ -494,13 +480,6 @@ impl Pipeline {
         &self.selector
     }
 
-    /// The camera is gone for good: vision is out of fusion and the target is locked
-    /// and taken up again on the laser alone ([`TargetSelector::camera_gone`]).
-    pub fn camera_gone(&mut self) {
-        self.config.fusion.use_vision = false;
-        self.selector.camera_gone();
-    }
-
     /// The last command sent.
     pub fn command(&self) -> Twist {
         self.command
@@ -516,112 +495,6 @@ impl Pipeline {
             return false;
         }
         true
-    }
-
-    /// One frame's upper-body boxes of the first camera, with the robot's pose at the
-    /// frame's stamp: [`Pipeline::on_camera_boxes_from`] its frame.
-    pub fn on_camera_boxes(
-        &mut self,
-        stamp: Stamp,
-        boxes: &[tether_core::PixelBox],
-        world_from_robot: Pose2<World, Robot>,
-    ) -> Tick {
-        self.on_camera_boxes_from(FIRST_CAMERA_FRAME, stamp, boxes, world_from_robot)
-    }
-
-    /// One camera frame's upper-body boxes, from the camera whose frames carry
-    /// `frame_id` (`[[extra_cameras]]`; any other frame is the first camera's), with the
-    /// robot's pose at the frame's stamp: the monocular model of that camera
-    /// ([`vision::person_from_box`]), then [`Pipeline::on_camera`].
-    pub fn on_camera_boxes_from(
-        &mut self,
-        frame_id: &str,
-        stamp: Stamp,
-        boxes: &[tether_core::PixelBox],
-        world_from_robot: Pose2<World, Robot>,
-    ) -> Tick {
-        let camera = self.camera_of(frame_id);
-        let people: Vec<vision::VisionPerson> = boxes
-            .iter()
-            .filter_map(|b| self.vision_person(&camera, stamp, b, world_from_robot))
-            .collect();
-        self.on_camera(stamp, &people, world_from_robot)
-    }
-
-    /// The model of the camera whose frames carry `frame_id`.
-    pub fn camera_of(&self, frame_id: &str) -> CameraModel {
-        self.config
-            .extra_cameras
-            .iter()
-            .find(|c| c.frame_id == frame_id)
-            .map_or(self.config.camera, |c| c.camera)
-    }
-
-    /// Every camera's model, the first one first.
-    fn cameras(&self) -> impl Iterator<Item = CameraModel> + '_ {
-        std::iter::once(self.config.camera)
-            .chain(self.config.extra_cameras.iter().map(|c| c.camera))
-    }
-
-    /// The monocular model for one box, with the head height learned for the track the
-    /// box's bearing points at (when exactly one does): each person's own height, learned
-    /// while the laser measured their range, removes the range error an assumed height
-    /// makes, which matters when the laser loses them.
-    fn vision_person(
-        &mut self,
-        camera: &CameraModel,
-        stamp: Stamp,
-        b: &tether_core::PixelBox,
-        world_from_robot: Pose2<World, Robot>,
-    ) -> Option<vision::VisionPerson> {
-        let camera = *camera;
-        let base = vision::vision_person(&camera, &self.config.vision, b)?;
-        let world_from_camera = world_from_robot * camera.robot_from_camera();
-        let camera_from_world = world_from_camera.inverse();
-        let box_bearing = base.bearing_rad - camera.mount.yaw_rad;
-        // Tracks whose predicted bearing from the camera matches the box's.
-        let gate = (4.0 * base.bearing_sigma_rad).max(0.04);
-        let candidates: Vec<(u64, f64, bool)> = self
-            .tracker
-            .tracks()
-            .iter()
-            .filter(|t| t.confirmed)
-            .filter_map(|t| {
-                let q = camera_from_world * t.position().mean;
-                (q.x > 0.3 && (q.bearing_rad() - box_bearing).abs() < gate).then(|| {
-                    let supported = t.last_laser.is_some_and(|l| stamp.secs_since(l) <= 0.15);
-                    (t.id, q.range_m(), supported)
-                })
-            })
-            .collect();
-        let [(track, distance_m, supported)] = candidates.as_slice() else {
-            return Some(base);
-        };
-        if *supported
-            && let Some(h) =
-                vision::implied_head_height_m(&camera, &self.config.vision, b, *distance_m)
-            && (1.2..=2.3).contains(&h)
-        {
-            self.heights.entry(*track).or_default().add(h);
-        }
-        match self.heights.get(track) {
-            Some(learned) if learned.n >= 5 => {
-                let own = vision::VisionConfig {
-                    head_height_m: learned.mean_m,
-                    head_height_sigma_m: learned
-                        .sigma_of_mean_m(self.config.vision.head_height_sigma_m)
-                        .max(0.01),
-                    ..self.config.vision.clone()
-                };
-                vision::vision_person(&camera, &own, b)
-                    .map(|p| vision::VisionPerson {
-                        own_height: true,
-                        ..p
-                    })
-                    .or(Some(base))
-            }
-            _ => Some(base),
-        }
     }
 
     /// One camera frame's people (positions in the robot frame from the monocular
@@ -924,33 +797,5 @@ impl Pipeline {
         };
         self.selector
             .update_with_view(stamp, self.tracker.tracks(), &view);
-    }
-
-    /// Whether a camera, in use, would see a person at a world point: in front of one
-    /// of them (0.3 m at least), within the monocular model's range and its horizontal
-    /// field of view (design 2.2, 3.2).
-    fn camera_sees(
-        &self,
-        world_from_robot: Pose2<World, Robot>,
-    ) -> impl Fn(Point2<World>) -> bool + use<> {
-        let max_range = self.config.vision.max_range_m;
-        let use_vision = self.config.fusion.use_vision;
-        let views: Vec<(Pose2<tether_core::Camera, World>, f64)> = self
-            .cameras()
-            .map(|camera| {
-                let world_from_camera = world_from_robot * camera.robot_from_camera();
-                (
-                    world_from_camera.inverse(),
-                    0.5 * camera.horizontal_fov_rad(),
-                )
-            })
-            .collect();
-        move |p: Point2<World>| {
-            use_vision
-                && views.iter().any(|(camera_from_world, half_fov)| {
-                    let q = *camera_from_world * p;
-                    q.x > 0.3 && q.range_m() <= max_range && q.bearing_rad().abs() <= *half_fov
-                })
-        }
     }
 }

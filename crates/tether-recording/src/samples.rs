@@ -26,14 +26,14 @@ use tether_core::{GrayImage, Laser, LaserScan, Point2, Pose2, Robot, Stamp, Worl
 use tether_image::imread::decode_gray;
 use tether_msgs::{CompressedImageMsg, ImageMsg, OdometryMsg, Ros2Message, RosMessage};
 
-/// The topics to read; `None` leaves a stream out.
+/// The topics to read; `None` (or no image topic) leaves a stream out.
 #[derive(Debug, Clone, Default)]
 pub struct Topics {
     /// `sensor_msgs/LaserScan`.
     pub scan: String,
-    /// `sensor_msgs/Image` (mono8, rgb8, bgr8) or `sensor_msgs/CompressedImage` (JPEG,
-    /// PNG).
-    pub image: Option<String>,
+    /// Camera topics, one per camera: `sensor_msgs/Image` (mono8, rgb8, bgr8) or
+    /// `sensor_msgs/CompressedImage` (JPEG, PNG). Each frame's header names its camera.
+    pub images: Vec<String>,
     /// `nav_msgs/Odometry`: the robot's pose in its odometry frame.
     pub odom: Option<String>,
 }
@@ -41,7 +41,7 @@ pub struct Topics {
 impl Topics {
     fn all(&self) -> Vec<&str> {
         let mut out = vec![self.scan.as_str()];
-        out.extend(self.image.as_deref());
+        out.extend(self.images.iter().map(String::as_str));
         out.extend(self.odom.as_deref());
         out
     }
@@ -56,6 +56,8 @@ pub enum Sample {
     Camera {
         /// Header stamp.
         stamp: Stamp,
+        /// Header frame: which camera took it (design 5.7).
+        frame_id: String,
         /// The frame.
         image: GrayImage,
     },
@@ -215,15 +217,17 @@ fn odom_sample(m: OdometryMsg) -> Sample {
 
 fn compressed_sample(m: CompressedImageMsg) -> anyhow::Result<Sample> {
     Ok(Sample::Camera {
-        stamp: m.header.stamp,
         image: decode_gray(&m.data)?,
+        stamp: m.header.stamp,
+        frame_id: m.header.frame_id,
     })
 }
 
 fn raw_sample(m: ImageMsg) -> anyhow::Result<Sample> {
     Ok(Sample::Camera {
-        stamp: m.header.stamp,
         image: m.to_gray()?,
+        stamp: m.header.stamp,
+        frame_id: m.header.frame_id,
     })
 }
 
@@ -253,9 +257,9 @@ fn check_topics(
     wanted.extend(topics.odom.as_deref().map(|t| (t, "odometry", ODOM_TYPES)));
     wanted.extend(
         topics
-            .image
-            .as_deref()
-            .map(|t| (t, "camera frames", IMAGE_TYPES)),
+            .images
+            .iter()
+            .map(|t| (t.as_str(), "camera frames", IMAGE_TYPES)),
     );
     wanted.extend(labels.map(|t| (t, "labels", LABEL_TYPES)));
     let mut names: Vec<&str> = present.iter().map(|(t, _)| t.as_str()).collect();

@@ -48,7 +48,7 @@ fn a_minimal_config_fills_the_pipeline() {
             baud: 19_200
         }
     );
-    assert!(c.frame_input().is_none());
+    assert!(c.camera.as_ref().and_then(|c| c.frame_input()).is_none());
 }
 
 /// Every required key, removed in turn, is named in the error.
@@ -240,7 +240,10 @@ fn the_example_config_parses() {
             baud: 115_200
         }
     );
-    assert!(matches!(c.frame_input(), Some(FrameInput::V4l2 { .. })));
+    assert!(matches!(
+        c.camera.as_ref().and_then(|c| c.frame_input()),
+        Some(FrameInput::V4l2 { .. })
+    ));
     let p = c.pipeline_config().unwrap();
     assert_eq!(p.limits.track_width_m, 0.235);
     assert_eq!(p.limits.max_reverse_mps, 0.0);
@@ -259,7 +262,7 @@ mount = { x_m = 0.05, y_m = 0.0, yaw_rad = 0.0, height_m = 0.65, tilt_rad = 0.3 
 "#;
     let c = parse(&format!("{MINIMAL}{camera}")).unwrap();
     assert_eq!(
-        c.frame_input(),
+        c.camera.as_ref().and_then(|c| c.frame_input()),
         Some(FrameInput::Folder {
             path: "frames".into(),
             fps: 15.0,
@@ -282,7 +285,7 @@ mount = { x_m = 0.05, y_m = 0.0, yaw_rad = 0.0, height_m = 0.65, tilt_rad = 0.3 
     let v4l2 = camera.replace("folder = \"frames\"\nfps = 15.0", "v4l2 = \"/dev/video0\"");
     let c = parse(&format!("{MINIMAL}{v4l2}")).unwrap();
     assert_eq!(
-        c.frame_input(),
+        c.camera.as_ref().and_then(|c| c.frame_input()),
         Some(FrameInput::V4l2 {
             device: "/dev/video0".into()
         })
@@ -351,7 +354,7 @@ proptest::proptest! {
         let text = lines.join("\n");
         if let Ok(config) = parse(&text) {
             let _ = config.laser_link();
-            let _ = config.frame_input();
+            let _ = config.camera.as_ref().and_then(|c| c.frame_input());
             let _ = config.pipeline_config();
         }
     }
@@ -438,4 +441,71 @@ fn a_second_laser_without_a_frame_of_its_own_or_with_a_mistake_is_named() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("needs a scanner"), "{e}");
+}
+
+/// A camera's table at a mount turned by `yaw_rad`, with `extra` keys.
+fn camera_table(extra: &str, yaw_rad: f64) -> String {
+    format!(
+        "[[camera]]\nfolder = \"frames\"\nfps = 10.0\n{extra}\n\
+         intrinsics = {{ fx_px = 500.0, fy_px = 500.0, cx_px = 319.5, cy_px = 239.5, \
+         width_px = 640, height_px = 480 }}\n\
+         mount = {{ x_m = 0.05, y_m = 0.0, yaw_rad = {yaw_rad}, height_m = 0.65, tilt_rad = 0.1 }}\n"
+    )
+}
+
+#[test]
+fn each_camera_table_is_a_camera_its_frames_told_apart_by_their_frame() {
+    let front = camera_table("", 0.0);
+    let rear = camera_table("frame_id = \"rear_camera\"", 3.1);
+    let c = parse(&format!("{MINIMAL}{front}{rear}")).unwrap();
+    let cameras = c.camera.as_ref().unwrap();
+    assert_eq!(cameras.first_frame(), "camera");
+    let keyed: Vec<(String, &str)> = cameras.keyed().map(|(k, f, _)| (k, f)).collect();
+    assert_eq!(
+        keyed,
+        [
+            ("camera".to_owned(), "camera"),
+            ("camera[1]".to_owned(), "rear_camera")
+        ]
+    );
+    let p = c.pipeline_config().unwrap();
+    assert!(p.fusion.use_vision);
+    assert_eq!(p.camera.mount.yaw_rad, 0.0);
+    assert_eq!(p.extra_cameras.len(), 1);
+    assert_eq!(p.extra_cameras[0].frame_id, "rear_camera");
+    assert_eq!(p.extra_cameras[0].camera.mount.yaw_rad, 3.1);
+    // One `[[camera]]` is the same as `[camera]`.
+    assert_eq!(
+        parse(&format!("{MINIMAL}{front}")).unwrap(),
+        parse(&format!(
+            "{MINIMAL}{}",
+            front.replace("[[camera]]", "[camera]")
+        ))
+        .unwrap()
+    );
+    // Mistakes name the table they are in.
+    for (second, field) in [
+        (camera_table("", 3.1), "camera[1].frame_id"),
+        (
+            camera_table("frame_id = \"camera\"", 3.1),
+            "camera[1].frame_id",
+        ),
+        (
+            camera_table("frame_id = \"rear\"", 3.1).replace("fps = 10.0\n", ""),
+            "camera[1].fps",
+        ),
+        (
+            camera_table("frame_id = \"rear\"", 3.1).replace("height_m = 0.65", "height_m = 0"),
+            "camera[1].mount.height_m",
+        ),
+    ] {
+        let e = parse(&format!("{MINIMAL}{front}{second}")).unwrap_err();
+        assert_eq!(e.field(), Some(field), "{second}: {e}");
+    }
+    // The extra cameras of a robot are its `[[camera]]` tables, not `[pipeline]`'s.
+    let e = parse(&format!(
+        "{MINIMAL}{front}\n[[pipeline.extra_cameras]]\nframe_id = \"rear_camera\"\n"
+    ))
+    .unwrap_err();
+    assert_eq!(e.field(), Some("pipeline.extra_cameras"), "{e}");
 }

@@ -480,6 +480,8 @@ pub fn start_detections_reader(
         counters.other_class.fetch_add(other, Ordering::Relaxed);
         let stamp = stamp_on_arrival(message.header.stamp.ns(), clock.now_ns());
         let input = Input::Camera {
+            // The node reads one camera, the pipeline's first.
+            frame_id: tether_core::FIRST_CAMERA_FRAME.to_owned(),
             stamp,
             boxes,
             frame: None,

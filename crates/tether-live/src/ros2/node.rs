@@ -55,7 +55,7 @@ pub enum NodeCamera {
     /// is not used).
     Images {
         /// The camera's `[camera]` table: the cascade and its search settings.
-        section: CameraSection,
+        section: Box<CameraSection>,
         /// `image_raw/compressed` (`sensor_msgs/msg/CompressedImage`) rather than
         /// `image_raw`.
         compressed: bool,
@@ -769,6 +769,8 @@ fn start_camera(
                             Ok(boxes) => {
                                 if tx
                                     .send(Input::Camera {
+                                        // The node reads one camera, the pipeline's first.
+                                        frame_id: tether_core::FIRST_CAMERA_FRAME.to_owned(),
                                         stamp,
                                         boxes,
                                         frame: None,

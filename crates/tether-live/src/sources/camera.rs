@@ -198,28 +198,32 @@ pub fn frame_source(
     }
 }
 
-/// A camera ready to start: its frames, its detector and its model.
+/// A camera ready to start: its frames, its detector, its model and the frame its
+/// boxes are told apart by.
 pub struct CameraSource {
     source: Box<dyn FrameSource>,
     detector: BoxDetector,
     intrinsics: CameraIntrinsics,
+    frame_id: String,
 }
 
 impl CameraSource {
     /// The frames of `input` and the detector of `section`, for a camera of
-    /// `intrinsics`.
+    /// `intrinsics` whose frames carry `frame_id`.
     pub fn open(
         input: &FrameInput,
         section: &CameraSection,
         intrinsics: CameraIntrinsics,
+        frame_id: &str,
     ) -> Result<Self, CameraStartError> {
         let source = frame_source(input, &intrinsics)?;
         let detector = BoxDetector::for_camera(section)?;
-        tracing::info!("camera: {}", source.describe());
+        tracing::info!("camera {frame_id}: {}", source.describe());
         Ok(CameraSource {
             source,
             detector,
             intrinsics,
+            frame_id: frame_id.to_owned(),
         })
     }
 
@@ -249,6 +253,15 @@ impl CameraSource {
         // Consecutive frames that could not be used: a bad frame is skipped, a camera
         // that sends nothing usable for this many frames in a row is gone.
         let mut bad_in_a_row = 0_u32;
+        let frame_id = self.frame_id.clone();
+        let ended = |why| Input::CameraEnded {
+            frame_id: frame_id.clone(),
+            why,
+        };
+        let bad = |why| Input::CameraFrameBad {
+            frame_id: frame_id.clone(),
+            why,
+        };
         while !stop.load(Ordering::Relaxed) {
             let input = match self.source.next_frame() {
                 Ok(Some(image)) => {
@@ -258,27 +271,28 @@ impl CameraSource {
                         .then(|| self.source.take_encoded().unwrap_or_else(|| png_of(&image)));
                     match self.detector.boxes(&image, &self.intrinsics) {
                         Ok(boxes) => Input::Camera {
+                            frame_id: frame_id.clone(),
                             stamp,
                             boxes,
                             frame,
                         },
-                        Err(e) => Input::CameraFrameBad(BadFrame::Detect(e)),
+                        Err(e) => bad(BadFrame::Detect(e)),
                     }
                 }
-                Ok(None) => Input::CameraEnded(None),
-                Err(e @ CameraError::Frame { .. }) => Input::CameraFrameBad(BadFrame::Source(e)),
-                Err(e) => Input::CameraEnded(Some(CameraGone::Source(e))),
+                Ok(None) => ended(None),
+                Err(e @ CameraError::Frame { .. }) => bad(BadFrame::Source(e)),
+                Err(e) => ended(Some(CameraGone::Source(e))),
             };
             let input = match input {
-                Input::CameraFrameBad(why) => {
+                Input::CameraFrameBad { why, .. } => {
                     bad_in_a_row += 1;
                     if bad_in_a_row >= CAMERA_GIVES_UP_AFTER_BAD_FRAMES {
-                        Input::CameraEnded(Some(CameraGone::BadFrames {
+                        ended(Some(CameraGone::BadFrames {
                             count: bad_in_a_row,
                             last: why,
                         }))
                     } else {
-                        Input::CameraFrameBad(why)
+                        bad(why)
                     }
                 }
                 other => {
@@ -286,8 +300,8 @@ impl CameraSource {
                     other
                 }
             };
-            let ended = matches!(input, Input::CameraEnded(_));
-            if tx.send(input).is_err() || ended {
+            let last = matches!(input, Input::CameraEnded { .. });
+            if tx.send(input).is_err() || last {
                 break;
             }
         }

@@ -55,6 +55,8 @@ pub enum Input {
     LaserFailed(ScipError),
     /// The people boxes of a camera frame, stamped when the frame arrived.
     Camera {
+        /// The camera's frame (`camera` for the first; design 5.7).
+        frame_id: String,
         /// Arrival time of the frame.
         stamp: Stamp,
         /// Upper-body boxes.
@@ -62,12 +64,22 @@ pub enum Input {
         /// The frame itself, compressed, when the run records.
         frame: Option<EncodedFrame>,
     },
-    /// The camera stopped: `None` at the end of a folder, why otherwise. The run goes
-    /// on with the laser alone.
-    CameraEnded(Option<CameraGone>),
+    /// A camera stopped: `why` is `None` at the end of a folder. The run goes on with
+    /// the other cameras, or with the laser alone.
+    CameraEnded {
+        /// The camera's frame.
+        frame_id: String,
+        /// Why it stopped before its frames ended.
+        why: Option<CameraGone>,
+    },
     /// A camera frame that could not be used (undecodable, the wrong size): skipped
     /// and counted; the camera goes on.
-    CameraFrameBad(BadFrame),
+    CameraFrameBad {
+        /// The camera's frame.
+        frame_id: String,
+        /// Why the frame could not be used.
+        why: BadFrame,
+    },
     /// The base's own odometry (ROS 2 `odom`): the robot's pose in the odometry frame,
     /// stamped in host time. Once it arrives it is the robot's pose for every datum (see
     /// [`crate::LoopConfig::odometry_input`]).

@@ -82,7 +82,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut pipeline = tether_live::leg_model::pipeline(config)?;
     let topics = Topics {
         scan: args.scan_topic.clone(),
-        image: None,
+        images: Vec::new(),
         odom: args.odom_topic.clone(),
     };
     let mut eval = TrackEval::new(EvalOptions {

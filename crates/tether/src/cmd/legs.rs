@@ -86,7 +86,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (mut scans, mut legs, mut people, mut malformed) = (0usize, 0usize, 0usize, 0usize);
     let topics = Topics {
         scan: args.topic.clone(),
-        image: None,
+        images: Vec::new(),
         odom: None,
     };
     let stats = samples::read(&args.bag, &topics, &mut |sample| {

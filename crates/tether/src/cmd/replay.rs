@@ -29,8 +29,11 @@ pub struct Args {
     pub scan_topic: String,
     /// A camera topic (`sensor_msgs/Image` mono8/rgb8/bgr8 or `CompressedImage`
     /// JPEG/PNG): its frames go through the Haar cascade and the monocular model.
+    /// Repeat it for each camera: a frame goes through the model of the camera its
+    /// header's frame names (`[[extra_cameras]]`, or a robot config's `[[camera]]`;
+    /// any other frame is the first camera's).
     #[arg(long, value_name = "TOPIC")]
-    pub image_topic: Option<String>,
+    pub image_topic: Vec<String>,
     /// A `nav_msgs/Odometry` topic: the robot's motion. Without it the motion comes
     /// from the scans (see `--ego-motion`).
     #[arg(long, value_name = "TOPIC")]
@@ -66,14 +69,13 @@ pub struct Args {
 /// Replays the recording.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = pipeline_file::load(args.config.as_deref())?;
-    let mut camera = match &args.image_topic {
-        Some(_) => Some(tether::args::camera(&args.detector)?),
-        None => None,
+    let mut camera = match args.image_topic.is_empty() {
+        false => Some(tether::args::camera(&args.detector)?),
+        true => None,
     };
     let mut config = config;
     config.fusion.use_vision = camera.is_some();
     args.leg_model.apply(&mut config);
-    let intrinsics = config.camera.intrinsics;
     let (source, mut poses) = args
         .ego_motion
         .for_recording(args.odom_topic.is_some(), &config)
@@ -92,13 +94,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let topics = Topics {
         scan: args.scan_topic.clone(),
-        image: args.image_topic.clone(),
+        images: args.image_topic.clone(),
         odom: args.odom_topic.clone(),
     };
     let mut summary = ReplaySummary::new(pipeline.config().laser.robot_from_laser());
     let mut boxes = camera
         .as_mut()
-        .map(|c| move |image: &GrayImage| Ok(c.boxes(image, &intrinsics)?));
+        .map(|c| move |image: &GrayImage, intrinsics: &_| Ok(c.boxes(image, intrinsics)?));
     let counts = run_recording(
         &args.recording,
         &topics,

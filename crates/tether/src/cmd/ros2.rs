@@ -317,7 +317,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // images, cascade; its `folder` or `v4l2` is not used) or the scenario's robot has
     // one, unless --laser-only; else the laser alone. The simulator publishes boxes,
     // not images.
-    let config_camera = robot.as_ref().and_then(|r| r.camera.clone());
+    let cameras = robot.as_ref().and_then(|r| r.camera.as_ref());
+    let config_camera = cameras.map(|c| (**c).clone());
+    // The node reads one camera (its topic's frames or boxes), the first; a further
+    // one would count as seeing what it never sends.
+    if let Some(extra) = cameras.map(|c| c.extra()).filter(|e| !e.is_empty()) {
+        tracing::warn!(
+            "tether ros2 reads the first camera only; the other {} `[[camera]]` table(s) of \
+             --config are not used (`tether run` and `tether replay` read them all)",
+            extra.len()
+        );
+        pipeline_config.extra_cameras.clear();
+    }
     let scenario_camera = scenario.as_ref().is_some_and(|s| s.camera_sim.enabled);
     let camera = if args.laser_only {
         None
@@ -349,7 +360,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let node_camera = match camera {
         Some(CameraInput::Images) => camera_section.map(|section| NodeCamera::Images {
-            section,
+            section: Box::new(section),
             compressed: compressed_images,
         }),
         Some(CameraInput::Detections) => Some(NodeCamera::Detections {

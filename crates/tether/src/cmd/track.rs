@@ -26,10 +26,12 @@ pub struct Args {
     /// A camera topic (`sensor_msgs/Image` in mono8, rgb8 or bgr8, or
     /// `sensor_msgs/CompressedImage` in JPEG or PNG): its frames go through the cascade
     /// detector and the monocular model (`[camera]` of `--config`: intrinsics, and the
-    /// mount taken relative to the laser) and are fused with the scans. Without it the
-    /// run is laser only.
+    /// mount taken relative to the laser) and are fused with the scans. Repeat it for
+    /// each camera: a frame goes through the model of the camera its header's frame
+    /// names (`[[extra_cameras]]`; any other frame is the first camera's). Without it
+    /// the run is laser only.
     #[arg(long, value_name = "TOPIC")]
-    pub image_topic: Option<String>,
+    pub image_topic: Vec<String>,
     /// The camera frames' detector.
     #[command(flatten)]
     pub detector: CameraArgs,
@@ -94,12 +96,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config =
         pipeline_file::load_for_recording(args.config.as_deref(), args.odom_topic.is_some())?;
     args.leg_model.apply(&mut config);
-    let mut camera = match &args.image_topic {
-        Some(_) => Some(camera(&args.detector)?),
-        None => None,
+    let mut camera = match args.image_topic.is_empty() {
+        false => Some(camera(&args.detector)?),
+        true => None,
     };
     config.fusion.use_vision = camera.is_some();
-    let intrinsics = config.camera.intrinsics;
     let (_, mut poses) = args
         .ego_motion
         .for_recording(args.odom_topic.is_some(), &config)
@@ -108,7 +109,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut pipeline = tether_live::leg_model::pipeline(config)?;
     let topics = Topics {
         scan: args.scan_topic.clone(),
-        image: args.image_topic.clone(),
+        images: args.image_topic.clone(),
         odom: args.odom_topic.clone(),
     };
     // Replaces an earlier result only if this run succeeds; `-` is stdout.
@@ -123,7 +124,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut transition_between = None;
     let mut boxes = camera
         .as_mut()
-        .map(|c| move |image: &GrayImage| Ok(c.boxes(image, &intrinsics)?));
+        .map(|c| move |image: &GrayImage, intrinsics: &_| Ok(c.boxes(image, intrinsics)?));
     let counts = run_recording(
         &args.bag,
         &topics,

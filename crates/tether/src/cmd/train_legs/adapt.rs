@@ -36,7 +36,7 @@ fn read_scans(
 ) -> anyhow::Result<(Vec<LaserScan>, LabelMessages)> {
     let topics = Topics {
         scan: topic.to_string(),
-        image: None,
+        images: Vec::new(),
         odom: None,
     };
     let scans = std::cell::RefCell::new(Vec::new());
