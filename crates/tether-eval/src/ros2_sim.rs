@@ -9,7 +9,9 @@
 //! camera's upper-body boxes go out on `/detections` (`vision_msgs/msg/Detection2DArray`,
 //! class `person`, best effort, frame `camera`), as a detector node's would, and their
 //! ground truth on `/sim/detections_truth` (the noise-free box of every person in front
-//! of the camera, `id` the person's, score the share of the upper body in view).
+//! of the camera, `id` the person's, score the share of the upper body in view); each
+//! extra camera's boxes on `/FRAME/detections` (frame `FRAME`, its mount on `/tf_static`
+//! too; design 5.7).
 //!
 //! With `--use-sim-time` the stamps are the simulated time from 0, published on
 //! `/clock` (`rosgraph_msgs/msg/Clock`, reliable, keep last 1) at every 10 ms step, and
@@ -70,7 +72,8 @@ pub struct Ros2RunSummary {
     pub scans_published: u64,
     /// Odometry messages published on `/odom`.
     pub odometry_published: u64,
-    /// Camera frames whose boxes went out on `/detections` (0 with `--laser-only`).
+    /// Camera frames whose boxes went out on `/detections` and the extra cameras'
+    /// `/FRAME/detections` (0 with `--laser-only`).
     pub camera_frames_published: u64,
     /// Commands received on `/cmd_vel`.
     pub commands_received: u64,
@@ -102,6 +105,8 @@ struct Publishers {
     clock: Option<Publisher<Wire<ClockMsg>>>,
     /// `/detections`, with a simulated camera only.
     detections: Option<Publisher<Wire<Detection2DArrayMsg>>>,
+    /// `/FRAME/detections` of each extra camera, by frame (with a simulated camera).
+    extra_detections: Vec<(String, Publisher<Wire<Detection2DArrayMsg>>)>,
     /// `/sim/detections_truth`, with a simulated camera only.
     detections_truth: Option<Publisher<Wire<Detection2DArrayMsg>>>,
 }
@@ -128,6 +133,14 @@ impl Publishers {
                 Some(node.publisher::<ClockMsg>("/clock", qos::reliable(1))?)
             }
         };
+        let mut extra_detections = Vec::new();
+        for c in scenario.extra_cameras.iter().filter(|_| camera) {
+            let topic = format!("/{}/detections", c.frame_id);
+            extra_detections.push((
+                c.frame_id.clone(),
+                node.publisher::<Detection2DArrayMsg>(&topic, qos::sensor_data())?,
+            ));
+        }
         let (detections, detections_truth) = if camera {
             (
                 Some(node.publisher::<Detection2DArrayMsg>("/detections", qos::sensor_data())?),
@@ -147,8 +160,43 @@ impl Publishers {
             tf_static,
             clock,
             detections,
+            extra_detections,
             detections_truth,
         })
+    }
+
+    /// A camera frame's boxes: the first camera's on `/detections` with their truth on
+    /// `/sim/detections_truth`, an extra camera's on `/FRAME/detections` (its truth is
+    /// not kept).
+    fn camera(
+        &self,
+        frame: &CameraFrame,
+        camera_truth: &Option<CameraTruth>,
+        stamp: Stamp,
+    ) -> anyhow::Result<()> {
+        if frame.frame_id == tether_core::FIRST_CAMERA_FRAME {
+            let (boxes, truth) = camera_messages(frame, camera_truth, stamp);
+            for (topic, publisher, message) in [
+                ("/detections", &self.detections, boxes),
+                ("/sim/detections_truth", &self.detections_truth, truth),
+            ] {
+                if let Some(publisher) = publisher {
+                    publisher
+                        .publish(Wire(message))
+                        .map_err(|e| anyhow::anyhow!("{topic}: {e:?}"))?;
+                }
+            }
+        } else if let Some((_, publisher)) = self
+            .extra_detections
+            .iter()
+            .find(|(f, _)| *f == frame.frame_id)
+        {
+            let (boxes, _) = camera_messages(frame, &None, stamp);
+            publisher
+                .publish(Wire(boxes))
+                .map_err(|e| anyhow::anyhow!("/{}/detections: {e:?}", frame.frame_id))?;
+        }
+        Ok(())
     }
 
     /// The robot's pose on `/odom` (with the commanded velocity) and on `/tf`
@@ -280,11 +328,17 @@ fn static_transforms(scenario: &Scenario, stamp: Stamp) -> TfMessage {
         })
         .collect();
     if scenario.camera_sim.enabled {
-        transforms.push(TransformStampedMsg {
+        let cameras = std::iter::once(("camera", &scenario.camera)).chain(
+            scenario
+                .extra_cameras
+                .iter()
+                .map(|c| (c.frame_id.as_str(), &c.camera)),
+        );
+        transforms.extend(cameras.map(|(frame, camera)| TransformStampedMsg {
             header: Header::new(stamp, "base_link"),
-            child_frame_id: "camera".into(),
-            transform: camera_pose(&scenario.camera.mount, false),
-        });
+            child_frame_id: frame.into(),
+            transform: camera_pose(&camera.mount, false),
+        }));
     }
     TfMessage { transforms }
 }
@@ -302,6 +356,13 @@ fn announce(
         .extra_lasers
         .iter()
         .map(|l| format!(", /{}/scan", l.frame_id))
+        .chain(
+            scenario
+                .extra_cameras
+                .iter()
+                .filter(|_| scenario.camera_sim.enabled)
+                .map(|c| format!(", /{}/detections", c.frame_id)),
+        )
         .collect();
     tracing::info!(
         "simulating `{}` (seed {seed}) on ROS 2 domain {domain_id} {}: /scan{extra}{}{}{}, driving \
@@ -332,7 +393,8 @@ fn announce(
     );
 }
 
-/// One camera frame's boxes as `/detections` (class `person`, score 1) and their ground
+/// One camera frame's boxes as `/detections` (class `person`, score 1; its header names
+/// the frame's camera) and their ground
 /// truth as `/sim/detections_truth` (the noise-free box of every person in view, `id`
 /// the person's, score the share of the upper body in view).
 fn camera_messages(
@@ -340,7 +402,7 @@ fn camera_messages(
     camera_truth: &Option<CameraTruth>,
     stamp: Stamp,
 ) -> (Detection2DArrayMsg, Detection2DArrayMsg) {
-    let header = Header::new(stamp, "camera");
+    let header = Header::new(stamp, &frame.frame_id);
     let person = |score| ObjectHypothesisMsg::class("person", score);
     let boxes = Detection2DArrayMsg {
         header: header.clone(),
@@ -503,23 +565,10 @@ pub fn run(
                     errors.push((t_ns, (attach.distance_m(target.position) - d0).abs()));
                 }
             }
-            // The graph has one detections topic: the first camera's (a scenario's
-            // `[[extra_cameras]]` are simulated, not published).
-            SensorData::Camera(frame) if frame.frame_id == tether_core::FIRST_CAMERA_FRAME => {
-                let (boxes, truth) = camera_messages(&frame, &event.camera_truth, stamp);
-                for (topic, publisher, message) in [
-                    ("/detections", &out.detections, boxes),
-                    ("/sim/detections_truth", &out.detections_truth, truth),
-                ] {
-                    if let Some(publisher) = publisher {
-                        publisher
-                            .publish(Wire(message))
-                            .map_err(|e| anyhow::anyhow!("{topic}: {e:?}"))?;
-                    }
-                }
+            SensorData::Camera(frame) => {
+                out.camera(&frame, &event.camera_truth, stamp)?;
                 summary.camera_frames_published += 1;
             }
-            SensorData::Camera(_) => {}
         }
         summary.simulated_s = t_ns as f64 * 1e-9;
     }

@@ -125,6 +125,12 @@ pub const NODE_PARAMS: &[NodeParam] = &[
         "the scans of more scanners, each a laser of its own (its mount from /tf_static or the configuration)",
     ),
     node(
+        "extra_camera_topics",
+        "-",
+        "list of topics",
+        "the further cameras ([[camera]] after the first), one topic each, read like the first (default FRAME/image_raw or FRAME/detections)",
+    ),
+    node(
         "detection_class",
         "person",
         "class name",

@@ -38,7 +38,7 @@ pub(crate) fn check_extra_cameras(extra_cameras: &[ExtraCamera]) -> Result<(), P
 
 impl Pipeline {
     /// Every camera is gone for good: vision is out of fusion and the target is locked
-    /// and taken up again on the laser alone ([`TargetSelector::camera_gone`]).
+    /// and taken up again on the laser alone ([`tether_fusion::TargetSelector::camera_gone`]).
     pub fn camera_gone(&mut self) {
         self.config.fusion.use_vision = false;
         self.selector.camera_gone();

@@ -529,6 +529,73 @@ fn compressed_camera_frames_arrive_and_are_decoded() {
     );
 }
 
+/// A second camera (`[[camera]]` with `frame_id = "rear_camera"`) read from its default
+/// topic, `rear_camera/image_raw`, on a detector thread of its own, beside the first.
+#[test]
+fn a_second_camera_s_frames_arrive_on_its_own_topic() {
+    if !peer_available() || or_skip(opencv_cascade("haarcascade_upperbody.xml")).is_none() {
+        return;
+    }
+    let dir = scratch("ros2-two-cameras-images");
+    let bag = corridor_bag(&dir);
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robot.example.toml");
+    let example = std::fs::read_to_string(example).unwrap();
+    let rear = "\n[[camera]]\nv4l2 = \"/dev/video2\"\nframe_id = \"rear_camera\"\n\
+                intrinsics = { fx_px = 460.0, fy_px = 460.0, cx_px = 319.5, cy_px = 239.5, \
+                width_px = 640, height_px = 480 }\n\
+                mount = { x_m = -0.05, y_m = 0.0, yaw_rad = 3.1416, height_m = 0.65, \
+                tilt_rad = 0.49 }\n\n[follow]";
+    let config = dir.join("two_cameras.toml");
+    std::fs::write(
+        &config,
+        example
+            .replacen("\n[camera]\n", "\n[[camera]]\n", 1)
+            .replacen("\n[follow]", rear, 1),
+    )
+    .unwrap();
+    let seen = peer(
+        &bag,
+        &[
+            "--seconds",
+            "6",
+            "--images-hz",
+            "10",
+            "--extra-camera",
+            "rear_camera",
+            "--read-tf-static",
+            "4",
+        ],
+        &["--config", config.to_str().unwrap()],
+    );
+    let j = &seen.json;
+    let stderr = j["stderr"].as_str().unwrap();
+    assert_eq!(j["exit_code"], 0, "{stderr}");
+    let sent = j["images_sent"].as_u64().unwrap();
+    assert!(sent >= 50, "{sent} frames sent in 6 s");
+    let counted = stderr
+        .lines()
+        .find(|l| l.contains("camera \"rear_camera\" (/rear_camera/image_raw): "))
+        .unwrap_or_else(|| panic!("no count of the rear camera's frames: {stderr}"));
+    assert!(
+        counted.contains(&format!("): {sent} messages received"))
+            && counted.contains("0 refused for their size, 0 malformed"),
+        "{counted}"
+    );
+    // Nobody describes the rear camera's frame: its own table's mount goes out on
+    // /tf_static, beside the first camera's.
+    assert!(
+        stderr.contains("no transform from base_link to the camera \"rear_camera\"'s rear_camera"),
+        "{stderr}"
+    );
+    let mounts = j["tf_static"].as_array().unwrap();
+    assert!(
+        mounts.iter().any(|t| t[0] == "base_link"
+            && t[1] == "rear_camera"
+            && (Seen::f(&t[2]) + 0.05).abs() < 1e-9),
+        "{mounts:?}"
+    );
+}
+
 #[test]
 fn publishers_and_subscribers_dds_will_not_connect_are_reported_with_the_fix() {
     if !peer_available() {

@@ -20,7 +20,6 @@ use std::time::{Duration, Instant};
 
 use tether_core::CameraMount;
 use tether_msgs::Pose3;
-use tether_pipeline::PipelineConfig;
 use tether_ros2::tf::{StaticTransforms, rotate};
 
 use super::inputs::CameraCounters;
@@ -76,19 +75,20 @@ pub fn camera_pose(mount: &CameraMount, optical: bool) -> Pose3 {
     }
 }
 
-/// Takes the camera's mount from `/tf_static` (`base_frame` -> the camera's frame, as
-/// its first message names it) when both are heard before `deadline` (the laser's
-/// mount is looked up first, within the same time from the start); otherwise the
-/// config's (or the default) mount stays, with a warning naming the frames. The inputs
-/// that arrive meanwhile are dropped, as while the laser's mount is looked up. Returns
-/// the camera's frame when its messages named one but no transform to it came.
+/// Takes a camera's `mount` from `/tf_static` (`base_frame` -> the camera's frame, as
+/// its first message names it, `camera` counting them) when both are heard before
+/// `deadline` (the laser's mount is looked up first, within the same time from the
+/// start); otherwise the config's (or the default) mount stays, with a warning naming
+/// the frames. The inputs that arrive meanwhile are dropped, as while the laser's mount
+/// is looked up. Returns the camera's frame when its messages named one but no
+/// transform to it came. `name` is the camera's in the messages.
 pub fn camera_mount_from_tf(
     rx: &mpsc::Receiver<Input>,
-    camera: &CameraCounters,
+    (name, camera): (&str, &CameraCounters),
     transforms: &Mutex<StaticTransforms>,
     base_frame: &str,
     deadline: Instant,
-    pipeline: &mut PipelineConfig,
+    mount: &mut CameraMount,
 ) -> Option<String> {
     while Instant::now() < deadline {
         let _ = rx.recv_timeout(Duration::from_millis(50));
@@ -99,15 +99,15 @@ pub fn camera_mount_from_tf(
         let Some(pose) = tree.lookup(base_frame, frame) else {
             continue;
         };
-        let mount = camera_mount_from_pose(&pose, is_optical_frame(frame));
-        let old = pipeline.camera.mount;
-        if (old.x_m - mount.x_m).hypot(old.y_m - mount.y_m) > 0.01
-            || (old.height_m - mount.height_m).abs() > 0.01
-            || (old.yaw_rad - mount.yaw_rad).abs() > 0.01
-            || (old.tilt_rad - mount.tilt_rad).abs() > 0.01
+        let old = *mount;
+        let new = camera_mount_from_pose(&pose, is_optical_frame(frame));
+        if (old.x_m - new.x_m).hypot(old.y_m - new.y_m) > 0.01
+            || (old.height_m - new.height_m).abs() > 0.01
+            || (old.yaw_rad - new.yaw_rad).abs() > 0.01
+            || (old.tilt_rad - new.tilt_rad).abs() > 0.01
         {
             tracing::warn!(
-                "the camera's mount in the config (or the default) ({:.3}, {:.3}) m, {:.3} m \
+                "the {name}'s mount in the config (or the default) ({:.3}, {:.3}) m, {:.3} m \
                  up, yaw {:.3}, tilt {:.3} rad is not the one on /tf_static; using \
                  /tf_static's",
                 old.x_m,
@@ -118,28 +118,28 @@ pub fn camera_mount_from_tf(
             );
         }
         tracing::info!(
-            "camera mount from /tf_static: {base_frame} -> {frame} ({}) at ({:.3}, {:.3}) m, \
+            "{name} mount from /tf_static: {base_frame} -> {frame} ({}) at ({:.3}, {:.3}) m, \
              {:.3} m up, yaw {:.3} rad, tilt {:.3} rad",
             if is_optical_frame(frame) {
                 "an optical frame, z forward"
             } else {
                 "x forward"
             },
-            mount.x_m,
-            mount.y_m,
-            mount.height_m,
-            mount.yaw_rad,
-            mount.tilt_rad
+            new.x_m,
+            new.y_m,
+            new.height_m,
+            new.yaw_rad,
+            new.tilt_rad
         );
-        pipeline.camera.mount = mount;
+        *mount = new;
         return None;
     }
-    let m = pipeline.camera.mount;
+    let m = *mount;
     match camera.frame_id.get() {
         Some(frame) => {
             tracing::warn!(
-                "no transform from {base_frame} to the camera's {frame} on /tf_static at the \
-                 start; the camera is taken at its configured mount ({:.3}, {:.3}) m, {:.3} m \
+                "no transform from {base_frame} to the {name}'s {frame} on /tf_static at the \
+                 start; the {name} is taken at its configured mount ({:.3}, {:.3}) m, {:.3} m \
                  up, tilt {:.3} rad",
                 m.x_m,
                 m.y_m,
@@ -150,7 +150,7 @@ pub fn camera_mount_from_tf(
         }
         None => {
             tracing::warn!(
-                "no camera message at the start; the camera is taken at its configured mount"
+                "no {name} message at the start; the {name} is taken at its configured mount"
             );
             None
         }

@@ -436,7 +436,8 @@ pub fn detection_boxes(
 
 /// Subscribes to `topic` (`vision_msgs/msg/Detection2DArray`, sensor-data QoS: a
 /// detector node's boxes, or `tether sim --ros2`'s simulated camera) and sends each
-/// message's people boxes ([`detection_boxes`]) to the loop as a camera frame, stamped
+/// message's people boxes ([`detection_boxes`]) to the loop as a frame of the
+/// pipeline's camera of `frame_id`, stamped
 /// as the scans are. Never blocks DDS: a full queue drops the frame (counted as
 /// superseded).
 #[allow(
@@ -445,7 +446,7 @@ pub fn detection_boxes(
 )]
 pub fn start_detections_reader(
     node: &mut RosNode,
-    topic: &str,
+    (topic, frame_id): (&str, &str),
     class_id: String,
     size_px: (u32, u32),
     clock: LiveClock,
@@ -456,6 +457,7 @@ pub fn start_detections_reader(
     let domain = node.identity().domain_id;
     let subscription = node.subscribe::<Detection2DArrayMsg>(topic, qos::sensor_data())?;
     let topic_name = topic.to_owned();
+    let frame_id = frame_id.to_owned();
     let mut dropped = 0;
     spawn_reader("ros2-detections", subscription, stop, move |received| {
         let message = match received {
@@ -480,8 +482,7 @@ pub fn start_detections_reader(
         counters.other_class.fetch_add(other, Ordering::Relaxed);
         let stamp = stamp_on_arrival(message.header.stamp.ns(), clock.now_ns());
         let input = Input::Camera {
-            // The node reads one camera, the pipeline's first.
-            frame_id: tether_core::FIRST_CAMERA_FRAME.to_owned(),
+            frame_id: frame_id.clone(),
             stamp,
             boxes,
             frame: None,

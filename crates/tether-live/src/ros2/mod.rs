@@ -14,6 +14,7 @@
 //! | `tf_static` (in) | `tf2_msgs/msg/TFMessage` (the laser's and the camera's mounts below `base_frame`; [`camera_mount`]) | reliable, transient local |
 //! | `image_raw` or `image_raw/compressed` (in, when the config has a `[camera]`) | `sensor_msgs/msg/Image` (`mono8`, `rgb8`, `bgr8`) or `sensor_msgs/msg/CompressedImage` (JPEG, PNG) | best effort, keep last 5 |
 //! | `detections` (in, with `camera_input:=detections`, and from the simulator) | `vision_msgs/msg/Detection2DArray` (upper-body boxes in pixels of the configured camera) | best effort, keep last 5 |
+//! | each of `extra_camera_topics` (in; by default `FRAME/image_raw` or `FRAME/detections` of each further `[[camera]]`) | as the first camera's: another camera, its boxes read through its own model ([`cameras`]) | as the first camera's |
 //! | `cmd_vel` (out, unless `publish_cmd_vel:=false`) | `geometry_msgs/msg/Twist` (or `TwistStamped`) | reliable, keep last 10 |
 //! | `tether/people`, `tether/laser_people` (out) | `geometry_msgs/msg/PoseArray` | reliable, keep last 10 |
 //! | `tether/target` (out) | `geometry_msgs/msg/PoseWithCovarianceStamped` | reliable, keep last 10 |
@@ -26,13 +27,15 @@
 //! it is free (frames it had no time for are counted as superseded, never queued).
 
 pub mod camera_mount;
+pub mod cameras;
 pub mod extra_scans;
 pub mod guard;
 pub mod inputs;
 pub mod node;
 pub mod outputs;
 
+pub use cameras::NodeCamera;
 pub use guard::{CmdVelGuardSpec, watch_cmd_vel};
 pub use inputs::{CameraCounters, ScanCounters};
-pub use node::{NodeCamera, NodeError, NodeReport, NodeSettings, run_node};
+pub use node::{NodeError, NodeReport, NodeSettings, run_node};
 pub use outputs::{OutputTopics, RosOutputs, WalkingHeading};

@@ -12,14 +12,14 @@
 //! connect (another message type, a QoS that does not match), saying what to change.
 
 use std::io;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
 use ros2_client::dds::Publisher;
-use tether_core::LaserMount;
+use tether_core::{FIRST_CAMERA_FRAME, LaserMount};
 use tether_msgs::{Header, Pose3, TfMessage, TransformStampedMsg};
 use tether_pipeline::{Pipeline, PipelineConfig, PipelineError};
 use tether_ros2::{
@@ -30,44 +30,22 @@ use tether_scanmatch::ScanMatcherConfig;
 use tether_scip::Clock;
 
 use super::camera_mount::{camera_mount_from_tf, camera_pose, is_optical_frame};
+use super::cameras::{CameraFeed, NodeCamera};
 use super::extra_scans::{self, ExtraScanTopic};
 use super::guard::CmdVelGuardSpec;
 use super::inputs::{
-    CameraCounters, FrameError, LatestFrame, ScanCounters, start_camera_reader, start_clock_reader,
-    start_detections_reader, start_odometry_reader, start_scan_reader, start_tf_reader,
+    CameraCounters, ScanCounters, start_clock_reader, start_odometry_reader, start_scan_reader,
+    start_tf_reader,
 };
 use super::outputs::{OutputTopics, RosOutputs};
 use crate::base::{CommandSink, QueuedLines};
 use crate::clock::{LiveClock, MonotonicClock, SimClock};
-use crate::config::CameraSection;
 use crate::guard::Guard;
 use crate::recorder::Recorder;
 use crate::results::ros_outputs;
 use crate::run_loop::{self, LoopConfig, RunSummary};
-use crate::sources::camera::{BoxDetector, DetectorError};
+use crate::sources::camera::DetectorError;
 use crate::sources::{CHANNEL_DEPTH, Input};
-
-/// Where the camera's people come from.
-#[derive(Debug, Clone)]
-pub enum NodeCamera {
-    /// Images on `image_raw` (or `image_raw/compressed`) through the cascade of
-    /// `section` (its intrinsics and mount are the pipeline's; its `folder` or `v4l2`
-    /// is not used).
-    Images {
-        /// The camera's `[camera]` table: the cascade and its search settings.
-        section: Box<CameraSection>,
-        /// `image_raw/compressed` (`sensor_msgs/msg/CompressedImage`) rather than
-        /// `image_raw`.
-        compressed: bool,
-    },
-    /// Upper-body boxes on `detections` (`vision_msgs/msg/Detection2DArray`), in pixels
-    /// of the configured camera, from a detector node or the simulator.
-    Detections {
-        /// The class of the boxes taken (a box with no hypothesis is taken too; empty:
-        /// every box).
-        class: String,
-    },
-}
 
 /// What the node is and does: its name, its topics' remapping, the pipeline and the
 /// loop's settings.
@@ -100,6 +78,10 @@ pub struct NodeSettings {
     pub use_sim_time: bool,
     /// The camera, if one is used.
     pub camera: Option<NodeCamera>,
+    /// The further cameras, in the order of the pipeline's `extra_cameras` (each read
+    /// through its model): the topic of each (a name as `scan`'s, resolved alike) and
+    /// where its people come from ([`super::cameras`]).
+    pub extra_cameras: Vec<(String, NodeCamera)>,
     /// The pipeline's laser mount was given (a config, a scenario): it is warned about
     /// when `/tf_static` says otherwise, and published there when nobody else does.
     pub mount_given: bool,
@@ -126,6 +108,8 @@ pub struct NodeReport {
     pub scans: Arc<ScanCounters>,
     /// What the camera's readers counted.
     pub camera: Arc<CameraCounters>,
+    /// The further cameras: each one's topic, frame and what its readers counted.
+    pub extra_cameras: Vec<(String, String, Arc<CameraCounters>)>,
     /// Mismatches with the graph's topics that were warned about.
     pub graph_problems: usize,
     /// The node's clock (with sim time: where it ended, how often it went back).
@@ -202,6 +186,7 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         target_frame,
         use_sim_time,
         camera,
+        extra_cameras,
         mount_given,
         duration,
         scan_odometry,
@@ -227,7 +212,7 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
             .map(|o| topic(o.topic.trim_start_matches('/')))
             .collect(),
     };
-    let intrinsics = pipeline.camera.intrinsics;
+    let cameras = super::cameras::feeds(camera.as_ref(), &extra_cameras, &pipeline, &topic);
 
     let mut node = RosNode::start(identity.clone())?;
     let guard = match &outputs.cmd_vel {
@@ -244,8 +229,6 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         clock,
         threads,
         counters,
-        camera_counters,
-        latest,
         transforms,
     } = start_inputs(
         &mut node,
@@ -253,7 +236,7 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         tx,
         use_sim_time,
         (&fixed_frame, &base_frame),
-        (camera.as_ref(), intrinsics),
+        &cameras,
         &extra_scans,
     )?;
     let tf_static_topic = topic("tf_static");
@@ -273,13 +256,12 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
     let mounts = StartMounts {
         rx: &rx,
         transforms: &transforms,
-        camera_counters: &camera_counters,
+        cameras: &cameras,
         base_frame: &base_frame,
         scan_topic: &scan_topic,
         extra_scans: &extra_scans,
         tf_static_topic: &tf_static_topic,
         mount_given,
-        camera: camera.is_some(),
     };
     let clock_start_ns = clock.now_ns();
     let mount_publisher = mounts.take(&mut node, &mut pipeline, clock_start_ns)?;
@@ -314,7 +296,9 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
     std::thread::sleep(Duration::from_millis(300));
     let _ = stop_graph.send(());
     drop(rx);
-    latest.close();
+    for (feed, _) in &cameras {
+        feed.latest.close();
+    }
     stop_threads(threads);
     let graph_problems = graph_thread.join().unwrap_or_else(|_| {
         tracing::error!("the graph thread panicked");
@@ -331,7 +315,15 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         summary,
         pipeline,
         scans: counters,
-        camera: camera_counters,
+        camera: cameras
+            .iter()
+            .find(|(f, _)| f.frame_id == FIRST_CAMERA_FRAME)
+            .map_or_else(Arc::default, |(f, _)| Arc::clone(&f.counters)),
+        extra_cameras: cameras
+            .iter()
+            .filter(|(f, _)| f.frame_id != FIRST_CAMERA_FRAME)
+            .map(|(f, _)| (f.topic.clone(), f.frame_id.clone(), Arc::clone(&f.counters)))
+            .collect(),
         graph_problems,
         clock,
         tf_topic,
@@ -348,10 +340,6 @@ struct Inputs {
     threads: Vec<(&'static str, StoppableThread)>,
     /// What the scan, odometry and `/tf` readers count.
     counters: Arc<ScanCounters>,
-    /// What the camera's readers count.
-    camera_counters: Arc<CameraCounters>,
-    /// The newest camera frame, for the detector (closed at the end).
-    latest: Arc<LatestFrame>,
     /// The mounts heard on `/tf_static`.
     transforms: Arc<Mutex<StaticTransforms>>,
 }
@@ -365,7 +353,7 @@ fn start_inputs(
     tx: mpsc::SyncSender<Input>,
     use_sim_time: bool,
     (fixed_frame, base_frame): (&str, &str),
-    (camera, intrinsics): (Option<&NodeCamera>, tether_core::CameraIntrinsics),
+    cameras: &[(CameraFeed, tether_core::CameraIntrinsics)],
     extra_scans: &[Arc<ExtraScanTopic>],
 ) -> Result<Inputs, NodeError> {
     let mut threads: Vec<(&'static str, StoppableThread)> = Vec::new();
@@ -404,19 +392,10 @@ fn start_inputs(
         Arc::clone(&counters),
     )?;
     threads.push(("tf", (stop_tf_poses, tf_pose_reader)));
-    let camera_counters = Arc::new(CameraCounters::default());
-    let latest = Arc::new(LatestFrame::default());
-    let camera_threads = start_camera(
-        node,
-        camera,
-        topic,
-        intrinsics,
-        &clock,
-        &tx,
-        &latest,
-        &camera_counters,
-    )?;
-    threads.extend(camera_threads.into_iter().map(|t| ("camera", t)));
+    for (feed, intrinsics) in cameras {
+        let camera_threads = feed.start(node, *intrinsics, &clock, &tx)?;
+        threads.extend(camera_threads.into_iter().map(|t| ("camera", t)));
+    }
     let transforms = Arc::new(Mutex::new(StaticTransforms::default()));
     threads.push((
         "tf_static",
@@ -448,8 +427,6 @@ fn start_inputs(
         clock,
         threads,
         counters,
-        camera_counters,
-        latest,
         transforms,
     })
 }
@@ -544,17 +521,17 @@ fn start_tf_static_reader(
 struct StartMounts<'a> {
     rx: &'a mpsc::Receiver<Input>,
     transforms: &'a Mutex<StaticTransforms>,
-    camera_counters: &'a CameraCounters,
+    /// The cameras, the first camera first when there is one.
+    cameras: &'a [(CameraFeed, tether_core::CameraIntrinsics)],
     base_frame: &'a str,
     scan_topic: &'a str,
     extra_scans: &'a [Arc<ExtraScanTopic>],
     tf_static_topic: &'a str,
     mount_given: bool,
-    camera: bool,
 }
 
 impl StartMounts<'_> {
-    /// Takes the laser's (and the camera's) mount from `/tf_static` into `pipeline`,
+    /// Takes the lasers' (and the cameras') mounts from `/tf_static` into `pipeline`,
     /// waiting up to [`TF_WAIT`]; publishes the config's mounts of the frames nobody
     /// described, as the robot's description would give them. The publisher must live
     /// as long as the node.
@@ -574,18 +551,31 @@ impl StartMounts<'_> {
             pipeline,
         );
         let extra_unmounted = self.extra_mounts(first_frame.as_deref(), mounts_by, pipeline);
-        let unmounted_camera = if self.camera {
-            camera_mount_from_tf(
+        let mut unmounted_cameras = Vec::new();
+        for (feed, _) in self.cameras {
+            let (name, mount) = match pipeline
+                .extra_cameras
+                .iter_mut()
+                .find(|c| c.frame_id == feed.frame_id)
+            {
+                Some(extra) => (
+                    format!("camera {:?}", extra.frame_id),
+                    &mut extra.camera.mount,
+                ),
+                None => ("camera".to_owned(), &mut pipeline.camera.mount),
+            };
+            let counted = (name.as_str(), &*feed.counters);
+            if let Some(frame) = camera_mount_from_tf(
                 self.rx,
-                self.camera_counters,
+                counted,
                 self.transforms,
                 self.base_frame,
                 mounts_by,
-                pipeline,
-            )
-        } else {
-            None
-        };
+                mount,
+            ) {
+                unmounted_cameras.push((frame, *mount));
+            }
+        }
         let mut unmounted = Vec::new();
         if self.mount_given {
             if let Some(frame) = unmounted_frame {
@@ -594,8 +584,8 @@ impl StartMounts<'_> {
             for (frame, m) in extra_unmounted {
                 unmounted.push(("laser", frame, Pose3::laser_mount(&m)));
             }
-            if let Some(frame) = unmounted_camera {
-                let pose = camera_pose(&pipeline.camera.mount, is_optical_frame(&frame));
+            for (frame, mount) in unmounted_cameras {
+                let pose = camera_pose(&mount, is_optical_frame(&frame));
                 unmounted.push(("camera", frame, pose));
             }
         }
@@ -653,7 +643,7 @@ impl StartMounts<'_> {
 type Sinks = Vec<Box<dyn CommandSink>>;
 
 /// A reader's or worker's thread, with the sender that tells it to stop.
-type StoppableThread = (mpsc::Sender<()>, JoinHandle<()>);
+pub(super) type StoppableThread = (mpsc::Sender<()>, JoinHandle<()>);
 
 /// How long the node waits for the `cmd_vel` guard to join the graph.
 const GUARD_READY_WAIT: Duration = Duration::from_secs(10);
@@ -689,116 +679,6 @@ fn open_sinks(
         spec.silence.as_millis()
     );
     Ok((sinks, Some(guard)))
-}
-
-/// Where the camera's people come from, started: the images' reader and the detector's
-/// thread, or the detections' reader; each thread with the sender that stops it.
-#[allow(clippy::too_many_arguments, reason = "the node's shared pieces, named")]
-fn start_camera(
-    node: &mut RosNode,
-    camera: Option<&NodeCamera>,
-    topic: &dyn Fn(&str) -> String,
-    intrinsics: tether_core::CameraIntrinsics,
-    clock: &LiveClock,
-    tx: &mpsc::SyncSender<Input>,
-    latest: &Arc<LatestFrame>,
-    camera_counters: &Arc<CameraCounters>,
-) -> Result<Vec<StoppableThread>, NodeError> {
-    let mut camera_threads = Vec::new();
-    match camera {
-        Some(NodeCamera::Detections { class }) => {
-            let detections_topic = topic("detections");
-            let (stop_camera, camera_stops) = mpsc::channel();
-            camera_threads.push((
-                stop_camera,
-                start_detections_reader(
-                    node,
-                    &detections_topic,
-                    class.clone(),
-                    (intrinsics.width_px, intrinsics.height_px),
-                    clock.clone(),
-                    tx.clone(),
-                    camera_stops,
-                    Arc::clone(camera_counters),
-                )?,
-            ));
-            tracing::info!(
-                "camera: boxes from {detections_topic}{}",
-                if class.is_empty() {
-                    " (every class)".to_owned()
-                } else {
-                    format!(" (class {class:?})")
-                }
-            );
-        }
-        Some(NodeCamera::Images {
-            section,
-            compressed,
-        }) => {
-            let mut detector = BoxDetector::for_camera(section)?;
-            let image_topic = topic(if *compressed {
-                "image_raw/compressed"
-            } else {
-                "image_raw"
-            });
-            let (stop_camera, camera_stops) = mpsc::channel();
-            camera_threads.push((
-                stop_camera,
-                start_camera_reader(
-                    node,
-                    &image_topic,
-                    *compressed,
-                    (intrinsics.width_px, intrinsics.height_px),
-                    clock.clone(),
-                    Arc::clone(latest),
-                    camera_stops,
-                    Arc::clone(camera_counters),
-                )?,
-            ));
-            let frames = Arc::clone(latest);
-            let counters = Arc::clone(camera_counters);
-            let tx = tx.clone();
-            let detector_thread = std::thread::Builder::new()
-                .name("camera-detector".into())
-                .spawn(move || {
-                    while let Some((stamp, frame)) = frames.take() {
-                        let boxes = frame.gray().and_then(|g| {
-                            detector.boxes(&g, &intrinsics).map_err(FrameError::from)
-                        });
-                        match boxes {
-                            Ok(boxes) => {
-                                if tx
-                                    .send(Input::Camera {
-                                        // The node reads one camera, the pipeline's first.
-                                        frame_id: tether_core::FIRST_CAMERA_FRAME.to_owned(),
-                                        stamp,
-                                        boxes,
-                                        frame: None,
-                                    })
-                                    .is_err()
-                                {
-                                    break;
-                                }
-                            }
-                            Err(e) => {
-                                if counters.malformed.fetch_add(1, Ordering::Relaxed) == 0 {
-                                    tracing::warn!("a camera frame skipped: {e}");
-                                }
-                            }
-                        }
-                    }
-                })
-                .map_err(|source| NodeError::Thread {
-                    what: "camera detector thread",
-                    source,
-                })?;
-            let (never, _) = mpsc::channel();
-            camera_threads.push((never, detector_thread));
-            tracing::info!("camera: {image_topic}");
-        }
-        None => {}
-    }
-    Ok(camera_threads)
 }
 
 /// How long the node waits at the start for a scan and its mount on `/tf_static` (and,

@@ -31,12 +31,15 @@
 //! node is killed or frozen; design 12, 13), `extra_scan_topics` (default none: the scan
 //! topics of more scanners, e.g. `"[rear/scan]"`; each is a laser of its own, at the
 //! configuration's `[[extra_lasers]]` entry of its frame or at its mount on
-//! `/tf_static`; design 5.7). A `--params-file` sets them as well.
+//! `/tf_static`; design 5.7), `extra_camera_topics` (default `FRAME/image_raw`,
+//! `FRAME/image_raw/compressed` or `FRAME/detections` of each further `[[camera]]` of
+//! `--config`: one topic per further camera, read like the first, its boxes through its
+//! own model). A `--params-file` sets them as well.
 //!
 //! With `--scenario NAME` the node is the robot of `tether sim --scenario NAME --ros2`:
 //! its laser mount, follow distance and base limits, its extra lasers' scans on
-//! `FRAME/scan`, and its camera's boxes on `detections` (`--laser-only` for a simulator
-//! started with `--laser-only`).
+//! `FRAME/scan`, its camera's boxes on `detections` and its extra cameras' on
+//! `FRAME/detections` (`--laser-only` for a simulator started with `--laser-only`).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -122,6 +125,8 @@ struct NodeParameters {
     detection_class: String,
     /// `extra_scan_topics`, when given.
     extra_scan_topics: Option<Vec<String>>,
+    /// `extra_camera_topics`, when given.
+    extra_camera_topics: Option<Vec<String>>,
 }
 
 /// A TurtleBot 4 (iRobot Create 3 base): what the node assumes without `--config`.
@@ -222,23 +227,13 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
             })?
             .to_owned(),
     };
-    let extra_scan_topics = match ros.params.get("extra_scan_topics") {
-        None => None,
-        Some(ParamValue::StringArray(topics)) => Some(topics.clone()),
-        Some(ParamValue::String(topic)) => Some(vec![topic.clone()]),
-        Some(v) => anyhow::bail!(
-            "parameter extra_scan_topics must be a list of topics, e.g. \"[rear/scan]\", got \
-             {v:?}"
-        ),
-    };
-    if let Some(topics) = &extra_scan_topics {
-        for t in topics {
-            anyhow::ensure!(
-                !t.trim_matches('/').is_empty() && t.trim_matches('/') != "scan",
-                "parameter extra_scan_topics: {t:?} is not another scanner's topic"
-            );
-        }
-    }
+    let extra_scan_topics = topic_list(ros, "extra_scan_topics", "rear/scan", &["scan"])?;
+    let extra_camera_topics = topic_list(
+        ros,
+        "extra_camera_topics",
+        "rear_camera/detections",
+        &["image_raw", "image_raw/compressed", "detections"],
+    )?;
     Ok(NodeParameters {
         fixed_frame,
         base_frame,
@@ -251,7 +246,34 @@ fn parameters(ros: &RosArgs, pipeline: &mut PipelineConfig) -> anyhow::Result<No
         camera_input,
         detection_class,
         extra_scan_topics,
+        extra_camera_topics,
     })
+}
+
+/// The list of topics of the parameter `name`, when given (`example`: one for the
+/// message): each names a topic, none of them `first` (the first sensor's).
+fn topic_list(
+    ros: &RosArgs,
+    name: &str,
+    example: &str,
+    first: &[&str],
+) -> anyhow::Result<Option<Vec<String>>> {
+    let topics = match ros.params.get(name) {
+        None => return Ok(None),
+        Some(ParamValue::StringArray(topics)) => topics.clone(),
+        Some(ParamValue::String(topic)) => vec![topic.clone()],
+        Some(v) => anyhow::bail!(
+            "parameter {name} must be a list of topics, e.g. \"[{example}]\", got {v:?}"
+        ),
+    };
+    for t in &topics {
+        let bare = t.trim_matches('/');
+        anyhow::ensure!(
+            !bare.is_empty() && !first.contains(&bare),
+            "parameter {name}: {t:?} is not another sensor's topic"
+        );
+    }
+    Ok(Some(topics))
 }
 
 /// Runs the node.
@@ -304,6 +326,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         camera_input,
         detection_class,
         extra_scan_topics,
+        extra_camera_topics,
     } = parameters(&args.ros, &mut pipeline_config)?;
     // The simulator publishes an extra laser's scans on `FRAME/scan`.
     let extra_scan_topics = extra_scan_topics.unwrap_or_else(|| {
@@ -319,16 +342,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // not images.
     let cameras = robot.as_ref().and_then(|r| r.camera.as_ref());
     let config_camera = cameras.map(|c| (**c).clone());
-    // The node reads one camera (its topic's frames or boxes), the first; a further
-    // one would count as seeing what it never sends.
-    if let Some(extra) = cameras.map(|c| c.extra()).filter(|e| !e.is_empty()) {
-        tracing::warn!(
-            "tether ros2 reads the first camera only; the other {} `[[camera]]` table(s) of \
-             --config are not used (`tether run` and `tether replay` read them all)",
-            extra.len()
-        );
-        pipeline_config.extra_cameras.clear();
-    }
     let scenario_camera = scenario.as_ref().is_some_and(|s| s.camera_sim.enabled);
     let camera = if args.laser_only {
         None
@@ -368,6 +381,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }),
         None => None,
     };
+    // Without a camera the further ones go too (a camera would count as seeing what it
+    // never sends).
+    if node_camera.is_none() {
+        pipeline_config.extra_cameras.clear();
+    }
+    let extra_cameras = tether_live::ros2::cameras::extra_cameras(
+        node_camera.as_ref(),
+        extra_camera_topics,
+        &pipeline_config,
+        cameras.map_or(&[], |c| c.extra()),
+    )?;
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
@@ -384,6 +408,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         target_frame,
         use_sim_time,
         camera: node_camera,
+        extra_cameras,
         mount_given,
         duration,
         scan_odometry,
@@ -464,6 +489,19 @@ fn summarize(
             load(&camera_counters.other_class),
         ),
         None => {}
+    }
+    for (topic, frame_id, c) in &report.extra_cameras {
+        tracing::info!(
+            "camera {frame_id:?} ({topic}): {} messages received, {} superseded or dropped \
+             while the detector or the loop was behind, {} refused for their size, {} \
+             malformed, {} boxes refused, {} of another class",
+            load(&c.received),
+            load(&c.superseded),
+            load(&c.wrong_size),
+            load(&c.malformed),
+            load(&c.bad_boxes),
+            load(&c.other_class),
+        );
     }
     tracing::info!(
         "{}",

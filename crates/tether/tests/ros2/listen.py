@@ -74,6 +74,8 @@ def main():
     bad_boxes = 0
     truth_ids = set()
     vision_people_seen = 0
+    # Where tether put the people of the camera frames (its fixed frame), [x, y].
+    vision_positions = []
     start = time.monotonic()
     end = start + a.seconds
     tf_static = None
@@ -117,6 +119,8 @@ def main():
                             truth_ids.add(d.id)
                 if name == "vision_people" and s.poses:
                     vision_people_seen += 1
+                    for p in s.poses:
+                        vision_positions.append([p.position.x, p.position.y])
                 if name == "markers":
                     for m in s.markers:
                         marker_namespaces.add(m.ns)
@@ -142,6 +146,7 @@ def main():
                 "bad_boxes": bad_boxes,
                 "truth_ids": sorted(truth_ids),
                 "vision_people_with_someone": vision_people_seen,
+                "vision_positions": vision_positions,
             }
         )
     )

@@ -495,6 +495,13 @@ def main():
         "rt/image_raw/compressed instead (encoded with OpenCV)",
     )
     ap.add_argument(
+        "--extra-camera",
+        metavar="FRAME",
+        help="with --images-hz: also publish each frame on rt/FRAME/image_raw (or "
+        "FRAME/image_raw/compressed), its header naming FRAME (another camera: tether -p "
+        "extra_camera_topics)",
+    )
+    ap.add_argument(
         "--stamped",
         action="store_true",
         help="cmd_vel is TwistStamped (tether -p cmd_vel_stamped:=true): measure the "
@@ -599,6 +606,18 @@ def main():
             data=jpeg.tobytes(),
         )
     frame_bytes = bytearray(frame.serialize(use_version_2=False))
+    # The other camera's frame: the same picture, its header naming its camera.
+    extra_image_writer, extra_bytes = None, None
+    if a.extra_camera:
+        suffix = "image_raw/compressed" if a.compressed else "image_raw"
+        extra_image_writer = DataWriter(
+            dp,
+            Topic(dp, rt(a.extra_camera + "/" + suffix), type(frame)),
+            qos=qos(True, 5),
+        )
+        frame.header.frame_id = a.extra_camera
+        extra_bytes = bytearray(frame.serialize(use_version_2=False))
+        frame.header.frame_id = "camera"
     cmd_type = TwistStamped if a.stamped else Twist
     cmds = []
 
@@ -738,6 +757,11 @@ def main():
         frame.serialize = lambda **_: payload
         image_writer.write(frame)
         images_sent += 1
+        if extra_image_writer is not None:
+            extra_bytes[4:12] = frame_bytes[4:12]
+            extra_payload = bytes(extra_bytes)
+            frame.serialize = lambda **_: extra_payload
+            extra_image_writer.write(frame)
 
     for topic, t_ns, m in bag_messages(a.bag, topics):
         if child.poll() is not None:
