@@ -171,6 +171,14 @@ impl CameraFeed {
         }
     }
 
+    /// Its name in the log: `camera` for the first, `camera "FRAME"` for the others.
+    pub fn name(&self) -> String {
+        match self.frame_id == FIRST_CAMERA_FRAME {
+            true => "camera".to_owned(),
+            false => format!("camera {:?}", self.frame_id),
+        }
+    }
+
     /// Starts its reader (and, for images, its detector's thread), its boxes read as
     /// a camera of `intrinsics`; each thread with the sender that stops it.
     pub fn start(
@@ -195,8 +203,8 @@ impl CameraFeed {
                     Arc::clone(&self.counters),
                 )?;
                 tracing::info!(
-                    "camera {:?}: boxes from {}{}",
-                    self.frame_id,
+                    "{}: boxes from {}{}",
+                    self.name(),
                     self.topic,
                     if class.is_empty() {
                         " (every class)".to_owned()
@@ -223,7 +231,7 @@ impl CameraFeed {
                 )?;
                 let detector_thread = self.start_detector(detector, intrinsics, tx.clone())?;
                 let (never, _) = mpsc::channel();
-                tracing::info!("camera {:?}: {}", self.frame_id, self.topic);
+                tracing::info!("{}: {}", self.name(), self.topic);
                 Ok(vec![(stop_reader, reader), (never, detector_thread)])
             }
         }
@@ -240,6 +248,7 @@ impl CameraFeed {
         let frames = Arc::clone(&self.latest);
         let counters = Arc::clone(&self.counters);
         let frame_id = self.frame_id.clone();
+        let name = self.name();
         std::thread::Builder::new()
             .name("camera-detector".into())
             .spawn(move || {
@@ -261,7 +270,7 @@ impl CameraFeed {
                         }
                         Err(e) => {
                             if counters.malformed.fetch_add(1, Ordering::Relaxed) == 0 {
-                                tracing::warn!("a camera frame of {frame_id:?} skipped: {e}");
+                                tracing::warn!("a frame of the {name} skipped: {e}");
                             }
                         }
                     }

@@ -553,16 +553,14 @@ impl StartMounts<'_> {
         let extra_unmounted = self.extra_mounts(first_frame.as_deref(), mounts_by, pipeline);
         let mut unmounted_cameras = Vec::new();
         for (feed, _) in self.cameras {
-            let (name, mount) = match pipeline
+            let name = feed.name();
+            let mount = match pipeline
                 .extra_cameras
                 .iter_mut()
                 .find(|c| c.frame_id == feed.frame_id)
             {
-                Some(extra) => (
-                    format!("camera {:?}", extra.frame_id),
-                    &mut extra.camera.mount,
-                ),
-                None => ("camera".to_owned(), &mut pipeline.camera.mount),
+                Some(extra) => &mut extra.camera.mount,
+                None => &mut pipeline.camera.mount,
             };
             let counted = (name.as_str(), &*feed.counters);
             if let Some(frame) = camera_mount_from_tf(
