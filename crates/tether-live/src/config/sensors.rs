@@ -108,15 +108,17 @@ impl<T: SensorTable> Sensors<T> {
         let mut frames: Vec<&str> = Vec::new();
         for (i, (key, frame, sensor)) in self.keyed().enumerate() {
             check(sensor, &key)?;
-            if i > 0 && sensor.frame_id().is_none_or(str::is_empty) {
+            let why = match sensor.frame_id() {
+                Some("") => "is empty: it names the frame of the sensor's data",
+                None if i > 0 => {
+                    "is needed: each sensor after the first names the frame of its data"
+                }
+                _ => "",
+            };
+            if !why.is_empty() {
                 return Err((
                     format!("{key}.frame_id"),
-                    format!(
-                        "is needed: each {} after the first names the frame of its data \
-                         (e.g. {:?})",
-                        T::WHAT,
-                        T::EXAMPLE_FRAME
-                    ),
+                    format!("{why} (e.g. {:?})", T::EXAMPLE_FRAME),
                 ));
             }
             if frames.contains(&frame) {

@@ -490,6 +490,7 @@ fn each_camera_table_is_a_camera_its_frames_told_apart_by_their_frame() {
             camera_table("frame_id = \"camera\"", 3.1),
             "camera[1].frame_id",
         ),
+        (camera_table("frame_id = \"\"", 3.1), "camera[1].frame_id"),
         (
             camera_table("frame_id = \"rear\"", 3.1).replace("fps = 10.0\n", ""),
             "camera[1].fps",
@@ -502,6 +503,13 @@ fn each_camera_table_is_a_camera_its_frames_told_apart_by_their_frame() {
         let e = parse(&format!("{MINIMAL}{front}{second}")).unwrap_err();
         assert_eq!(e.field(), Some(field), "{second}: {e}");
     }
+    // The first camera may name its frame, but not with nothing.
+    let e = parse(&format!(
+        "{MINIMAL}{}",
+        camera_table("frame_id = \"\"", 0.0)
+    ))
+    .unwrap_err();
+    assert_eq!(e.field(), Some("camera.frame_id"), "{e}");
     // The extra cameras of a robot are its `[[camera]]` tables, not `[pipeline]`'s.
     let e = parse(&format!(
         "{MINIMAL}{front}\n[[pipeline.extra_cameras]]\nframe_id = \"rear_camera\"\n"
