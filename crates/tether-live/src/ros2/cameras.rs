@@ -62,24 +62,29 @@ impl NodeCamera {
 
 /// The node's cameras: `first` (its boxes to the pipeline's first camera, on its
 /// topic), then each of `extra`, a topic name and a source for each of the pipeline's
-/// `extra_cameras` in their order (its boxes to that camera); each with the intrinsics
-/// its boxes are read with. `topic` resolves a name.
+/// `extra_cameras` in their order (its boxes to that camera, read with its intrinsics).
+/// `topic` resolves a name.
 pub fn feeds(
     first: Option<&NodeCamera>,
     extra: &[(String, NodeCamera)],
     pipeline: &PipelineConfig,
     topic: &dyn Fn(&str) -> String,
-) -> Vec<(CameraFeed, CameraIntrinsics)> {
+) -> Vec<CameraFeed> {
     let first = first.map(|c| {
-        let feed = CameraFeed::new(c.clone(), topic(c.first_topic()), FIRST_CAMERA_FRAME);
-        (feed, pipeline.camera.intrinsics)
+        let topic = topic(c.first_topic());
+        CameraFeed::new(
+            c.clone(),
+            topic,
+            FIRST_CAMERA_FRAME,
+            pipeline.camera.intrinsics,
+        )
     });
     let extra = extra
         .iter()
         .zip(&pipeline.extra_cameras)
         .map(|((name, source), camera)| {
-            let feed = CameraFeed::new(source.clone(), topic(name), &camera.frame_id);
-            (feed, camera.camera.intrinsics)
+            let intrinsics = camera.camera.intrinsics;
+            CameraFeed::new(source.clone(), topic(name), &camera.frame_id, intrinsics)
         });
     first.into_iter().chain(extra).collect()
 }
@@ -126,9 +131,7 @@ pub fn extra_cameras(
         .enumerate()
         .map(|(k, topic)| {
             let source = match first {
-                NodeCamera::Detections { class } => NodeCamera::Detections {
-                    class: class.clone(),
-                },
+                NodeCamera::Detections { .. } => first.clone(),
                 NodeCamera::Images { compressed, .. } => NodeCamera::Images {
                     section: Box::new(sections.get(k).cloned().ok_or_else(|| {
                         anyhow::anyhow!(
@@ -153,6 +156,8 @@ pub struct CameraFeed {
     pub topic: String,
     /// The frame its boxes are tagged with for the pipeline.
     pub frame_id: String,
+    /// The intrinsics its boxes are read with (the size its images must have).
+    pub intrinsics: CameraIntrinsics,
     /// What its readers count (and the frame its first message named).
     pub counters: Arc<CameraCounters>,
     /// Its newest frame, for its detector (images only; closed at the end).
@@ -160,12 +165,19 @@ pub struct CameraFeed {
 }
 
 impl CameraFeed {
-    /// A camera on `topic` whose boxes go to the pipeline's camera of `frame_id`.
-    pub fn new(source: NodeCamera, topic: String, frame_id: &str) -> CameraFeed {
+    /// A camera on `topic` whose boxes go to the pipeline's camera of `frame_id`, of
+    /// `intrinsics`.
+    pub fn new(
+        source: NodeCamera,
+        topic: String,
+        frame_id: &str,
+        intrinsics: CameraIntrinsics,
+    ) -> CameraFeed {
         CameraFeed {
             source,
             topic,
             frame_id: frame_id.to_owned(),
+            intrinsics,
             counters: Arc::new(CameraCounters::default()),
             latest: Arc::new(LatestFrame::default()),
         }
@@ -179,15 +191,15 @@ impl CameraFeed {
         }
     }
 
-    /// Starts its reader (and, for images, its detector's thread), its boxes read as
-    /// a camera of `intrinsics`; each thread with the sender that stops it.
+    /// Starts its reader (and, for images, its detector's thread); each thread with the
+    /// sender that stops it.
     pub fn start(
         &self,
         node: &mut RosNode,
-        intrinsics: CameraIntrinsics,
         clock: &LiveClock,
         tx: &mpsc::SyncSender<Input>,
     ) -> Result<Vec<StoppableThread>, NodeError> {
+        let intrinsics = self.intrinsics;
         let size_px = (intrinsics.width_px, intrinsics.height_px);
         let (stop_reader, reader_stops) = mpsc::channel();
         match &self.source {
@@ -229,7 +241,7 @@ impl CameraFeed {
                     reader_stops,
                     Arc::clone(&self.counters),
                 )?;
-                let detector_thread = self.start_detector(detector, intrinsics, tx.clone())?;
+                let detector_thread = self.start_detector(detector, tx.clone())?;
                 let (never, _) = mpsc::channel();
                 tracing::info!("{}: {}", self.name(), self.topic);
                 Ok(vec![(stop_reader, reader), (never, detector_thread)])
@@ -242,9 +254,9 @@ impl CameraFeed {
     fn start_detector(
         &self,
         mut detector: BoxDetector,
-        intrinsics: CameraIntrinsics,
         tx: mpsc::SyncSender<Input>,
     ) -> Result<std::thread::JoinHandle<()>, NodeError> {
+        let intrinsics = self.intrinsics;
         let frames = Arc::clone(&self.latest);
         let counters = Arc::clone(&self.counters);
         let frame_id = self.frame_id.clone();

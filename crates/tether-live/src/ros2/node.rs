@@ -296,7 +296,7 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
     std::thread::sleep(Duration::from_millis(300));
     let _ = stop_graph.send(());
     drop(rx);
-    for (feed, _) in &cameras {
+    for feed in &cameras {
         feed.latest.close();
     }
     stop_threads(threads);
@@ -317,12 +317,12 @@ pub fn run_node(settings: NodeSettings, stop: &AtomicBool) -> Result<NodeReport,
         scans: counters,
         camera: cameras
             .iter()
-            .find(|(f, _)| f.frame_id == FIRST_CAMERA_FRAME)
-            .map_or_else(Arc::default, |(f, _)| Arc::clone(&f.counters)),
+            .find(|f| f.frame_id == FIRST_CAMERA_FRAME)
+            .map_or_else(Arc::default, |f| Arc::clone(&f.counters)),
         extra_cameras: cameras
             .iter()
-            .filter(|(f, _)| f.frame_id != FIRST_CAMERA_FRAME)
-            .map(|(f, _)| (f.topic.clone(), f.frame_id.clone(), Arc::clone(&f.counters)))
+            .filter(|f| f.frame_id != FIRST_CAMERA_FRAME)
+            .map(|f| (f.topic.clone(), f.frame_id.clone(), Arc::clone(&f.counters)))
             .collect(),
         graph_problems,
         clock,
@@ -353,7 +353,7 @@ fn start_inputs(
     tx: mpsc::SyncSender<Input>,
     use_sim_time: bool,
     (fixed_frame, base_frame): (&str, &str),
-    cameras: &[(CameraFeed, tether_core::CameraIntrinsics)],
+    cameras: &[CameraFeed],
     extra_scans: &[Arc<ExtraScanTopic>],
 ) -> Result<Inputs, NodeError> {
     let mut threads: Vec<(&'static str, StoppableThread)> = Vec::new();
@@ -392,8 +392,8 @@ fn start_inputs(
         Arc::clone(&counters),
     )?;
     threads.push(("tf", (stop_tf_poses, tf_pose_reader)));
-    for (feed, intrinsics) in cameras {
-        let camera_threads = feed.start(node, *intrinsics, &clock, &tx)?;
+    for feed in cameras {
+        let camera_threads = feed.start(node, &clock, &tx)?;
         threads.extend(camera_threads.into_iter().map(|t| ("camera", t)));
     }
     let transforms = Arc::new(Mutex::new(StaticTransforms::default()));
@@ -522,7 +522,7 @@ struct StartMounts<'a> {
     rx: &'a mpsc::Receiver<Input>,
     transforms: &'a Mutex<StaticTransforms>,
     /// The cameras, the first camera first when there is one.
-    cameras: &'a [(CameraFeed, tether_core::CameraIntrinsics)],
+    cameras: &'a [CameraFeed],
     base_frame: &'a str,
     scan_topic: &'a str,
     extra_scans: &'a [Arc<ExtraScanTopic>],
@@ -552,7 +552,7 @@ impl StartMounts<'_> {
         );
         let extra_unmounted = self.extra_mounts(first_frame.as_deref(), mounts_by, pipeline);
         let mut unmounted_cameras = Vec::new();
-        for (feed, _) in self.cameras {
+        for feed in self.cameras {
             let name = feed.name();
             let mount = match pipeline
                 .extra_cameras
