@@ -7,6 +7,7 @@ use thiserror::Error;
 
 use crate::arc::{ArcTestConfig, arc_test};
 use crate::classifier::{CompiledClassifier, LegClassifier};
+use crate::confirm::{ConfirmConfig, RecentLegs};
 use crate::features::{Candidate, FeatureScratch, ScanView, add_context, segment_features};
 use crate::fit::centroid;
 use crate::people::{
@@ -56,6 +57,11 @@ pub struct DetectorConfig {
     /// [-1, 1] range).
     #[config(range = ">= 0, <= 2")]
     pub weak_margin: f64,
+    /// Confirmation of narrow legs over the last scans (learned detector only): a leg
+    /// that passes the classifier by less than `extra_margin` needs an accepted
+    /// candidate near it in the last scans, or is only an unconfirmed one, which
+    /// updates tracks but starts none (design 4.6; off by default).
+    pub confirm: ConfirmConfig,
 }
 
 impl Default for DetectorConfig {
@@ -67,16 +73,28 @@ impl Default for DetectorConfig {
             arc: ArcTestConfig::default(),
             pairing: PairingConfig::default(),
             weak_margin: 0.2,
+            confirm: ConfirmConfig::default(),
         }
     }
 }
 
 impl DetectorConfig {
+    /// The defaults with narrow legs confirmed over the last scans
+    /// ([`ConfirmConfig::PER_SCAN`]): the detector of `tether legs` and `eval-legs`,
+    /// whose legs are the product (design 4.6).
+    pub fn per_scan() -> Self {
+        DetectorConfig {
+            confirm: ConfirmConfig::PER_SCAN,
+            ..DetectorConfig::default()
+        }
+    }
+
     /// Checks every parameter.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.breakpoint.validate().map_err(ConfigError)?;
         self.arc.validate().map_err(ConfigError)?;
         self.pairing.validate().map_err(ConfigError)?;
+        self.confirm.validate().map_err(ConfigError)?;
         if self.min_points < 3 {
             return Err(ConfigError(format!(
                 "min_points must be >= 3 (three points define an arc), got {}",
@@ -112,6 +130,9 @@ pub struct DetectionStats {
     /// [`FIELD_OF_VIEW_EDGE_BEAMS`] of the first or last beam of a scan that does not
     /// close the circle (cut by the field of view).
     pub cut_by_field_of_view: usize,
+    /// Candidates the classifier accepted narrowly with no accepted candidate near
+    /// them in the last scans, reported as weak legs ([`crate::confirm`]).
+    pub unconfirmed: usize,
 }
 
 /// What one scan shows: legs and people, in the scan's frame.
@@ -126,6 +147,11 @@ pub struct Detection {
     /// Each weak leg as a lone-leg person hypothesis (`OneLeg` indexes `weak_legs`):
     /// evidence for a person already tracked there, never a new person.
     pub weak_people: Vec<PersonObservation>,
+    /// Each leg the classifier accepted that the last scans did not confirm
+    /// ([`DetectorConfig::confirm`]; among `weak_legs`, which `OneLeg` indexes) as a
+    /// lone-leg person: evidence for a person tracked there, even one not yet
+    /// confirmed, but no new person.
+    pub unconfirmed_people: Vec<PersonObservation>,
     /// Counts.
     pub stats: DetectionStats,
 }
@@ -154,6 +180,8 @@ pub struct LegDetector {
     candidates: Vec<Candidate>,
     scratch: FeatureScratch,
     pair_scratch: PairScratch,
+    /// The candidates accepted in the last scans ([`crate::confirm`]).
+    recent: RecentLegs,
 }
 
 impl LegDetector {
@@ -219,6 +247,7 @@ impl LegDetector {
             candidates: Vec::new(),
             scratch: FeatureScratch::default(),
             pair_scratch: PairScratch::default(),
+            recent: RecentLegs::default(),
         })
     }
 
@@ -248,6 +277,7 @@ impl LegDetector {
         out.legs.clear();
         out.weak_legs.clear();
         out.weak_people.clear();
+        out.unconfirmed_people.clear();
         let learned = self.classifier.is_some();
         out.stats = self.find_candidates(scan, learned);
         // A coarse scan goes to the coarse model when there is one.
@@ -256,6 +286,12 @@ impl LegDetector {
             _ => &self.compiled,
         };
         let weak_floor = compiled.decision_margin() - self.config.weak_margin;
+        let confirm = self.config.confirm;
+        let confirmed_margin = compiled.decision_margin() + confirm.extra_margin;
+        if learned {
+            self.recent.start_scan(scan.stamp, confirm.window_s);
+            self.recent.keep_beams(scan);
+        }
         let (seam, n) = (out.stats.preprocess.seam_beam, scan.len());
         let scan_beam = |beam: usize| (beam + seam) % n;
         for c in &self.candidates {
@@ -288,7 +324,18 @@ impl LegDetector {
                     let (centre, radius_m) =
                         learned_centre(c.centroid_in_laser, c.features[WIDTH], &self.config);
                     let found = leg(centre, radius_m, 0.5 * (margin + 1.0));
-                    if margin >= compiled.decision_margin() {
+                    let accepted = margin >= compiled.decision_margin();
+                    if accepted {
+                        self.recent.accepted(centre);
+                    }
+                    let confirmed = margin >= confirmed_margin
+                        || (accepted
+                            && (self.recent.supports(centre, confirm.radius_m)
+                                || self.recent.was_hidden(centre)));
+                    if accepted && !confirmed {
+                        out.stats.unconfirmed += 1;
+                    }
+                    if confirmed {
                         out.legs.push(found);
                     } else if let Some(estimate) = lone_leg_estimate(
                         &found,
@@ -296,15 +343,22 @@ impl LegDetector {
                         &self.noise,
                         &self.config.pairing,
                     ) {
-                        out.weak_people.push(PersonObservation {
+                        let person = PersonObservation {
                             estimate,
                             kind: PersonKind::OneLeg(out.weak_legs.len()),
                             score: found.score * self.config.pairing.single_leg_score_factor,
-                        });
+                        };
+                        match accepted {
+                            true => out.unconfirmed_people.push(person),
+                            false => out.weak_people.push(person),
+                        }
                         out.weak_legs.push(found);
                     }
                 }
             }
+        }
+        if learned {
+            self.recent.finish_scan();
         }
         pair_legs(
             &out.legs,
@@ -391,6 +445,7 @@ impl LegDetector {
             segments: self.segments.len(),
             candidates: 0,
             cut_by_field_of_view: 0,
+            unconfirmed: 0,
         }
     }
 }

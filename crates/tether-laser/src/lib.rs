@@ -33,6 +33,7 @@ pub mod arc;
 pub mod augment;
 pub mod calibration;
 pub mod classifier;
+pub mod confirm;
 pub mod detector;
 pub mod features;
 mod fit;
@@ -49,6 +50,7 @@ pub use calibration::{
     fit_range_noise, simulate_samples,
 };
 pub use classifier::{CompiledClassifier, LegClassifier, ModelError, Node, Provenance, Tree};
+pub use confirm::ConfirmConfig;
 pub use detector::{
     COARSE_BEAM_STEP_RAD, ConfigError, Detection, DetectionStats, DetectorConfig, DetectorKind,
     FIELD_OF_VIEW_EDGE_BEAMS, LegDetector,

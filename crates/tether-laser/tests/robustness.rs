@@ -475,3 +475,39 @@ fn coarse_scans_go_to_the_coarse_model() {
         check(&builtin.detect(&disc_scan_with_step(1.0, step_deg)));
     }
 }
+
+#[test]
+fn a_leg_nothing_confirms_is_unconfirmed_then_a_leg_the_scan_after() {
+    // Every accepted candidate must be confirmed (an extra margin no score reaches):
+    // on the first scan each is an unconfirmed lone leg, kept among the weak legs; the
+    // same scene 0.1 s later confirms them all (design 4.6). Off by default.
+    let mut config = DetectorConfig::per_scan();
+    config.confirm.extra_margin = 2.0;
+    let mut d = LegDetector::learned(
+        config,
+        RangeNoiseModel::default(),
+        LegClassifier::default_model().unwrap(),
+    )
+    .unwrap();
+    let scan = full_circle_scan(std::f64::consts::PI, 0.5f64.to_radians());
+    let first = d.detect(&scan);
+    assert!(first.legs.is_empty() && first.people.is_empty());
+    assert!(!first.unconfirmed_people.is_empty());
+    assert_eq!(first.stats.unconfirmed, first.unconfirmed_people.len());
+    for p in &first.unconfirmed_people {
+        assert!(matches!(p.kind, PersonKind::OneLeg(i) if i < first.weak_legs.len()));
+    }
+    let mut later = scan.clone();
+    later.stamp = Stamp::from_ns(scan.stamp.ns() + 100_000_000);
+    let second = d.detect(&later);
+    assert_eq!(second.legs.len(), first.unconfirmed_people.len());
+    assert!(second.unconfirmed_people.is_empty());
+    // The default confirms nothing away.
+    let mut plain = LegDetector::learned(
+        DetectorConfig::default(),
+        RangeNoiseModel::default(),
+        LegClassifier::default_model().unwrap(),
+    )
+    .unwrap();
+    assert_eq!(plain.detect(&scan).legs.len(), second.legs.len());
+}

@@ -27,6 +27,7 @@ pub fn config_docs() -> Vec<FieldDoc> {
         tether_laser::ArcTestConfig::FIELDS,
         tether_laser::Breakpoint::FIELDS,
         tether_laser::PairingConfig::FIELDS,
+        tether_laser::ConfirmConfig::FIELDS,
         tether_fusion::ClutterConfig::FIELDS,
         tether_fusion::Gate::FIELDS,
         tether_fusion::MotionBounds::FIELDS,

@@ -114,8 +114,8 @@ impl LaserSide {
     }
 }
 
-/// The people of a detection as the pipeline takes them: the strong ones, then the weak
-/// candidates.
+/// The people of a detection as the pipeline takes them: the strong ones, the
+/// unconfirmed legs, then the weak candidates.
 fn people_of(detection: &Detection) -> Vec<LaserPerson> {
     detection
         .people
@@ -124,11 +124,19 @@ fn people_of(detection: &Detection) -> Vec<LaserPerson> {
             estimate: p.estimate,
             two_legs: matches!(p.kind, PersonKind::TwoLegs(_)),
             weak: false,
+            unconfirmed: false,
         })
+        .chain(detection.unconfirmed_people.iter().map(|p| LaserPerson {
+            estimate: p.estimate,
+            two_legs: false,
+            weak: false,
+            unconfirmed: true,
+        }))
         .chain(detection.weak_people.iter().map(|p| LaserPerson {
             estimate: p.estimate,
             two_legs: false,
             weak: true,
+            unconfirmed: false,
         }))
         .collect()
 }
@@ -246,9 +254,13 @@ impl Pipeline {
             .filter(|(_, used)| **used)
             .map(|((p, g), _)| Observation {
                 from_shadow: self.hidden_at_last_scan(k, g.mean),
-                ..match p.weak {
-                    true => Observation::weak_laser(*g),
-                    false => Observation::laser(*g, p.two_legs, lone_spawns),
+                ..match (p.weak, p.unconfirmed) {
+                    (true, _) => Observation::weak_laser(*g),
+                    (false, true) => Observation {
+                        may_spawn: false,
+                        ..Observation::laser(*g, false, lone_spawns)
+                    },
+                    (false, false) => Observation::laser(*g, p.two_legs, lone_spawns),
                 }
             })
             .collect();

@@ -227,6 +227,9 @@ pub struct LaserPerson {
     /// A weak candidate (the classifier nearly accepted it): it only keeps a confirmed
     /// track alive.
     pub weak: bool,
+    /// A lone leg the classifier accepted that the last scans did not confirm (design
+    /// 4.6): it updates tracks, tentative ones too, but starts none.
+    pub unconfirmed: bool,
 }
 
 /// What kind of input a tick processed.

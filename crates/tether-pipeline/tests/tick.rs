@@ -39,6 +39,7 @@ fn legs_at(config: &PipelineConfig, x: f64, y: f64) -> LaserPerson {
         .expect("a valid estimate"),
         two_legs: true,
         weak: false,
+        unconfirmed: false,
     }
 }
 
@@ -587,4 +588,45 @@ fn each_cameras_boxes_are_read_through_its_own_model() {
         });
         assert!(Pipeline::new(twice, None).is_err(), "{taken:?}");
     }
+}
+
+#[test]
+fn an_unconfirmed_leg_keeps_a_track_but_starts_none() {
+    // A lone leg the detector's confirmation held back (design 4.6) updates tracks but
+    // starts none: two seconds of them make no track; once a track stands there, they
+    // keep it as long as they come.
+    let config = laser_only();
+    let unconfirmed = LaserPerson {
+        two_legs: false,
+        unconfirmed: true,
+        ..legs_at(&config, 2.0, 0.0)
+    };
+    let tracked = || {
+        let mut p = pipeline(&config);
+        for ms in (0..2000).step_by(100) {
+            let tick = p.on_laser_people(at_ms(ms), &[unconfirmed], &[], HERE);
+            assert!(tick.tracks.is_empty(), "{ms} ms: {:?}", tick.tracks);
+        }
+        let ticks = scans_with_legs(&mut p, &config, 2000, 3000);
+        let id = ticks.last().unwrap().tracks[0].id;
+        (p, id)
+    };
+    // Four seconds, twice the longest a track coasts unseen (`max_coast_s`): kept by
+    // the unconfirmed legs alone, dropped without them.
+    let (mut p, id) = tracked();
+    for ms in (3000..7000).step_by(100) {
+        let tick = p.on_laser_people(at_ms(ms), &[unconfirmed], &[], HERE);
+        assert!(
+            tick.tracks.iter().any(|t| t.id == id),
+            "{ms} ms: {:?}",
+            tick.tracks
+        );
+    }
+    let (mut unseen, id) = tracked();
+    let last = (3000..7000)
+        .step_by(100)
+        .map(|ms| unseen.on_laser_people(at_ms(ms), &[], &[], HERE))
+        .last()
+        .unwrap();
+    assert!(last.tracks.iter().all(|t| t.id != id), "{:?}", last.tracks);
 }

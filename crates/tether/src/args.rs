@@ -68,11 +68,13 @@ pub fn laser_model(path: Option<&PathBuf>) -> anyhow::Result<LaserModel> {
     Ok(model)
 }
 
-/// Reads a detector config: JSON when the file's first non-blank character is `{`,
-/// TOML otherwise; the default config without a file.
+/// Reads a detector config for `tether legs` and `eval-legs`: JSON when the file's first
+/// non-blank character is `{`, TOML otherwise (keys it leaves out keep
+/// `DetectorConfig`'s defaults, confirmation off); without a file,
+/// [`DetectorConfig::per_scan`] (narrow legs confirmed over the last scans, design 4.6).
 pub fn detector_config(path: Option<&PathBuf>) -> anyhow::Result<DetectorConfig> {
     let Some(path) = path else {
-        return Ok(DetectorConfig::default());
+        return Ok(DetectorConfig::per_scan());
     };
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read detector config {}", path.display()))?;

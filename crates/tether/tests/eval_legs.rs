@@ -297,16 +297,21 @@ fn leg_tracker_test_split_by_range() {
         .map(|b| b["recall"].as_f64().unwrap())
         .collect();
     let round2 = |x: f64| (x * 100.0).round() / 100.0;
-    // Issue 30's close-range bars (0.70 under 0.5 m, 0.85 at 0.5-1.5 m) are met;
-    // overall precision (bar 0.70) is not.
+    // Issue 30's bars on the test split (0.70 under 0.5 m, 0.85 at 0.5-1.5 m; overall
+    // precision 0.70 and recall 0.85) are met, with narrow legs confirmed over the last
+    // scans (design 4.6; 0.644 precision and 0.874 recall without: 227 false legs on
+    // the rear scanner, 105 on the labelled scans).
     assert_eq!(round2(recall[0]), 0.82, "{recall:?}");
     assert_eq!(round2(recall[1]), 0.92, "{recall:?}");
     assert_eq!(round2(recall[2]), 0.93, "{recall:?}");
-    assert!(recall[3] >= 0.94 && recall[4] >= 0.89, "{recall:?}");
-    assert_eq!(round2(learned["recall"].as_f64().unwrap()), 0.87);
-    assert_eq!(round2(learned["precision"].as_f64().unwrap()), 0.64);
+    assert!(recall[3] >= 0.94 && recall[4] >= 0.88, "{recall:?}");
+    let (recall, precision) = (
+        learned["recall"].as_f64().unwrap(),
+        learned["precision"].as_f64().unwrap(),
+    );
+    assert!(recall >= 0.85 && precision >= 0.70, "{recall} {precision}");
     // The rear scanner's own robot body at the edges of its view is no candidate.
-    assert_eq!(learned["false_positives_on_empty_scans"], 227);
+    assert_eq!(learned["false_positives_on_empty_scans"], 166);
     // Issue 3's count stays: nothing false inside the labeller's window.
     assert_eq!(learned["false_positives_in_labeller_window"], 0);
 
@@ -332,7 +337,7 @@ fn leg_tracker_test_split_by_range() {
         fp += r["false_positives"].as_u64().unwrap();
     }
     assert_eq!(tp, learned["true_positives"].as_u64().unwrap());
-    assert_eq!(fp + 227, learned["false_positives"].as_u64().unwrap());
+    assert_eq!(fp + 166, learned["false_positives"].as_u64().unwrap());
     let _ = std::fs::remove_dir_all(&dir);
 }
 
