@@ -126,6 +126,20 @@ fn learned_real_768(bencher: Bencher) {
     run(bencher, learned_detector(), &real_scans());
 }
 
+/// The learned classifier with narrow legs confirmed over the last scans (as `tether
+/// legs` and `eval-legs` detect, design 4.6) on the same scans, in their order.
+#[divan::bench(sample_size = 1, sample_count = 4350)]
+fn learned_per_scan_real_768(bencher: Bencher) {
+    let model = LegClassifier::default_model().unwrap();
+    let detector = LegDetector::learned(
+        DetectorConfig::per_scan(),
+        RangeNoiseModel::default(),
+        model,
+    )
+    .unwrap();
+    run(bencher, detector, &real_scans());
+}
+
 /// The arc test on the real cluttered scans as recorded, 768 beams.
 #[divan::bench(sample_size = 1, sample_count = 4350)]
 fn arc_real_768(bencher: Bencher) {
